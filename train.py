@@ -1,0 +1,55 @@
+"""Train a model: ``python train.py [model=...] [data=...] [trainer=...] [experiment=...]``.
+
+A thin Hydra entry point: it composes ``configs/train.yaml`` with your overrides,
+instantiates the ``_target_`` classes (datamodule, LightningModule, callbacks, loggers,
+trainer) and fits. Everything numeric lives in ``src/lfd``.
+
+Examples::
+
+    python train.py                                   # quick reaching data + CNN->DMP policy
+    python train.py -m model=cnn_dmp,velocity         # both visuomotor policies, one after the other
+    python train.py experiment=original trainer=gpu   # original-scale data on a GPU
+    python train.py trainer=ddp trainer.devices=2     # Lightning DDP (gloo on CPU)
+    python train.py trainer.fast_dev_run=true         # one batch of train + val, a smoke test
+"""
+
+from __future__ import annotations
+
+import hydra
+from omegaconf import DictConfig, OmegaConf
+
+
+def _instantiate_group(group: DictConfig | None) -> list:
+    """Instantiate every ``_target_`` entry of a config group mapping (callbacks, loggers)."""
+    if not group:
+        return []
+    return [hydra.utils.instantiate(c) for c in group.values() if c is not None and "_target_" in c]
+
+
+@hydra.main(version_base="1.3", config_path="configs", config_name="train")
+def main(cfg: DictConfig) -> str | None:
+    import lightning as L
+
+    L.seed_everything(cfg.seed, workers=True)
+    datamodule = hydra.utils.instantiate(cfg.data)
+    model = hydra.utils.instantiate(cfg.model)
+    callbacks = _instantiate_group(cfg.get("callbacks"))
+    loggers = _instantiate_group(cfg.get("logger"))
+    trainer = hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False)
+
+    if trainer.is_global_zero:
+        print(OmegaConf.to_yaml(cfg, resolve=False))
+    trainer.fit(model=model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"))
+    if cfg.get("test"):
+        trainer.test(model=model, datamodule=datamodule, ckpt_path="best" if not cfg.trainer.get("fast_dev_run") else None)
+
+    ckpt = trainer.checkpoint_callback.last_model_path if trainer.checkpoint_callback else None
+    if trainer.is_global_zero:
+        print(f"[lfd] run directory: {cfg.paths.output_dir}")
+        if ckpt:
+            print(f"[lfd] checkpoint: {ckpt}")
+    return ckpt
+
+
+if __name__ == "__main__":
+    main()
