@@ -1,0 +1,64 @@
+"""Small JSON files for fitted DMPs, written atomically (temp file + ``os.replace``)."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+FORMAT_VERSION = 1
+
+
+def write_json(path, kind: str, params: dict, fitted: dict | None) -> Path:
+    """Write ``{"type", "version", "params", "fitted"}`` to ``path`` atomically.
+
+    Arrays in ``fitted`` are stored as nested lists (floats round-trip exactly).
+    """
+    path = Path(path)
+    payload = {
+        "type": kind,
+        "version": FORMAT_VERSION,
+        "params": params,
+        "fitted": None if fitted is None else {k: np.asarray(v).tolist() for k, v in fitted.items()},
+    }
+    handle, temp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(handle, "w") as file:
+            json.dump(payload, file)
+            file.flush()
+            os.fsync(file.fileno())
+        os.replace(temp_name, path)
+    except BaseException:
+        os.unlink(temp_name)
+        raise
+    return path
+
+
+def read_json(path, kind: str) -> tuple[dict, dict | None]:
+    """Read a file written by :func:`write_json` for ``kind``; returns ``(params, fitted)``.
+
+    Raises:
+        FileNotFoundError: ``path`` does not exist.
+        ValueError: not valid JSON, or not a ``kind`` file of a supported version.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no DMP file at {path}")
+    try:
+        payload = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not valid JSON: {exc}") from exc
+    found = payload.get("type") if isinstance(payload, dict) else None
+    if found != kind:
+        raise ValueError(f"{path} does not hold a {kind} (type field: {found!r})")
+    if payload.get("version") != FORMAT_VERSION:
+        raise ValueError(f"{path}: unsupported format version {payload.get('version')!r}, expected {FORMAT_VERSION}")
+    if not isinstance(payload.get("params"), dict):
+        raise ValueError(f"{path}: missing 'params' object")
+    fitted = payload.get("fitted")
+    if fitted is not None and not isinstance(fitted, dict):
+        raise ValueError(f"{path}: 'fitted' must be an object or null")
+    return payload["params"], fitted

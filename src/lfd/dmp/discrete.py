@@ -1,0 +1,179 @@
+"""Discrete (point-to-point) dynamic movement primitive, scikit-learn style."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from . import _validation as check
+from ._base import Primitive
+from .canonical import discrete_activations, discrete_phase
+from .fitting import (
+    demo_derivatives,
+    forcing_target,
+    lwr_weights,
+    safe_inverse_amplitude,
+    warn_if_returning,
+)
+from .functional import DiscreteGains, cached_trajectory_fit, grid_key, rollout_with_gains
+
+__all__ = ["DMP", "FIT_METHODS"]
+
+#: Weight estimators accepted by ``fit(..., method=...)``; see :mod:`lfd.dmp.fitting`.
+FIT_METHODS = ("trajectory", "lwr")
+
+
+def check_method(method: str) -> str:
+    """``method`` if it is one of :data:`FIT_METHODS`, else ``ValueError``."""
+    if method not in FIT_METHODS:
+        raise ValueError(f"method must be one of {FIT_METHODS}, got {method!r}")
+    return method
+
+
+class DMP(Primitive):
+    """Multi-DoF discrete DMP with one shared phase (SPEC section 1).
+
+    ``tau dz = alpha_z (beta_z (g - y) - z) + f(s)``, ``tau dy = z``, ``tau ds = -alpha_s s``,
+    ``f(s) = (sum_i w_i psi_i(s) / sum_i psi_i(s)) s (g - y0)``, ``psi_i = exp(-h_i (s - c_i)^2)``,
+    centres evenly spaced in time over ``[0, tau]``, widths from the neighbour spacing.
+
+    Args:
+        n_basis: number of basis functions ``K`` per DoF (>= 1).
+        alpha_z: damping gain (default 25).
+        beta_z: spring gain (default ``alpha_z / 4``, critically damped).
+        alpha_s: canonical-system decay (default ``alpha_z / 3``).
+        overlap: activation of a basis at its neighbour's centre, in ``(0, 1)`` (default
+            0.8: wide bases suit the default least-squares fit; use ~0.5 or less with
+            ``fit(..., method="lwr")``).
+
+    Attributes (after :meth:`fit`; shapes for one demonstration / a batch of ``B``):
+        weights_: ``(D, K)`` / ``(B, D, K)`` forcing weights.
+        y0_: ``(D,)`` / ``(B, D)`` demonstrated start (first sample).
+        goal_: ``(D,)`` / ``(B, D)`` demonstrated goal (last sample).
+        tau_: duration ``t[-1] - t[0]`` of the demonstration in seconds.
+        n_steps_: number of demonstration samples (default rollout length).
+
+    Rollouts are exact for the spring-damper and use a first-order hold on the forcing
+    term between samples (see :mod:`lfd.dmp.transform`); the first sample is the start,
+    at rest.
+    """
+
+    _KIND = "lfd.dmp.DMP"
+
+    def __init__(
+        self,
+        n_basis: int = 20,
+        alpha_z: float = 25.0,
+        beta_z: float | None = None,
+        alpha_s: float | None = None,
+        overlap: float = 0.8,
+    ):
+        self.n_basis = check.positive_int("n_basis", n_basis)
+        self.gains = DiscreteGains.resolve(alpha_z, beta_z, alpha_s, overlap)
+
+    alpha_z = property(lambda self: self.gains.alpha_z, doc="Damping gain of the transformation system.")
+    beta_z = property(lambda self: self.gains.beta_z, doc="Spring gain of the transformation system.")
+    alpha_s = property(lambda self: self.gains.alpha_s, doc="Decay rate of the canonical system.")
+    overlap = property(lambda self: self.gains.overlap, doc="Basis activation at the neighbouring centre.")
+
+    def _params(self) -> dict:
+        return {
+            "n_basis": self.n_basis,
+            "alpha_z": self.alpha_z,
+            "beta_z": self.beta_z,
+            "alpha_s": self.alpha_s,
+            "overlap": self.overlap,
+        }
+
+    def fit(self, t, y, method: str = "trajectory") -> DMP:
+        """Learn the forcing weights from one demonstration or a batch sharing ``t``.
+
+        The start ``y0_`` is the first sample, the goal ``goal_`` the last, ``tau_`` the
+        duration. ``method`` chooses the weight estimator (see :mod:`lfd.dmp.fitting`):
+
+        - ``"trajectory"`` (default): least squares on the positions through the exact
+          linear rollout map (end point emphasised); best reproduction, no numerical
+          differentiation of the demonstration.
+        - ``"lwr"``: SPEC's per-basis locally weighted regression of the forcing target,
+          with velocities/accelerations from second-order finite differences (valid on
+          non-uniform grids).
+
+        Both are vectorised over the batch; the inputs are not modified.
+
+        Zero-length motion: the forcing term scales with ``g - y0``, so a DoF with
+        ``g == y0`` gets zero weights and stays at rest in every rollout; a stationary DoF
+        is reproduced exactly, while one that moves and returns to its start cannot be
+        represented and triggers a ``RuntimeWarning`` (see
+        :func:`lfd.dmp.fitting.safe_inverse_amplitude`).
+
+        Args:
+            t: ``(T,)`` sample times in seconds, strictly increasing, ``T >= 3``.
+            y: ``(T, D)`` positions, or ``(B, T, D)`` for ``B`` demonstrations.
+            method: ``"trajectory"`` or ``"lwr"``.
+
+        Returns:
+            ``self``.
+
+        Raises:
+            ValueError: bad shapes, NaN/inf, fewer than 3 samples, ``t`` not strictly
+                increasing, unknown ``method``.
+        """
+        check_method(method)
+        t, y = check.demonstration(t, y)
+        tau = float(t[-1] - t[0])
+        y0, goal = y[..., 0, :], y[..., -1, :]
+        if method == "trajectory":
+            scaled = cached_trajectory_fit(grid_key(t), tau, self.n_basis, self.gains).weights(y, goal)
+        else:
+            dy, ddy = demo_derivatives(t, y)
+            target = forcing_target(y, dy, ddy, goal, tau, self.alpha_z, self.beta_z)
+            theta = torch.from_numpy((t - t[0]) / tau)
+            activations = discrete_activations(theta, self.n_basis, self.alpha_s, self.overlap).numpy()
+            scaled = lwr_weights(activations, discrete_phase(theta, self.alpha_s).numpy(), target)
+        displacement = goal - y0
+        extent = np.max(np.abs(y - y0[..., None, :]), axis=(-2, -1))
+        warn_if_returning(y, displacement, extent)
+        self.weights_ = scaled * safe_inverse_amplitude(displacement, extent)[..., None]
+        self.y0_, self.goal_, self.tau_, self.n_steps_ = y0, goal, tau, int(t.shape[0])
+        return self
+
+    def rollout(self, t=None, y0=None, goal=None, tau=None, weights=None, return_derivatives: bool = False):
+        """Generate a trajectory, optionally with a new start, goal, duration or weights.
+
+        Every argument left as ``None`` takes the learned value. Batched inputs broadcast
+        (e.g. one ``y0``/``goal`` and ``weights`` of shape ``(B, D, K)``) and share one
+        cached linear operator, so ``B`` weight sets cost one matrix product.
+
+        Args:
+            t: ``(T,)`` output times in seconds, strictly increasing, the motion starting at
+                ``t[0]``; default ``linspace(0, tau, n_steps_)``.
+            y0: ``(D,)`` or ``(B, D)`` start position (at rest).
+            goal: ``(D,)`` or ``(B, D)`` goal position.
+            tau: duration in seconds (temporal scaling): a float, or a tensor ``()``/``(B,)``.
+            weights: ``(D, K)`` or ``(B, D, K)`` forcing weights.
+            return_derivatives: also return velocity and acceleration.
+
+        Returns:
+            Positions ``(T, D)`` (``(B, T, D)`` if any input is batched); with
+            ``return_derivatives`` the tuple ``(y, dy/dt [1/s], d2y/dt2 [1/s^2])``. numpy
+            arrays, or tensors if any input is a tensor (see :func:`lfd.dmp.rollout_batch`).
+
+        Raises:
+            ValueError: shape mismatch (``y0``/``goal`` width vs ``D``, weights vs
+                ``(D, K)``), NaN/inf, ``tau <= 0``, bad ``t``, or a missing value on an
+                unfitted DMP.
+        """
+        y0, goal, tau, weights = (
+            self._fitted(name, value)
+            for name, value in (("y0", y0), ("goal", goal), ("tau", tau), ("weights", weights))
+        )
+        if np.shape(weights)[-1:] != (self.n_basis,):
+            raise ValueError(
+                f"weights must end with K = {self.n_basis} basis functions, got shape {tuple(np.shape(weights))}"
+            )
+        if t is None:
+            if getattr(tau, "ndim", 0) != 0:
+                raise ValueError("t is required when tau has one value per sample")
+            t = np.linspace(0.0, check.positive_float("tau", float(tau)), self._fitted("n_steps", None))
+        times = check.time_grid(t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1)
+        return rollout_with_gains(y0, goal, weights, times, tau, self.gains, return_derivatives)
