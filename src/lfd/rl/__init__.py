@@ -1,0 +1,46 @@
+"""Reinforcement learning of DMP skills with PoWER (pure numpy/torch, no simulator inside).
+
+Main entry points:
+
+- :func:`power`: PoWER on the weights (and optionally the goal) of a fitted
+  :class:`lfd.dmp.DMP`, with batched rollouts, importance sampling over the best
+  rollouts seen so far, joint-limit penalties and a stopping rule.
+- :func:`adapt_to_goal`: adapt a learned DMP to a new goal in joint space (rad) or task
+  space (m, through the robot's IK/FK), then refine it with PoWER.
+- Rewards (SPEC eq. 5.4): :class:`JointGoalReward`, :class:`TaskGoalReward`,
+  :func:`returns_from_distances`; any ``reward(trajectories (B, T, D)) -> (B,)`` works.
+
+Example::
+
+    import numpy as np
+    from lfd.dmp import DMP
+    from lfd.rl import JointGoalReward, power
+
+    t = np.linspace(0.0, 1.0, 200)
+    s = t / t[-1]
+    demo = (10 * s**3 - 15 * s**4 + 6 * s**5)[:, None] * np.array([1.0, -0.5])   # (T, 2) rad
+    dmp = DMP(n_basis=20).fit(t, demo)
+    new_goal = np.array([1.2, -0.3])
+    result = power(dmp, JointGoalReward(new_goal), sigma_goal=0.05, tol=0.01, seed=0)
+    result.converged, result.goal, result.rollouts
+"""
+
+from .adapt import adapt_to_goal, goal_configuration
+from .memory import keep_best
+from .power import PowerHistory, PowerResult, power
+from .rewards import JointGoalReward, TaskGoalReward, limit_violation, returns_from_distances
+from .rollout import DMPRollout
+
+__all__ = [
+    "DMPRollout",
+    "JointGoalReward",
+    "PowerHistory",
+    "PowerResult",
+    "TaskGoalReward",
+    "adapt_to_goal",
+    "goal_configuration",
+    "keep_best",
+    "limit_violation",
+    "power",
+    "returns_from_distances",
+]
