@@ -1,0 +1,143 @@
+"""Generator configuration: everything that determines a reaching dataset's bytes."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+from lfd.data.storage import FORMAT_VERSION, json_bytes
+from lfd.sim.objects import SHAPES, PlacementRanges
+
+__all__ = ["GeneratorConfig"]
+
+
+@dataclass(frozen=True)
+class GeneratorConfig:
+    """Parameters of a reaching-demonstration dataset (see ``data/README.md``).
+
+    Episodes: ``n_train_objects x n_train_placements`` on training objects (split into
+    train and validation by placement: per object, ``round(val_fraction *
+    n_train_placements)`` of its placements go to validation) plus ``n_test_objects x
+    n_test_placements`` on new object instances at new placements (test split).
+
+    Attributes:
+        seed: drives objects, placements and splits (with the episode index).
+        families: object shapes cycled through when sampling objects.
+        x_range, y_range: placement ranges (m, torso frame); yaw_range_deg: degrees.
+        image_size: side of the square camera images (px).
+        wrist_camera: also record wrist-camera frames.
+        duration, n_steps: demonstration length (s) and number of samples.
+        substeps: physics steps per sample interval.
+        approach_fraction: fraction of ``duration`` at which the approach pose is reached.
+        tolerance: maximum final tool distance (m) to the target point.
+        n_basis: DMP basis functions per joint.
+        max_attempts: placements tried per episode before generation fails.
+        robot: robot model name for :func:`lfd.robots.load_robot`.
+    """
+
+    seed: int = 0
+    n_train_objects: int = 12
+    n_train_placements: int = 16
+    n_test_objects: int = 4
+    n_test_placements: int = 6
+    val_fraction: float = 0.2
+    families: tuple[str, ...] = SHAPES
+    x_range: tuple[float, float] = (0.45, 0.70)
+    y_range: tuple[float, float] = (-0.30, 0.30)
+    yaw_range_deg: tuple[float, float] = (-90.0, 90.0)
+    image_size: int = 128
+    wrist_camera: bool = False
+    duration: float = 4.0
+    n_steps: int = 100
+    substeps: int = 10
+    approach_fraction: float = 0.75
+    tolerance: float = 0.01
+    n_basis: int = 20
+    max_attempts: int = 30
+    robot: str = "pr2_right_arm"
+
+    def __post_init__(self) -> None:
+        # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
+        object.__setattr__(self, "families", tuple(str(f) for f in self.families))
+        for name in ("x_range", "y_range", "yaw_range_deg"):
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
+        for name in ("val_fraction", "duration", "approach_fraction", "tolerance"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        for name, low in (
+            ("n_train_objects", 1),
+            ("n_train_placements", 1),
+            ("n_test_objects", 0),
+            ("n_test_placements", 0),
+            ("image_size", 8),
+            ("n_steps", 2),
+            ("substeps", 1),
+            ("n_basis", 1),
+            ("max_attempts", 1),
+        ):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"GeneratorConfig.{name}: expected an int >= {low}, got {value!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"GeneratorConfig.seed: expected an int >= 0, got {self.seed!r}")
+        if not 0 <= self.val_fraction < 1:
+            raise ValueError(f"GeneratorConfig.val_fraction: expected a value in [0, 1), got {self.val_fraction}")
+        if self.n_val_placements >= self.n_train_placements:
+            raise ValueError(
+                f"GeneratorConfig.val_fraction: {self.val_fraction} leaves no training placement "
+                f"out of {self.n_train_placements}"
+            )
+        bad = [f for f in self.families if f not in SHAPES]
+        if not self.families or bad:
+            raise ValueError(
+                f"GeneratorConfig.families: expected a non-empty subset of {SHAPES}, got {list(self.families)}"
+            )
+        for name in ("x_range", "y_range", "yaw_range_deg"):
+            low_high = getattr(self, name)
+            if len(low_high) != 2 or not all(math.isfinite(v) for v in low_high) or low_high[0] > low_high[1]:
+                raise ValueError(f"GeneratorConfig.{name}: expected finite (low, high), low <= high, got {low_high}")
+        for name in ("duration", "tolerance"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"GeneratorConfig.{name}: expected a finite value > 0, got {value}")
+        if not 0 < self.approach_fraction < 1:
+            raise ValueError(
+                f"GeneratorConfig.approach_fraction: expected a value in (0, 1), got {self.approach_fraction}"
+            )
+        if not isinstance(self.wrist_camera, bool):
+            raise ValueError(f"GeneratorConfig.wrist_camera: expected a bool, got {self.wrist_camera!r}")
+
+    @property
+    def n_val_placements(self) -> int:
+        """Placements per training object that go to the validation split."""
+        return int(round(self.val_fraction * self.n_train_placements))
+
+    @property
+    def n_episodes(self) -> int:
+        return self.n_train_objects * self.n_train_placements + self.n_test_objects * self.n_test_placements
+
+    @property
+    def placement_ranges(self) -> PlacementRanges:
+        return PlacementRanges(self.x_range, self.y_range, self.yaw_range_deg)
+
+    @property
+    def control_dt(self) -> float:
+        return self.duration / (self.n_steps - 1)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (tuples as lists)."""
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> GeneratorConfig:
+        """Inverse of :meth:`to_dict`; unknown keys raise ``ValueError`` naming them."""
+        names = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - names)
+        if unknown:
+            raise ValueError(f"GeneratorConfig: unknown keys {unknown}")
+        return cls(**d)
+
+    def sha256(self) -> str:
+        """Hash of the canonical JSON of :meth:`to_dict` and the on-disk format version."""
+        return hashlib.sha256(json_bytes({"format_version": FORMAT_VERSION, "config": self.to_dict()})).hexdigest()

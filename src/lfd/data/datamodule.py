@@ -1,0 +1,172 @@
+"""``ReachDataModule``: the PyBullet reaching-demonstration dataset for Lightning."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import lightning as L
+import torch
+from torch.utils.data import DataLoader, Dataset
+
+from lfd.data.config import GeneratorConfig
+from lfd.data.datasets import DMPReachDataset, ReachData, VelocityReachDataset, image_augmentation, load_dataset
+from lfd.data.generate import GenerationReport, dataset_dir, generate_dataset
+from lfd.data.storage import DatasetError
+from lfd.sim.objects import SHAPES
+
+__all__ = ["ReachDataModule"]
+
+MODES = {"dmp": DMPReachDataset, "velocity": VelocityReachDataset}
+
+
+class ReachDataModule(L.LightningDataModule):
+    """Reaching demonstrations (images, joints, DMP parameters) generated in PyBullet.
+
+    ``prepare_data()`` generates ``<root>/<name>`` if it is missing, resumes it if
+    unfinished and verifies it otherwise (a dataset with another config raises
+    :class:`~lfd.data.storage.DatasetError`). ``setup()`` loads the train / val / test
+    splits in the item layout of ``mode`` (see :class:`~lfd.data.datasets.DMPReachDataset`
+    and :class:`~lfd.data.datasets.VelocityReachDataset`).
+
+    Generator arguments (``seed`` ... ``max_attempts``) are those of
+    :class:`~lfd.data.config.GeneratorConfig` and define the dataset's content; the others
+    only change how it is made or served.
+
+    Args:
+        name: dataset folder name under ``root``.
+        root: folder holding datasets.
+        mode: ``"dmp"`` (one item per episode) or ``"velocity"`` (one item per step).
+        batch_size, num_workers: DataLoader settings (``num_workers`` loader processes).
+        augment: colour jitter + small random shifts on training images.
+        num_gen_workers: generation processes (default: all CPU cores).
+        shard, num_shards: generate only shard ``shard`` of ``num_shards`` into
+            ``<root>/<name>.shard-<i>-of-<N>`` (join with :func:`lfd.data.merge_shards`);
+            a sharded datamodule cannot be ``setup()``.
+        progress: show generation progress.
+    """
+
+    def __init__(
+        self,
+        name: str = "quick",
+        root: str | Path = "data",
+        mode: str = "dmp",
+        *,
+        seed: int = 0,
+        n_train_objects: int = 12,
+        n_train_placements: int = 16,
+        n_test_objects: int = 4,
+        n_test_placements: int = 6,
+        val_fraction: float = 0.2,
+        families: Sequence[str] = SHAPES,
+        x_range: Sequence[float] = (0.45, 0.70),
+        y_range: Sequence[float] = (-0.30, 0.30),
+        yaw_range_deg: Sequence[float] = (-90.0, 90.0),
+        image_size: int = 128,
+        wrist_camera: bool = False,
+        duration: float = 4.0,
+        n_steps: int = 100,
+        substeps: int = 10,
+        approach_fraction: float = 0.75,
+        tolerance: float = 0.01,
+        n_basis: int = 20,
+        max_attempts: int = 30,
+        robot: str = "pr2_right_arm",
+        batch_size: int = 32,
+        num_workers: int = 0,
+        augment: bool = False,
+        num_gen_workers: int | None = None,
+        shard: int | None = None,
+        num_shards: int = 1,
+        progress: bool = True,
+    ) -> None:
+        super().__init__()
+        if mode not in MODES:
+            raise ValueError(f"ReachDataModule.mode: expected one of {sorted(MODES)}, got {mode!r}")
+        if not (isinstance(batch_size, int) and batch_size >= 1):
+            raise ValueError(f"ReachDataModule.batch_size: expected an int >= 1, got {batch_size!r}")
+        self.config = GeneratorConfig(
+            seed=seed,
+            n_train_objects=n_train_objects,
+            n_train_placements=n_train_placements,
+            n_test_objects=n_test_objects,
+            n_test_placements=n_test_placements,
+            val_fraction=val_fraction,
+            families=tuple(families),
+            x_range=tuple(x_range),
+            y_range=tuple(y_range),
+            yaw_range_deg=tuple(yaw_range_deg),
+            image_size=image_size,
+            wrist_camera=wrist_camera,
+            duration=duration,
+            n_steps=n_steps,
+            substeps=substeps,
+            approach_fraction=approach_fraction,
+            tolerance=tolerance,
+            n_basis=n_basis,
+            max_attempts=max_attempts,
+            robot=robot,
+        )
+        self.name, self.mode = name, mode
+        self.path = dataset_dir(root, name, shard, num_shards)
+        self.shard, self.num_shards = shard, num_shards
+        self.batch_size, self.num_workers, self.augment = batch_size, num_workers, augment
+        self.num_gen_workers, self.progress = num_gen_workers, progress
+        self.data: ReachData | None = None
+        self.datasets: dict[str, Dataset] = {}
+        self.generation_report: GenerationReport | None = None
+
+    def prepare_data(self) -> None:
+        """Generate, resume or verify the dataset (or shard) at :attr:`path`."""
+        self.generation_report = generate_dataset(
+            self.config,
+            self.path,
+            num_workers=self.num_gen_workers,
+            shard=self.shard,
+            num_shards=self.num_shards,
+            progress=self.progress,
+        )
+
+    def setup(self, stage: str | None = None) -> None:
+        """Load and verify the dataset, build the split datasets of :attr:`mode`."""
+        if self.shard is not None:
+            raise DatasetError(
+                f"{self.path} is shard {self.shard} of {self.num_shards}; merge the shards and load the result"
+            )
+        if self.data is None:
+            self.data = load_dataset(self.path, self.config)
+        view = MODES[self.mode]
+        augment = image_augmentation(self.config.image_size) if self.augment else None
+        wanted = {"fit": ("train", "val"), "validate": ("val",), "test": ("test",), "predict": ("test",)}.get(
+            stage or "", ("train", "val", "test")
+        )
+        for split in wanted:
+            if split not in self.datasets and self.data.manifest["episodes"][split] > 0:
+                self.datasets[split] = view(self.data, split, augment if split == "train" else None)
+
+    @property
+    def stats(self) -> dict[str, dict[str, torch.Tensor]]:
+        """Normalisation statistics of the train split (see :class:`ReachData`)."""
+        if self.data is None:
+            raise RuntimeError("ReachDataModule.stats: call setup() first")
+        return self.data.stats
+
+    def _loader(self, split: str, shuffle: bool) -> DataLoader:
+        if split not in self.datasets:
+            raise RuntimeError(f"ReachDataModule: split '{split}' is not set up (empty, or setup() not called for it)")
+        return DataLoader(
+            self.datasets[split],
+            batch_size=self.batch_size,
+            shuffle=shuffle,
+            num_workers=self.num_workers,
+            persistent_workers=self.num_workers > 0,
+        )
+
+    def train_dataloader(self) -> DataLoader:
+        return self._loader("train", shuffle=True)
+
+    def val_dataloader(self) -> DataLoader:
+        return self._loader("val", shuffle=False)
+
+    def test_dataloader(self) -> DataLoader:
+        return self._loader("test", shuffle=False)

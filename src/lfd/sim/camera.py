@@ -1,0 +1,135 @@
+"""Pinhole cameras: OpenGL view/projection matrices, PyBullet rendering, point projection.
+
+Matrices are ordinary row-major ``(4, 4)`` numpy arrays acting on column vectors
+(``clip = P @ V @ [x, y, z, 1]``); PyBullet wants them flattened column-major, which
+:func:`to_pybullet` does. Pixel coordinates are ``(u, v)`` with ``u`` to the right and
+``v`` down, ``(0, 0)`` the top-left corner of the top-left pixel.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+#: Direction towards the light (world frame) used for every rendering.
+LIGHT_DIRECTION = (0.4, -0.3, 1.0)
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """OpenGL view matrix ``(4, 4)`` (same as ``pybullet.computeViewMatrix``): maps points
+    from the frame ``eye``/``target``/``up`` are given in to camera coordinates (camera
+    looking down its -z axis, y up)."""
+    eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
+    forward = target - eye
+    forward /= np.linalg.norm(forward)
+    side = np.cross(forward, up)
+    norm = np.linalg.norm(side)
+    if norm < 1e-9:
+        raise ValueError("look_at: 'up' must not be parallel to the viewing direction")
+    side /= norm
+    true_up = np.cross(side, forward)
+    view = np.eye(4)
+    view[0, :3], view[1, :3], view[2, :3] = side, true_up, -forward
+    view[:3, 3] = -view[:3, :3] @ eye
+    return view
+
+
+def perspective(fov_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    """OpenGL projection matrix ``(4, 4)`` (same as ``pybullet.computeProjectionMatrixFOV``);
+    ``fov_deg`` is the vertical field of view."""
+    f = 1.0 / math.tan(math.radians(fov_deg) / 2)
+    proj = np.zeros((4, 4))
+    proj[0, 0], proj[1, 1] = f / aspect, f
+    proj[2, 2] = (far + near) / (near - far)
+    proj[2, 3] = 2 * far * near / (near - far)
+    proj[3, 2] = -1.0
+    return proj
+
+
+def to_pybullet(matrix: np.ndarray) -> list[float]:
+    """Flatten a ``(4, 4)`` matrix column-major, as PyBullet expects."""
+    return [float(v) for v in np.asarray(matrix).T.reshape(-1)]
+
+
+def project_points(points: np.ndarray, view: np.ndarray, proj: np.ndarray, width: int, height: int) -> np.ndarray:
+    """Pixel coordinates ``(..., 2)`` of ``points (..., 3)`` (given in the frame ``view``
+    was built in). Points behind the camera give NaN."""
+    pts = np.asarray(points, dtype=np.float64)
+    homo = np.concatenate([pts, np.ones(pts.shape[:-1] + (1,))], axis=-1)
+    clip = homo @ (proj @ view).T
+    w = clip[..., 3:4]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ndc = np.where(w > 0, clip[..., :2] / w, np.nan)
+    u = (ndc[..., 0] + 1) / 2 * width
+    v = (1 - ndc[..., 1]) / 2 * height
+    return np.stack([u, v], axis=-1)
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A fixed pinhole camera; ``eye``/``target``/``up`` in the robot base (torso) frame.
+
+    The default sits 0.45 m above the torso origin, roughly where the PR2 head camera is,
+    and looks down at the middle of the placement area on the table top; at 45 degrees
+    it sees the whole placement area (x 0.45..0.70 m, y -0.30..0.30 m) with a margin.
+    """
+
+    eye: tuple[float, float, float] = (0.0, 0.0, 0.45)
+    target: tuple[float, float, float] = (0.58, 0.0, -0.33)
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    fov_deg: float = 45.0
+    width: int = 128
+    height: int = 128
+    near: float = 0.05
+    far: float = 4.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.width, int) and isinstance(self.height, int) and self.width > 0 and self.height > 0):
+            raise ValueError(f"Camera: width and height must be positive ints, got {self.width}x{self.height}")
+        if not 0 < self.fov_deg < 180:
+            raise ValueError(f"Camera.fov_deg: must lie in (0, 180), got {self.fov_deg}")
+        if not 0 < self.near < self.far:
+            raise ValueError(f"Camera: need 0 < near < far, got near={self.near}, far={self.far}")
+
+    @property
+    def view_matrix(self) -> np.ndarray:
+        """``(4, 4)`` view matrix acting on torso-frame points."""
+        return look_at(np.array(self.eye), np.array(self.target), np.array(self.up))
+
+    @property
+    def projection_matrix(self) -> np.ndarray:
+        return perspective(self.fov_deg, self.width / self.height, self.near, self.far)
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """Pixel coordinates ``(..., 2)`` of torso-frame ``points (..., 3)``."""
+        return project_points(points, self.view_matrix, self.projection_matrix, self.width, self.height)
+
+    def render(self, client: int, base_to_world: np.ndarray, backdrop: np.ndarray | None = None) -> np.ndarray:
+        """RGB image ``(height, width, 3)`` uint8 from PyBullet's TinyRenderer.
+
+        Args:
+            client: PyBullet physics client id.
+            base_to_world: ``(4, 4)`` pose of the torso frame in the PyBullet world.
+            backdrop: ``(height, width, 3)`` uint8 image shown where nothing of ``client``
+                was drawn (see :class:`~lfd.sim.scene.ReachScene`), else white.
+        """
+        view = self.view_matrix @ np.linalg.inv(base_to_world)
+        _, _, rgba, depth, _ = p.getCameraImage(
+            self.width,
+            self.height,
+            viewMatrix=to_pybullet(view),
+            projectionMatrix=to_pybullet(self.projection_matrix),
+            renderer=p.ER_TINY_RENDERER,
+            lightDirection=list(LIGHT_DIRECTION),
+            shadow=0,
+            flags=p.ER_NO_SEGMENTATION_MASK,
+            physicsClientId=client,
+        )
+        rgb = np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[..., :3]
+        if backdrop is None:
+            return rgb.copy()
+        empty = np.asarray(depth).reshape(self.height, self.width, 1) >= 1.0
+        return np.where(empty, backdrop, rgb)

@@ -1,0 +1,179 @@
+"""Objects to reach for: shape specs, randomised families and table placements.
+
+Units: metres, kilograms, radians (degrees only in :class:`PlacementRanges`, which mirrors
+the config). Placements are expressed in the robot base (torso) frame; the object stands
+upright on the table, so a placement is a table position ``(x, y)`` plus a rotation
+``yaw`` about the vertical axis.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+#: Shapes an :class:`ObjectSpec` may have, with the names of their ``dims`` entries.
+SHAPE_DIMS: dict[str, tuple[str, ...]] = {
+    "cylinder": ("radius", "height"),
+    "capsule": ("radius", "length"),
+    "sphere": ("radius",),
+    "box": ("size_x", "size_y", "size_z"),
+}
+SHAPES: tuple[str, ...] = tuple(SHAPE_DIMS)
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """One object instance.
+
+    Attributes:
+        shape: ``"cylinder" | "box" | "sphere" | "capsule"``.
+        dims: dimensions in metres, named by :data:`SHAPE_DIMS`: cylinder ``(radius,
+            height)``, capsule ``(radius, length)`` (length of the straight part between
+            the two hemispherical caps), sphere ``(radius,)``, box ``(size_x, size_y,
+            size_z)`` (full side lengths; ``size_z`` is vertical).
+        rgba: colour, four floats in ``[0, 1]``.
+        mass: kg, > 0.
+        name: free-form label (e.g. ``"train-03-box"``).
+
+    Raises:
+        ValueError: naming the field when a value is invalid.
+    """
+
+    shape: str
+    dims: tuple[float, ...]
+    rgba: tuple[float, float, float, float]
+    mass: float
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        if self.shape not in SHAPE_DIMS:
+            raise ValueError(f"ObjectSpec.shape: expected one of {SHAPES}, got {self.shape!r}")
+        dims = tuple(float(d) for d in self.dims)
+        expected = SHAPE_DIMS[self.shape]
+        if len(dims) != len(expected):
+            raise ValueError(
+                f"ObjectSpec.dims: a {self.shape} needs {len(expected)} values {expected}, got {len(dims)}: {dims}"
+            )
+        for label, value in zip(expected, dims, strict=True):
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"ObjectSpec.dims: {label} must be a finite length > 0 m, got {value}")
+        rgba = tuple(float(c) for c in self.rgba)
+        if len(rgba) != 4 or not all(0.0 <= c <= 1.0 for c in rgba):
+            raise ValueError(f"ObjectSpec.rgba: expected 4 values in [0, 1], got {self.rgba}")
+        if not (math.isfinite(float(self.mass)) and float(self.mass) > 0):
+            raise ValueError(f"ObjectSpec.mass: must be a finite mass > 0 kg, got {self.mass}")
+        if not isinstance(self.name, str):
+            raise ValueError(f"ObjectSpec.name: must be a string, got {type(self.name).__name__}")
+        object.__setattr__(self, "dims", dims)
+        object.__setattr__(self, "rgba", rgba)
+        object.__setattr__(self, "mass", float(self.mass))
+
+    @property
+    def height(self) -> float:
+        """Total height (m) of the upright object above the table."""
+        if self.shape == "cylinder":
+            return self.dims[1]
+        if self.shape == "capsule":
+            return self.dims[1] + 2 * self.dims[0]
+        if self.shape == "sphere":
+            return 2 * self.dims[0]
+        return self.dims[2]
+
+    @property
+    def round(self) -> bool:
+        """True for shapes symmetric about their vertical axis (cylinder, capsule, sphere)."""
+        return self.shape != "box"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> ObjectSpec:
+        return cls(
+            shape=d["shape"], dims=tuple(d["dims"]), rgba=tuple(d["rgba"]), mass=d["mass"], name=d.get("name", "")
+        )
+
+
+#: Size ranges (m) per family, uniform draws; chosen so that every instance fits the
+#: PR2 gripper (opening ~9 cm) and stands stably.
+FAMILY_SIZES: dict[str, tuple[tuple[float, float], ...]] = {
+    "cylinder": ((0.025, 0.045), (0.12, 0.22)),
+    "capsule": ((0.02, 0.035), (0.08, 0.15)),
+    "sphere": ((0.045, 0.06),),
+    "box": ((0.04, 0.08), (0.04, 0.08), (0.04, 0.12)),
+}
+#: Mass range (kg) for every family.
+MASS_RANGE = (0.1, 0.5)
+
+
+def sample_object(rng: np.random.Generator, shape: str, name: str = "") -> ObjectSpec:
+    """One random instance of the family ``shape``: size from :data:`FAMILY_SIZES`, a
+    saturated random colour (HSV with saturation 0.6..1 and value 0.5..1, so it stands out
+    from the grey table), mass from :data:`MASS_RANGE`."""
+    if shape not in FAMILY_SIZES:
+        raise ValueError(f"sample_object: shape must be one of {SHAPES}, got {shape!r}")
+    dims = tuple(float(rng.uniform(lo, hi)) for lo, hi in FAMILY_SIZES[shape])
+    hue, sat, val = rng.uniform(0, 1), rng.uniform(0.6, 1.0), rng.uniform(0.5, 1.0)
+    rgb = _hsv_to_rgb(float(hue), float(sat), float(val))
+    return ObjectSpec(shape=shape, dims=dims, rgba=(*rgb, 1.0), mass=float(rng.uniform(*MASS_RANGE)), name=name)
+
+
+def sample_objects(
+    rng: np.random.Generator, n: int, families: tuple[str, ...] = SHAPES, prefix: str = "obj"
+) -> list[ObjectSpec]:
+    """``n`` instances cycling through ``families`` (so each family is represented as
+    evenly as possible), named ``f"{prefix}-{i:02d}-{shape}"``."""
+    if n < 0:
+        raise ValueError(f"sample_objects: n must be >= 0, got {n}")
+    if not families:
+        raise ValueError("sample_objects: families must not be empty")
+    shapes = [families[i % len(families)] for i in range(n)]
+    return [sample_object(rng, shape, f"{prefix}-{i:02d}-{shape}") for i, shape in enumerate(shapes)]
+
+
+def _hsv_to_rgb(h: float, s: float, v: float) -> tuple[float, float, float]:
+    i = int(h * 6) % 6
+    f = h * 6 - math.floor(h * 6)
+    p, q, t = v * (1 - s), v * (1 - f * s), v * (1 - (1 - f) * s)
+    return [(v, t, p), (q, v, p), (p, v, t), (p, q, v), (t, p, v), (v, p, q)][i]
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Object position on the table in the torso frame: ``x``, ``y`` (m), ``yaw`` (rad)
+    about the vertical axis."""
+
+    x: float
+    y: float
+    yaw: float
+
+    def as_array(self) -> np.ndarray:
+        """``(3,)`` float64 ``[x, y, yaw]``."""
+        return np.array([self.x, self.y, self.yaw], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class PlacementRanges:
+    """Uniform placement ranges: ``x``, ``y`` in metres (torso frame), ``yaw`` in degrees.
+    Defaults are the original ranges (x 0.45..0.70 m, y -0.30..0.30 m, yaw -90..90 deg)."""
+
+    x: tuple[float, float] = (0.45, 0.70)
+    y: tuple[float, float] = (-0.30, 0.30)
+    yaw_deg: tuple[float, float] = (-90.0, 90.0)
+
+    def __post_init__(self) -> None:
+        for field in ("x", "y", "yaw_deg"):
+            lo, hi = getattr(self, field)
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise ValueError(
+                    f"PlacementRanges.{field}: expected finite (low, high) with low <= high, got {(lo, hi)}"
+                )
+            object.__setattr__(self, field, (float(lo), float(hi)))
+
+    def sample(self, rng: np.random.Generator) -> Placement:
+        x, y = rng.uniform(*self.x), rng.uniform(*self.y)
+        yaw = math.radians(rng.uniform(*self.yaw_deg))
+        return Placement(float(x), float(y), float(yaw))

@@ -1,0 +1,18 @@
+"""The default (quick-scale) dataset, generated in full (slow: about a minute per core)."""
+
+import pytest
+
+from lfd.data import ReachDataModule
+
+
+@pytest.mark.slow
+def test_quick_scale_dataset(tmp_path):
+    dm = ReachDataModule(name="quick", root=tmp_path, progress=False)  # the defaults are configs/data/quick.yaml
+    dm.prepare_data()
+    dm.setup()
+    counts = dm.data.manifest["episodes"]
+    assert counts == {"total": 216, "train": 156, "val": 36, "test": 24}
+    discarded = sum(dm.data.manifest["discarded"].values())
+    assert discarded / (counts["total"] + discarded) < 0.1
+    assert max(float(e.arrays["final_error"]) for e in dm.data.episodes) < 0.01
+    assert {e.obj.shape for e in dm.data.split("test")} == {"cylinder", "capsule", "sphere", "box"}

@@ -1,0 +1,103 @@
+"""ReachScene: world layout, frames, control, contacts, rendering."""
+
+import numpy as np
+import pybullet as p
+import pytest
+import torch
+
+from lfd.robots import load_robot
+from lfd.sim.approach import TABLE_Z
+from lfd.sim.objects import ObjectSpec, Placement
+from lfd.sim.scene import TABLE_X, ReachScene
+
+BOX = ObjectSpec("box", (0.05, 0.06, 0.08), (0.9, 0.1, 0.1, 1.0), 0.3, "box")
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("pr2_right_arm")
+
+
+@pytest.fixture(scope="module")
+def scene(robot):
+    with ReachScene(robot, image_size=48) as s:
+        yield s
+
+
+def test_table_top_and_object_in_torso_frame(scene):
+    scene.reset(BOX, Placement(0.6, -0.1, 0.4))
+    lo, hi = p.getAABB(scene.table_id, physicsClientId=scene.client)
+    assert hi[2] - scene.base_to_world[2, 3] == pytest.approx(TABLE_Z, abs=1e-3)
+    assert lo[0] == pytest.approx(TABLE_X[0], abs=1e-3)
+    pose = scene.object_pose()
+    np.testing.assert_allclose(pose[:3, 3], [0.6, -0.1, TABLE_Z + 0.04], atol=1e-6)
+    np.testing.assert_allclose(pose[:2, 0], [np.cos(0.4), np.sin(0.4)], atol=1e-6)
+    for _ in range(20):  # the object rests on the table
+        scene.step(scene.joint_state()[0])
+    np.testing.assert_allclose(scene.object_pose()[:3, 3], [0.6, -0.1, TABLE_Z + 0.04], atol=2e-3)
+
+
+def test_ee_pose_matches_robot_fk(scene, robot):
+    q = robot.home.numpy() + np.array([0.2, 0.3, -0.1, -0.2, 0.4, -0.3, 0.5])
+    scene.reset(q=q)
+    np.testing.assert_allclose(scene.ee_pose(), robot.fk(torch.as_tensor(q)[None])[0].numpy(), atol=1e-6)
+    np.testing.assert_allclose(scene.joint_state()[0], q, atol=1e-9)
+
+
+def test_position_control_tracks_and_holds(scene, robot):
+    scene.reset()
+    home = robot.home.numpy()
+    target = home + np.array([0.3, 0.2, 0.0, -0.3, 0.0, -0.2, 0.0])
+    for _ in range(25):
+        scene.step(target)
+    q, qd = scene.joint_state()
+    np.testing.assert_allclose(q, target, atol=2e-3)
+    assert np.abs(qd).max() < 0.05
+
+
+def test_contacts(scene, robot):
+    scene.reset(BOX, Placement(0.6, 0.0, 0.0))
+    assert not scene.arm_touches("table") and not scene.arm_touches("object")
+    # tool straight down into the table, through the box
+    res = robot.ik(
+        torch.tensor([[0.6, 0.0, TABLE_Z - 0.02]], dtype=torch.float64), q0=robot.home[None], position_only=True
+    )
+    scene.set_joints(res.q[0])
+    assert scene.arm_touches("table") or scene.arm_touches("object")
+    with pytest.raises(ValueError, match="'table' or 'object'"):
+        scene.arm_touches("floor")
+
+
+def test_render_is_deterministic_and_shows_the_object(scene):
+    scene.reset()
+    empty = scene.render()
+    scene.reset(BOX, Placement(0.58, 0.0, 0.0))
+    a, b = scene.render(), scene.render()
+    assert a.shape == (48, 48, 3) and a.dtype == np.uint8
+    np.testing.assert_array_equal(a, b)
+    changed = np.abs(a.astype(int) - empty.astype(int)).sum(-1) > 30
+    rows, cols = np.nonzero(changed)
+    assert changed.sum() > 4
+    assert abs(cols.mean() - 24) < 4  # the object at y = 0 is in the middle column
+    red = (a[..., 0] > 150) & (a[..., 1] < 80)
+    assert red.sum() > 4
+
+
+def test_wrist_camera_and_lifecycle(robot):
+    scene = ReachScene(robot, image_size=32, wrist_camera=True)
+    scene.reset(BOX, Placement(0.55, 0.05, 0.0))
+    assert scene.render_wrist().shape == (32, 32, 3)
+    scene.close()
+    scene.close()  # idempotent
+
+
+def test_argument_validation(robot, scene):
+    with pytest.raises(ValueError, match="image_size"):
+        ReachScene(robot, image_size=0)
+    with pytest.raises(ValueError, match="both object_spec and placement"):
+        scene.reset(BOX)
+    with pytest.raises(ValueError, match="q_target"):
+        scene.step(np.zeros(3))
+    scene.reset()
+    with pytest.raises(ValueError, match="no object"):
+        scene.object_pose()
