@@ -1,0 +1,327 @@
+"""Closed-loop reaching evaluation of the visuomotor policies in PyBullet.
+
+:class:`ReachEvaluator` (``configs/eval/reach.yaml``) runs every policy checkpoint it is
+given (or finds) on a set of cases -- the dataset's test split (new objects at new
+placements) or every object x placement of a scenario file -- and writes to its run
+directory:
+
+* ``metrics.json``: per method (``cnn_dmp``, ``velocity``) the summary of
+  :func:`lfd.eval.metrics.summarise`, plus the checkpoint and the case source;
+* ``episodes.csv``: one row per episode and method;
+* ``distance_<object>.png``: final distance per placement, both methods side by side;
+* ``paths3d_<object>.png``: demonstrated and executed end-effector paths;
+* ``rollouts/<method>_<object>_p<k>.gif``: the first ``n_gifs`` episodes per method.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from lfd.data.datasets import load_dataset
+from lfd.data.storage import json_bytes, write_bytes_atomic
+from lfd.eval.metrics import approach_angle_deg, mean_squared_jerk, summarise
+from lfd.eval.plots import distance_bars, paths_3d, write_gif
+from lfd.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, run_episode
+from lfd.eval.scenario import load_scenario
+from lfd.sim.approach import ApproachPlan, plan_approach
+from lfd.models import checkpoint_kind, load_policy
+from lfd.robots import load_robot
+from lfd.sim.expert import DemoDiscarded, run_demonstration
+from lfd.sim.objects import ObjectSpec, Placement
+from lfd.sim.scene import ReachScene
+
+#: Checkpoint config key per policy kind (``python evaluate.py ckpt_dmp=... ckpt_velocity=...``).
+CKPT_KEYS = {"cnn_dmp": "ckpt_dmp", "velocity": "ckpt_velocity"}
+#: Training command per policy kind, quoted when a checkpoint is missing.
+TRAIN_COMMANDS = {"cnn_dmp": "python train.py model=cnn_dmp", "velocity": "python train.py model=velocity"}
+#: Where training runs leave their checkpoints, relative to ``paths.output_root``.
+CHECKPOINT_GLOB = "train/**/checkpoints/last.ckpt"
+
+
+def find_checkpoints(output_root: str | Path, kinds: tuple[str, ...]) -> dict[str, Path]:
+    """The newest (by modification time) ``last.ckpt`` of each policy kind under
+    ``<output_root>/train/**/checkpoints/``; kinds without one are left out."""
+    found: dict[str, Path] = {}
+    candidates = sorted(Path(output_root).glob(CHECKPOINT_GLOB), key=lambda p: p.stat().st_mtime, reverse=True)
+    for path in candidates:
+        kind = checkpoint_kind(path)
+        if kind in kinds and kind not in found:
+            found[kind] = path
+        if len(found) == len(kinds):
+            break
+    return found
+
+
+@dataclass(frozen=True)
+class Case:
+    """One object at one placement, with what the evaluation knows about it (the policy
+    never sees any of it).
+
+    Attributes:
+        object_index, placement_index: position in the scenario / test split.
+        obj, placement: the object and where it stands.
+        plan: the approach rule's target poses (grasp target point, approach direction).
+        demo_ee: ``(T, 3)`` demonstrated tool path, or None if the expert failed here.
+    """
+
+    object_index: int
+    placement_index: int
+    obj: ObjectSpec
+    placement: Placement
+    plan: ApproachPlan
+    demo_ee: np.ndarray | None
+
+    @property
+    def label(self) -> str:
+        p = self.placement
+        return f"p{self.placement_index} ({p.x:.2f}, {p.y:+.2f}, {math.degrees(p.yaw):+.0f} deg)"
+
+
+class ReachEvaluator:
+    """Closed-loop evaluation of the CNN -> DMP and velocity policies.
+
+    Args:
+        scenario: scenario YAML file (:mod:`lfd.eval.scenario`); None = the test split of
+            the ``data`` config's dataset.
+        methods: policy kinds to evaluate.
+        n_gifs: rollout GIFs per method (the first cases).
+        gif_every: keep every this many control steps in a GIF.
+        max_steps: control steps per episode; None = twice the demonstrations' length
+            (``2 (n_steps - 1)``): the velocity policy, started at rest, is slower than the
+            demonstrations, and the DMP policy holds its final point once its plan ends.
+        approach_tol_deg: tolerance of ``approach_correct`` (degrees between the final tool
+            x-axis and the approach rule's direction).
+        limit: evaluate only the first ``limit`` cases (None: all).
+        torch_threads: torch intra-op threads during the closed-loop runs (a batch of one
+            gains nothing from more, and loses much to thread hand-offs on a busy CPU).
+    """
+
+    def __init__(
+        self,
+        scenario: str | None = None,
+        methods: tuple[str, ...] | list[str] = ("cnn_dmp", "velocity"),
+        n_gifs: int = 2,
+        gif_every: int = 2,
+        max_steps: int | None = None,
+        approach_tol_deg: float = 30.0,
+        limit: int | None = None,
+        torch_threads: int = 1,
+    ) -> None:
+        unknown = sorted(set(methods) - set(CONTROLLERS))
+        if unknown:
+            raise ValueError(f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(CONTROLLERS)}")
+        if max_steps is not None and max_steps < 1:
+            raise ValueError(f"ReachEvaluator.max_steps: expected an int >= 1 or null, got {max_steps}")
+        self.scenario = scenario
+        self.methods = tuple(methods)
+        self.n_gifs, self.gif_every = int(n_gifs), max(1, int(gif_every))
+        self.max_steps = max_steps
+        self.approach_tol_deg = float(approach_tol_deg)
+        self.limit = limit
+        self.torch_threads = int(torch_threads)
+
+    # ------------------------------------------------------------------ inputs
+    def checkpoints(self, cfg) -> dict[str, Path]:
+        """Checkpoint per method: ``cfg.ckpt_dmp`` / ``cfg.ckpt_velocity`` when given (must
+        exist), else the newest found under ``cfg.paths.output_root``. Missing ones are
+        reported with the command that makes them; none at all raises."""
+        given = {kind: cfg.get(CKPT_KEYS[kind]) for kind in self.methods}
+        for kind, path in given.items():
+            if path is not None and not Path(path).is_file():
+                raise FileNotFoundError(f"{CKPT_KEYS[kind]}={path}: no such checkpoint file")
+        searched = [k for k, p in given.items() if p is None]
+        found = find_checkpoints(cfg.paths.output_root, tuple(searched)) if searched else {}
+        out = {kind: Path(given[kind]) if given[kind] is not None else found.get(kind) for kind in self.methods}
+        missing = [k for k, p in out.items() if p is None]
+        hints = "; ".join(
+            f"no '{k}' checkpoint under {Path(cfg.paths.output_root) / CHECKPOINT_GLOB}: train one with "
+            f"`{TRAIN_COMMANDS[k]}` or pass {CKPT_KEYS[k]}=PATH"
+            for k in missing
+        )
+        if len(missing) == len(out):
+            raise FileNotFoundError(hints)
+        if missing:
+            warnings.warn(hints, RuntimeWarning, stacklevel=2)
+            print(f"[lfd] {hints}")
+        return {k: p for k, p in out.items() if p is not None}
+
+    def cases(self, data, scene) -> tuple[list[Case], str]:
+        """The evaluation cases and a description of their source."""
+        table_z = scene.table_z
+        if self.scenario is not None:
+            scenario = load_scenario(self.scenario)
+            cases = [
+                Case(i, j, obj, placement, plan_approach(obj, placement, table_z=table_z), self._expert_path(scene, data.config, obj, placement))
+                for i, obj, j, placement in scenario.cases()
+            ]
+            return cases[: self.limit], f"scenario {scenario.source}"
+        records = data.split("test")
+        if not records:
+            raise ValueError(f"dataset {data.path} has no test split (n_test_objects = 0); give eval.scenario=FILE")
+        cases = [
+            Case(
+                r.object_index,
+                int(r.arrays["placement_index"]),
+                r.obj,
+                r.placement,
+                plan_approach(r.obj, r.placement, table_z=table_z),
+                r.arrays["ee_poses"][:, :3, 3],
+            )
+            for r in records
+        ]
+        return cases[: self.limit], f"test split of {data.path}"
+
+    @staticmethod
+    def _expert_path(scene, config, obj: ObjectSpec, placement: Placement) -> np.ndarray | None:
+        """Tool path of the scripted expert's demonstration for a scenario case (None if discarded)."""
+        try:
+            demo = run_demonstration(
+                scene,
+                obj,
+                placement,
+                duration=config.duration,
+                n_steps=config.n_steps,
+                approach_fraction=config.approach_fraction,
+                tolerance=config.tolerance,
+            )
+        except DemoDiscarded:
+            return None
+        return demo.ee_poses[:, :3, 3]
+
+    # ------------------------------------------------------------------ run
+    def run(self, cfg, out_dir: str | Path) -> dict[str, Any]:
+        """Evaluate, write the outputs into ``out_dir`` and return the ``metrics.json`` content.
+
+        Args:
+            cfg: the composed ``evaluate.yaml`` config (``data``, ``paths``, ``ckpt_*``).
+        """
+        import hydra
+
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        checkpoints = self.checkpoints(cfg)
+        policies = {kind: load_policy(path) for kind, path in checkpoints.items()}
+        datamodule = hydra.utils.instantiate(cfg.data)
+        gen = datamodule.config
+        for kind, policy in policies.items():
+            self._check_compatible(kind, checkpoints[kind], policy, gen)
+        datamodule.prepare_data()
+        data = load_dataset(datamodule.path, gen)
+        robot = load_robot(gen.robot)
+        scene = ReachScene(robot, image_size=gen.image_size, control_dt=gen.control_dt, substeps=gen.substeps)
+        threads = torch.get_num_threads()
+        torch.set_num_threads(self.torch_threads)
+        try:
+            cases, source = self.cases(data, scene)
+            demo_jerk = np.array([mean_squared_jerk(c.demo_ee, gen.control_dt) for c in cases if c.demo_ee is not None])
+            steps = self.max_steps or 2 * (gen.n_steps - 1)
+            lower, upper = (np.where(robot.continuous.numpy(), sign * np.inf, lim.numpy()) for sign, lim in ((-1, robot.lower), (1, robot.upper)))
+            rows: list[dict[str, Any]] = []
+            traces: dict[str, list[EpisodeTrace]] = {}
+            metrics: dict[str, Any] = {}
+            for kind, policy in policies.items():
+                controller = CONTROLLERS[kind](policy, gen.control_dt)
+                self._warm_up(scene, robot, cases[0], controller)
+                traces[kind] = []
+                for i, case in enumerate(cases):
+                    scene.reset(case.obj, case.placement, q=robot.home.numpy())
+                    record = self.gif_every if i < self.n_gifs else 0
+                    trace = run_episode(scene, controller, steps, lower, upper, record_every=record)
+                    traces[kind].append(trace)
+                    rows.append(self._row(kind, case, trace, gen.control_dt))
+                    if trace.frames:
+                        (out_dir / "rollouts").mkdir(exist_ok=True)
+                        write_gif(out_dir / "rollouts" / f"{kind}_{case.obj.name}_p{case.placement_index}.gif", trace.frames, gen.control_dt * self.gif_every)
+                mine = [r for r in rows if r["method"] == kind]
+                metrics[kind] = summarise(
+                    final_distance=np.array([r["final_distance_m"] for r in mine]),
+                    approach_ok=np.array([r["approach_correct"] for r in mine]),
+                    jerk=np.array([r["jerk"] for r in mine]),
+                    demo_jerk=demo_jerk,
+                    limit_violations=np.array([r["joint_limit_violations"] for r in mine]),
+                    latency_ms=np.concatenate([t.latencies_ms for t in traces[kind]]),
+                )
+                metrics[kind].update({"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps})
+        finally:
+            torch.set_num_threads(threads)
+            scene.close()
+        self._write(out_dir, metrics, rows, cases, traces)
+        return metrics
+
+    @staticmethod
+    def _check_compatible(kind: str, path: Path, policy, gen) -> None:
+        """The checkpoint must have been trained on data rendered and timed like the evaluation's."""
+        hp = policy.hparams
+        for key in ("image_size", "duration", "n_steps", "robot"):
+            if hp[key] != getattr(gen, key):
+                raise ValueError(
+                    f"{kind} checkpoint {path} was trained with {key}={hp[key]!r}, the evaluation data config has "
+                    f"{key}={getattr(gen, key)!r}: evaluate with the data config it was trained on (e.g. data=<name>)"
+                )
+
+    @staticmethod
+    def _warm_up(scene, robot, case: Case, controller) -> None:
+        """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
+        scene.reset(case.obj, case.placement, q=robot.home.numpy())
+        controller.start()
+        controller.command(Observation(image=scene.render(), joints=scene.joint_state()[0]), 0, [])
+
+    def _row(self, kind: str, case: Case, trace: EpisodeTrace, dt: float) -> dict[str, Any]:
+        final = trace.ee_poses[-1]
+        distance = float(np.linalg.norm(final[:3, 3] - case.plan.target_point))
+        angle = float(approach_angle_deg(final[:3, 0], case.plan.approach_dir))
+        p = case.placement
+        return {
+            "method": kind,
+            "object": case.obj.name,
+            "shape": case.obj.shape,
+            "object_index": case.object_index,
+            "placement_index": case.placement_index,
+            "x": p.x,
+            "y": p.y,
+            "yaw_deg": math.degrees(p.yaw),
+            "approach_mode": case.plan.mode,
+            "final_distance_m": distance,
+            "success_5cm": distance < 0.05,
+            "success_2cm": distance < 0.02,
+            "approach_angle_deg": angle,
+            "approach_correct": angle <= self.approach_tol_deg,
+            "jerk": float(mean_squared_jerk(trace.ee_poses[:, :3, 3], dt)),
+            "demo_jerk": float(mean_squared_jerk(case.demo_ee, dt)) if case.demo_ee is not None else "",
+            "joint_limit_violations": trace.limit_violations,
+            "policy_calls": len(trace.latencies_ms),
+            "latency_ms_median": float(np.median(trace.latencies_ms)),
+        }
+
+    @staticmethod
+    def _write(out_dir: Path, metrics: dict, rows: list[dict], cases: list[Case], traces: dict[str, list[EpisodeTrace]]) -> None:
+        write_bytes_atomic(out_dir / "metrics.json", json_bytes(metrics))
+        table = io.StringIO(newline="")
+        writer = csv.DictWriter(table, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+        write_bytes_atomic(out_dir / "episodes.csv", table.getvalue().encode())
+        by_object: dict[str, list[int]] = {}
+        for i, case in enumerate(cases):
+            by_object.setdefault(case.obj.name, []).append(i)
+        for name, idx in by_object.items():
+            distances = {
+                kind: [r["final_distance_m"] for r in rows if r["method"] == kind and r["object"] == name] for kind in traces
+            }
+            distance_bars(out_dir / f"distance_{name}.png", name, [cases[i].label for i in idx], distances)
+            paths_3d(
+                out_dir / f"paths3d_{name}.png",
+                name,
+                np.stack([cases[i].plan.target_point for i in idx]),
+                [cases[i].demo_ee for i in idx],
+                {kind: [traces[kind][i].ee_poses[:, :3, 3] for i in idx] for kind in traces},
+            )

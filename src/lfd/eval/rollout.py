@@ -1,0 +1,144 @@
+"""Closed-loop execution of a policy in a :class:`~lfd.sim.scene.ReachScene`.
+
+The policy is reached only through a *controller* that receives an :class:`Observation`:
+the fixed camera's RGB frame and the measured joint angles, nothing else. The scene (and
+with it the object's pose) never leaves :func:`run_episode`, so no policy can be given the
+object pose by construction.
+
+Controllers:
+
+* :class:`PlanController` (CNN -> DMP): one ``policy.plan(image, joints)`` call on the
+  first observation, then the planned trajectory is tracked sample by sample (position
+  control with velocity feed-forward, like the demonstrations); after its last sample the
+  arm holds the final position.
+* :class:`VelocityController` (velocity baseline): ``policy.act(image, joints)`` every
+  control step; the position target is one control period ahead of the measured joints
+  (``q + qd * dt``) with ``qd`` as velocity feed-forward.
+
+Every command is clamped into the joint limits before execution (with no velocity
+feed-forward on the clamped joints); the number of steps whose command needed it is
+counted as joint-limit violations.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What a policy may see at one control step.
+
+    Attributes:
+        image: ``(H, W, 3)`` uint8 RGB frame of the fixed camera (None at steps where the
+            controller said it does not look, to save rendering).
+        joints: ``(n,)`` float64 measured joint angles, rad.
+    """
+
+    image: np.ndarray
+    joints: np.ndarray
+
+
+class PlanController:
+    """Runs a trajectory-planning policy (``plan(image, joints) -> (T, n)``) in closed loop."""
+
+    def __init__(self, policy, dt: float) -> None:
+        self.policy, self.dt = policy, dt
+        self.plan: np.ndarray | None = None
+        self.velocity: np.ndarray | None = None
+
+    @property
+    def needs_image(self) -> bool:
+        """Whether :meth:`command` will look at the image this step."""
+        return self.plan is None
+
+    def start(self) -> None:
+        self.plan = self.velocity = None
+
+    def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
+        """Joint position and velocity targets for control step ``step`` (0-based)."""
+        if self.plan is None:
+            t0 = time.perf_counter()
+            self.plan = np.asarray(self.policy.plan(obs.image, obs.joints), dtype=np.float64)
+            latencies.append((time.perf_counter() - t0) * 1e3)
+            self.velocity = np.gradient(self.plan, self.dt, axis=0)
+        k = step + 1
+        if k < len(self.plan):
+            return self.plan[k], self.velocity[k]
+        return self.plan[-1], np.zeros_like(self.plan[-1])
+
+
+class VelocityController:
+    """Runs a velocity policy (``act(image, joints) -> (n,)`` rad/s) every control step."""
+
+    needs_image = True
+
+    def __init__(self, policy, dt: float) -> None:
+        self.policy, self.dt = policy, dt
+
+    def start(self) -> None:
+        """Nothing to reset: the controller is stateless."""
+
+    def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
+        t0 = time.perf_counter()
+        qd = np.asarray(self.policy.act(obs.image, obs.joints), dtype=np.float64)
+        latencies.append((time.perf_counter() - t0) * 1e3)
+        return obs.joints + qd * self.dt, qd
+
+
+CONTROLLERS = {"cnn_dmp": PlanController, "velocity": VelocityController}
+
+
+@dataclass
+class EpisodeTrace:
+    """What happened in one closed-loop episode.
+
+    Attributes:
+        joints: ``(S + 1, n)`` measured joint angles (start + after each step), rad.
+        ee_poses: ``(S + 1, 4, 4)`` tool poses (torso frame).
+        limit_violations: control steps whose command lay outside the joint limits.
+        latencies_ms: wall time of each policy call, ms.
+        frames: uint8 frames for a GIF (every ``frame_every`` steps), empty unless asked.
+    """
+
+    joints: np.ndarray
+    ee_poses: np.ndarray
+    limit_violations: int
+    latencies_ms: list[float]
+    frames: list[np.ndarray] = field(default_factory=list)
+
+
+def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndarray, record_every: int = 0) -> EpisodeTrace:
+    """Run ``controller`` for ``steps`` control steps in ``scene`` (already reset with the object).
+
+    Args:
+        scene: a :class:`~lfd.sim.scene.ReachScene` (never handed to the controller).
+        controller: :class:`PlanController` or :class:`VelocityController`.
+        lower, upper: ``(n,)`` joint limits used to clamp commands (``-inf``/``inf`` for
+            continuous joints).
+        record_every: keep a camera frame every this many steps for a GIF (0: none).
+    """
+    controller.start()
+    latencies: list[float] = []
+    frames: list[np.ndarray] = []
+    joints, poses = [], []
+    violations = 0
+    for step in range(steps + 1):
+        q, _ = scene.joint_state()
+        joints.append(q)
+        poses.append(scene.ee_pose())
+        recording = record_every and step % record_every == 0
+        image = scene.render() if controller.needs_image or recording else None
+        if recording:
+            frames.append(image)
+        if step == steps:
+            break
+        q_target, qd_target = controller.command(Observation(image=image, joints=q), step, latencies)
+        clamped = np.clip(q_target, lower, upper)
+        outside = clamped != q_target
+        violations += int(outside.any())
+        scene.step(clamped, np.where(outside, 0.0, qd_target))
+    return EpisodeTrace(np.stack(joints), np.stack(poses), violations, latencies, frames)

@@ -1,0 +1,702 @@
+"""Sawyer protocol (SPEC 5): forward + inverse models reach, a DMP learns the reach, PoWER refines it.
+
+For each task (end-effector orientation: cube, cup) and each goal:
+
+1. **Reach test** (:class:`Workspace`): full-pose and position-only IK from several seeds,
+   and the goal's distance from the shoulder (joint 1) against the arm's maximum reach.
+   A goal without a position-only IK solution is not attempted: it is reported as
+   unreachable when it also lies beyond the reach, as "no IK solution" otherwise.
+2. **Models** (:func:`closed_loop_reach`): the forward model estimates the end-effector
+   position from the measured joints, the task's inverse model turns the estimated error
+   into joint velocities (clamped to the velocity limits), the arm integrates them
+   (:class:`KinematicArm`, or PyBullet with the generated URDF, :class:`PyBulletArm`) until
+   the *estimated* error is below ``threshold`` or ``max_steps`` is reached.
+3. **DMP + PoWER** (:func:`refine`): a DMP is fitted to the models' trajectory and PoWER
+   (:func:`lfd.rl.power`, weights and goal explored, eq. 5.4 reward on the FK position)
+   refines it until the end effector is within ``tol`` (1 cm) of the goal. The baseline
+   fits the DMP to the task's demonstration only (the one the inverse model was trained
+   on, stored in the checkpoint) and runs the same PoWER. Episodes = PoWER iterations.
+4. Optionally the refined trajectories are replayed in PyBullet (position control) and
+   their final distance to the goal measured there.
+
+Outputs in the run directory: ``protocol.md`` (tables), ``protocol.csv`` (one row per
+task x goal x scenario x PoWER seed), ``reach.csv`` (closed-loop reaches),
+``metrics.json``, ``paths_<task>.png`` (end-effector paths) and ``power_<task>.png``
+(PoWER error curves).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from scipy.spatial.transform import Rotation  # noqa: E402
+from torch import Tensor  # noqa: E402
+
+from lfd.data.sawyer import SAWYER_START_DEG, SawyerFKDataModule, fk_positions, solve_near  # noqa: E402
+from lfd.data.storage import json_bytes, write_bytes_atomic  # noqa: E402
+from lfd.dmp import DMP  # noqa: E402
+from lfd.eval.evaluator import find_checkpoints  # noqa: E402
+from lfd.models.forward import format_error_table  # noqa: E402
+from lfd.models.inverse import SawyerModels, load_sawyer_models  # noqa: E402
+from lfd.rl import PowerResult, TaskGoalReward, power  # noqa: E402
+from lfd.robots import load_robot, rotation_log  # noqa: E402
+from lfd.sim.scene import ReachScene  # noqa: E402
+
+__all__ = [
+    "GOALS",
+    "ORIGINAL_EPISODES",
+    "KinematicArm",
+    "PyBulletArm",
+    "ReachTest",
+    "ReachTrace",
+    "SawyerProtocol",
+    "Workspace",
+    "closed_loop_reach",
+    "refine",
+    "replay_in_pybullet",
+]
+
+#: The five goals of the original protocol (m, Sawyer world frame).
+GOALS = ((0.237, -0.466, -0.04), (-0.217, -0.474, -0.04), (1.110, -0.551, -0.04), (-0.179, -0.678, -0.04), (0.217, -0.680, -0.04))
+#: Original episodes to convergence per goal (SPEC 5): models vs demonstration only.
+ORIGINAL_EPISODES = {
+    "cube": {"models": (18, 17, 14, 6, 6), "demo": (29, 12, 19, 13, 9)},
+    "cup": {"models": (14, 18, 17, 8, 8), "demo": (17, 6, 15, 12, 13)},
+}
+SCENARIOS = ("models", "demo")
+SCENARIO_LABELS = {"models": "models", "demo": "demo only"}
+
+
+# ---------------------------------------------------------------------------- reach test
+@dataclass(frozen=True)
+class ReachTest:
+    """Whether a goal can be reached.
+
+    Attributes:
+        reachable: a position-only IK solution exists (the pose one may still fail).
+        pose_ik: a full-pose IK solution (goal position + task orientation) exists.
+        position_ik: a position-only IK solution exists.
+        shoulder_distance: distance (m) from the goal to the nearest shoulder position.
+        max_reach: the arm's maximum reach from the shoulder (m).
+        reason: human-readable verdict for the tables.
+    """
+
+    reachable: bool
+    pose_ik: bool
+    position_ik: bool
+    shoulder_distance: float
+    max_reach: float
+    reason: str
+
+
+class Workspace:
+    """Reach test of goals for one robot.
+
+    The shoulder is the origin of link ``shoulder_link`` (joint 1's axis for the Sawyer);
+    it moves with joint 0, so a goal's distance is to the nearest of its positions over
+    joint 0's range. The maximum reach is the largest tool-to-shoulder distance over
+    ``n_samples`` uniform configurations.
+    """
+
+    def __init__(self, robot, shoulder_link: int = 1, n_samples: int = 100_000, n_seeds: int = 32, seed: int = 0) -> None:
+        self.robot, self.n_seeds, self.seed = robot, n_seeds, seed
+        gen = torch.Generator().manual_seed(seed)
+        frames = robot.fk(robot.sample_q(n_samples, gen), all_links=True)
+        self.max_reach = float((frames[:, -1, :3, 3] - frames[:, shoulder_link, :3, 3]).norm(dim=1).max())
+        sweep = robot.home.repeat(721, 1)
+        sweep[:, 0] = torch.linspace(float(robot.lower[0]), float(robot.upper[0]), 721, dtype=sweep.dtype)
+        self.shoulders = robot.fk(sweep, all_links=True)[:, shoulder_link, :3, 3].numpy()
+
+    def test(self, goal: Sequence[float], rotation: np.ndarray | None = None) -> ReachTest:
+        """Reach test of ``goal (3,)`` (m), with the tool orientation ``rotation (3, 3)`` if given."""
+        goal = np.asarray(goal, dtype=np.float64)
+        distance = float(np.linalg.norm(self.shoulders - goal, axis=1).min())
+        home = self.robot.home.numpy()
+        result = self.robot.ik(torch.from_numpy(goal[None]).expand(self.n_seeds, 3), q0=self._seeds(home), position_only=True, restarts=0)
+        position_ok = bool(result.success.any())
+        pose_ok = False
+        if rotation is not None:
+            pose = np.eye(4)
+            pose[:3, :3], pose[:3, 3] = rotation, goal
+            pose_ok = bool(solve_near(self.robot, pose[None], home, self.n_seeds, self.seed)[1][0])
+        if position_ok:
+            reason = "reachable" if pose_ok or rotation is None else "reachable (position only; no IK solution with the task orientation)"
+        elif distance > self.max_reach:
+            reason = f"unreachable: {distance:.3f} m from the shoulder > {self.max_reach:.3f} m maximum reach"
+        else:
+            reason = f"no IK solution ({distance:.3f} m from the shoulder, within the {self.max_reach:.3f} m reach)"
+        return ReachTest(position_ok, pose_ok, position_ok, distance, self.max_reach, reason)
+
+    def _seeds(self, home: np.ndarray) -> torch.Tensor:
+        gen = torch.Generator().manual_seed(self.seed)
+        return torch.cat([torch.from_numpy(home)[None], self.robot.sample_q(self.n_seeds - 1, gen)])
+
+
+# ---------------------------------------------------------------------------- arms
+class KinematicArm:
+    """Kinematic simulation of ``B`` arms: ``q <- clamp(q + dt qd)`` (rad, rad/s, s)."""
+
+    def __init__(self, robot, dt: float) -> None:
+        self.robot, self.dt = robot, float(dt)
+        self.q = torch.zeros(0, robot.n_dof, dtype=torch.float64)
+
+    def reset(self, q0: np.ndarray) -> np.ndarray:
+        """Start every arm at ``q0 (B, n)``; returns the joints ``(B, n)``."""
+        self.q = self.robot.clamp(torch.as_tensor(np.asarray(q0, dtype=np.float64)))
+        return self.q.numpy().copy()
+
+    def step(self, qd: np.ndarray) -> np.ndarray:
+        """Apply joint velocities ``(B, n)`` for one period; returns the new joints ``(B, n)``."""
+        self.q = self.robot.clamp(self.q + self.dt * torch.as_tensor(qd, dtype=torch.float64))
+        return self.q.numpy().copy()
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+class PyBulletArm:
+    """``B`` PyBullet worlds with the robot's generated URDF (one :class:`ReachScene` each).
+
+    Velocity commands are integrated into a joint reference ``q_ref <- clamp(q_ref + dt qd)``
+    that the joints track by position control with ``qd`` as velocity feed-forward, for
+    ``dt`` seconds (``substeps`` physics steps) per step; the measured joints are returned.
+    """
+
+    def __init__(self, robot, dt: float, substeps: int = 10) -> None:
+        self.robot, self.dt, self.substeps = robot, float(dt), substeps
+        self.scenes: list[ReachScene] = []
+        self.reference = torch.zeros(0, robot.n_dof, dtype=torch.float64)
+
+    def reset(self, q0: np.ndarray) -> np.ndarray:
+        self.close()
+        self.reference = self.robot.clamp(torch.as_tensor(np.asarray(q0, dtype=np.float64)))
+        self.scenes = [ReachScene(self.robot, image_size=8, control_dt=self.dt, substeps=self.substeps) for _ in range(len(q0))]
+        for scene, q in zip(self.scenes, self.reference.numpy()):
+            scene.set_joints(q)
+        return self.joints()
+
+    def joints(self) -> np.ndarray:
+        return np.stack([scene.joint_state()[0] for scene in self.scenes])
+
+    def step(self, qd: np.ndarray) -> np.ndarray:
+        qd = np.asarray(qd, dtype=np.float64)
+        self.reference = self.robot.clamp(self.reference + self.dt * torch.from_numpy(qd))
+        for scene, target, v in zip(self.scenes, self.reference.numpy(), qd):
+            scene.step(target, v)
+        return self.joints()
+
+    def close(self) -> None:
+        for scene in self.scenes:
+            scene.close()
+        self.scenes = []
+
+
+ARMS = {"kinematic": KinematicArm, "pybullet": PyBulletArm}
+
+
+# ---------------------------------------------------------------------------- closed loop
+@dataclass(frozen=True)
+class ReachTrace:
+    """One closed-loop reach driven by the models.
+
+    Attributes:
+        t: ``(T,)`` times (s). q: ``(T, n)`` joints (rad).
+        x: ``(T, 3)`` true end-effector positions (robot FK, m).
+        x_model: ``(T, 3)`` forward-model estimates (m).
+        reached: the estimated error fell below the threshold before the step cap.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    x: np.ndarray
+    x_model: np.ndarray
+    reached: bool
+
+    def final_error(self, goal: np.ndarray) -> float:
+        """True final distance (m) to ``goal``."""
+        return float(np.linalg.norm(self.x[-1] - goal))
+
+
+def closed_loop_reach(
+    forward: Callable[[Tensor], Tensor],
+    inverse: Callable[[Tensor], Tensor],
+    robot,
+    goals: np.ndarray,
+    q_start: np.ndarray,
+    arm,
+    max_steps: int = 300,
+    threshold: float = 0.02,
+) -> list[ReachTrace]:
+    """Drive ``B`` arms from ``q_start (n,)`` towards ``goals (B, 3)`` (m).
+
+    Every step: ``x_hat = forward(q)``; arms whose ``||x_hat - goal||`` is below
+    ``threshold`` (m) stop; the others get ``qd = inverse(x_hat - goal)`` clamped to the
+    robot's velocity limits. ``forward`` maps float32 joints ``(B, n)`` to positions
+    ``(B, 3)`` (the forward model), ``inverse`` errors ``(B, 3)`` to joint velocities
+    ``(B, n)`` (a task's inverse model); ``arm`` is a :class:`KinematicArm` or
+    :class:`PyBulletArm` (its ``dt`` is the control period).
+
+    Returns:
+        One :class:`ReachTrace` per goal, each ending at its stop (or at the cap).
+    """
+    goals = np.asarray(goals, dtype=np.float64)
+    limit = robot.velocity_limits.numpy()
+    q = arm.reset(np.repeat(np.asarray(q_start, dtype=np.float64)[None], len(goals), axis=0))
+    active = np.ones(len(goals), dtype=bool)
+    stop = np.full(len(goals), max_steps)
+    qs, estimates = [q], []
+    with torch.no_grad():
+        for step in range(max_steps + 1):
+            x_hat = forward(torch.from_numpy(q).float()).double().numpy()
+            estimates.append(x_hat)
+            arrived = active & (np.linalg.norm(x_hat - goals, axis=1) < threshold)
+            stop[arrived] = step
+            active &= ~arrived
+            if step == max_steps or not active.any():
+                break
+            qd = np.clip(inverse(torch.from_numpy(x_hat - goals).float()).double().numpy(), -limit, limit)
+            q = arm.step(np.where(active[:, None], qd, 0.0))
+            qs.append(q)
+    arm.close()
+    qs, estimates = np.stack(qs, axis=1), np.stack(estimates, axis=1)
+    truth = fk_positions(robot, qs)
+    return [
+        ReachTrace(t=np.arange(n + 1) * arm.dt, q=qs[b, : n + 1], x=truth[b, : n + 1], x_model=estimates[b, : n + 1], reached=not active[b])
+        for b, n in enumerate(stop)
+    ]
+
+
+def models_robot(models: SawyerModels):
+    """The robot model the forward model was trained for."""
+    return load_robot(models.forward_model.hparams.robot)
+
+
+# ---------------------------------------------------------------------------- DMP + PoWER
+def refine(
+    robot, t: np.ndarray, q: np.ndarray, goal: np.ndarray, n_basis: int = 20, w1: float = 0.9, seed: int = 0, **power_options
+) -> PowerResult:
+    """Fit a DMP (``n_basis`` per joint) to ``q (T, n)`` at times ``t (T,)`` and refine it
+    with PoWER (weights and goal) towards the end-effector position ``goal (3,)`` (m).
+
+    ``power_options`` go to :func:`lfd.rl.power` (``n_rollouts``, ``n_best``, ``max_iter``,
+    ``sigma``, ``sigma_goal``, ``tol``, ...); the robot's joint limits are enforced
+    (continuous joints unbounded).
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # joints that move and return are expected here
+        dmp = DMP(n_basis=n_basis).fit(t, q)
+    reward = TaskGoalReward(robot, goal, w1)
+    free = robot.continuous.numpy()
+    lower, upper = np.where(free, -np.inf, robot.lower.numpy()), np.where(free, np.inf, robot.upper.numpy())
+    return power(dmp, reward, lower=lower, upper=upper, seed=seed, **power_options)
+
+
+def replay_in_pybullet(robot, trajectory: np.ndarray, dt: float, substeps: int = 10, settle_steps: int = 25) -> np.ndarray:
+    """Track ``trajectory (T, n)`` (rad, one sample per ``dt`` s) in PyBullet with position
+    control and velocity feed-forward, hold the last sample for ``settle_steps`` periods,
+    and return the final tool position ``(3,)`` (m, robot world frame)."""
+    velocity = np.gradient(trajectory, dt, axis=0)
+    with ReachScene(robot, image_size=8, control_dt=dt, substeps=substeps) as scene:
+        scene.set_joints(trajectory[0])
+        for q, v in zip(trajectory[1:], velocity[1:]):
+            scene.step(q, v)
+        for _ in range(settle_steps):
+            scene.step(trajectory[-1])
+        return scene.ee_pose()[:3, 3]
+
+
+# ---------------------------------------------------------------------------- protocol
+class SawyerProtocol:
+    """The original evaluation protocol (``python evaluate.py eval=sawyer``).
+
+    Args:
+        checkpoint: :class:`~lfd.models.inverse.SawyerModels` checkpoint; None = the newest
+            ``last.ckpt`` of that kind under ``<paths.output_root>/train/``.
+        goals: goal positions (m).
+        start_deg: start pose (deg).
+        tasks: tasks to evaluate (None: every task in the checkpoint).
+        simulator: ``"kinematic"`` or ``"pybullet"`` for the models' closed loop.
+        dt, max_steps, threshold: closed-loop period (s), step cap and stopping threshold
+            on the forward model's estimated error (m).
+        n_basis: DMP basis functions per joint.
+        power: :func:`lfd.rl.power` options (``n_rollouts``, ``n_best``, ``max_iter``,
+            ``sigma``, ``sigma_goal``, ``tol``, ...) plus ``w1`` of the eq. 5.4 reward.
+        n_seeds: PoWER runs per goal and scenario (seeds ``0..n_seeds-1``); tables show means.
+        pybullet_replay: replay the refined trajectories (seed 0) in PyBullet.
+        n_fk_test: size of the forward-model test set (drawn like the training run's, with
+            seed ``fk_seed + 2``); 0 skips it.
+        fk_seed: the training data seed (default: the config's ``seed``).
+    """
+
+    def __init__(
+        self,
+        checkpoint: str | None = None,
+        goals: Sequence[Sequence[float]] = GOALS,
+        start_deg: Sequence[float] = SAWYER_START_DEG,
+        tasks: Sequence[str] | None = None,
+        simulator: str = "kinematic",
+        dt: float = 0.05,
+        max_steps: int = 300,
+        threshold: float = 0.02,
+        n_basis: int = 20,
+        power: Mapping[str, Any] | None = None,
+        n_seeds: int = 5,
+        pybullet_replay: bool = True,
+        n_fk_test: int = 100_000,
+        fk_seed: int | None = None,
+    ) -> None:
+        if simulator not in ARMS:
+            raise ValueError(f"SawyerProtocol.simulator: expected one of {sorted(ARMS)}, got {simulator!r}")
+        if n_seeds < 1 or max_steps < 1 or not threshold > 0 or not dt > 0:
+            raise ValueError("SawyerProtocol: need n_seeds >= 1, max_steps >= 1, threshold > 0 and dt > 0")
+        self.checkpoint = checkpoint
+        self.goals = np.asarray(goals, dtype=np.float64).reshape(-1, 3)
+        self.start = np.radians(np.asarray(start_deg, dtype=np.float64))
+        self.tasks = None if tasks is None else list(tasks)
+        self.simulator, self.dt, self.max_steps, self.threshold = simulator, float(dt), int(max_steps), float(threshold)
+        self.n_basis, self.n_seeds, self.pybullet_replay = int(n_basis), int(n_seeds), bool(pybullet_replay)
+        self.power = {
+            "n_rollouts": 10,
+            "n_best": 5,
+            "max_iter": 300,
+            "sigma": 0.02,
+            "sigma_goal": 0.05,
+            "tol": 0.01,
+            "w1": 0.9,
+            **dict(power or {}),
+        }
+        self.n_fk_test, self.fk_seed = int(n_fk_test), fk_seed
+
+    def resolve_checkpoint(self, output_root: str | Path) -> Path:
+        """The configured checkpoint, or the newest ``sawyer_models`` one under ``output_root``."""
+        if self.checkpoint is not None:
+            return Path(self.checkpoint)
+        found = find_checkpoints(output_root, (SawyerModels.kind,)).get(SawyerModels.kind)
+        if found is None:
+            raise FileNotFoundError(
+                f"no Sawyer models checkpoint under {output_root}/train; run `python train.py experiment=sawyer_models` "
+                "first or pass eval.checkpoint=PATH"
+            )
+        return found
+
+    def run(self, cfg, out_dir: Path) -> dict[str, Any]:
+        """Run the protocol with the checkpoint and write the outputs to ``out_dir``; returns the metrics."""
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        ckpt = self.resolve_checkpoint(cfg.paths.output_root)
+        models = load_sawyer_models(ckpt)
+        seed = self.fk_seed if self.fk_seed is not None else int(cfg.get("seed", 0))
+        metrics = self.evaluate(models, seed)
+        metrics["checkpoint"] = str(ckpt)
+        self.write(out_dir, metrics)
+        print(metrics["tables"])
+        return metrics
+
+    # -- the experiment ----------------------------------------------------------------------
+    def evaluate(self, models: SawyerModels, fk_seed: int = 0) -> dict[str, Any]:
+        """Every task x goal x scenario; returns the metrics (tables included, no files)."""
+        robot = models_robot(models)
+        tasks = self.tasks or models.tasks
+        unknown = sorted(set(tasks) - set(models.tasks))
+        if unknown:
+            raise ValueError(f"SawyerProtocol.tasks: {unknown} not in the checkpoint's tasks {models.tasks}")
+        workspace = Workspace(robot)
+        metrics: dict[str, Any] = {"settings": self.settings(), "tasks": {}}
+        if self.n_fk_test:
+            q, x = SawyerFKDataModule(robot=robot.name, n_test=self.n_fk_test, seed=fk_seed).fixed_set("test").tensors
+            metrics["forward_error_mm"] = models.forward_error_summary(q, x)
+        for task in tasks:
+            metrics["tasks"][task] = self.evaluate_task(models, robot, workspace, task)
+        metrics["totals"] = self.totals(metrics["tasks"])
+        metrics["tables"] = self.tables(metrics)
+        return metrics
+
+    def evaluate_task(self, models: SawyerModels, robot, workspace: Workspace, task: str) -> dict[str, Any]:
+        demo = models.inverse_models[task].demo
+        rotation = robot.fk(torch.from_numpy(demo.q[-1:]))[0, :3, :3].numpy()
+        tests = [workspace.test(g, rotation) for g in self.goals]
+        reachable = [i for i, test in enumerate(tests) if test.reachable]
+        arm = ARMS[self.simulator](robot, self.dt)
+        reaches = closed_loop_reach(
+            models.forward_model, models.inverse_models[task], robot, self.goals[reachable], self.start, arm, self.max_steps, self.threshold
+        )
+        traces = dict(zip(reachable, reaches))
+        goals_out = []
+        for i, goal in enumerate(self.goals):
+            entry: dict[str, Any] = {"goal": goal.tolist(), "reach_test": asdict(tests[i])}
+            if i in traces:
+                entry["reach"] = self.reach_metrics(robot, traces[i], goal, rotation)
+                sources = {"models": (traces[i].t, traces[i].q), "demo": (demo.t, demo.q)}
+                entry["power"] = {s: self.power_runs(robot, *sources[s], goal) for s in SCENARIOS}
+            goals_out.append(entry)
+        return {
+            "demo_source": demo.source,
+            "demo_final_rpy_deg": rpy_deg(rotation),
+            "goals": goals_out,
+            "_traces": traces,
+            "_demo_path": fk_positions(robot, demo.q),
+        }
+
+    def reach_metrics(self, robot, trace: ReachTrace, goal: np.ndarray, rotation: np.ndarray) -> dict[str, Any]:
+        final = robot.fk(torch.from_numpy(trace.q[-1:]))[0, :3, :3]
+        angle = float(rotation_log((torch.from_numpy(rotation) @ final.T)[None])[0].norm())
+        return {
+            "steps": len(trace.t) - 1,
+            "reached": trace.reached,
+            "final_error_m": trace.final_error(goal),
+            "estimated_error_m": float(np.linalg.norm(trace.x_model[-1] - goal)),
+            "orientation_error_deg": math.degrees(angle),
+        }
+
+    def power_runs(self, robot, t: np.ndarray, q: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
+        runs = [refine(robot, t, q, goal, self.n_basis, seed=seed, **self.power) for seed in range(self.n_seeds)]
+        out: dict[str, Any] = {
+            "iterations": [r.iterations for r in runs],
+            "rollouts": [r.rollouts for r in runs],
+            "converged": [r.converged for r in runs],
+            "final_error_m": [r.error for r in runs],
+            "initial_error_m": float(runs[0].history.error[0]),
+            "mean_iterations": float(np.mean([r.iterations for r in runs])),
+            "_error_curve": runs[0].history.error,
+            "_path": fk_positions(robot, runs[0].trajectory),
+        }
+        if self.pybullet_replay:
+            out["pybullet_final_error_m"] = float(np.linalg.norm(replay_in_pybullet(robot, runs[0].trajectory, float(t[1] - t[0])) - goal))
+        return out
+
+    def settings(self) -> dict[str, Any]:
+        return {
+            "start_deg": np.degrees(self.start).round(6).tolist(),
+            "simulator": self.simulator,
+            "dt": self.dt,
+            "max_steps": self.max_steps,
+            "threshold_m": self.threshold,
+            "n_basis": self.n_basis,
+            "power": dict(self.power),
+            "n_seeds": self.n_seeds,
+        }
+
+    @staticmethod
+    def totals(tasks: Mapping[str, Any]) -> dict[str, dict[str, float]]:
+        """Per task and scenario: summed mean episodes and converged runs over the reachable goals."""
+        totals: dict[str, dict[str, float]] = {}
+        for task, data in tasks.items():
+            runs = [g["power"] for g in data["goals"] if "power" in g]
+            totals[task] = {
+                s: {
+                    "episodes": float(sum(r[s]["mean_iterations"] for r in runs)),
+                    "converged": int(sum(sum(r[s]["converged"]) for r in runs)),
+                    "runs": int(sum(len(r[s]["converged"]) for r in runs)),
+                }
+                for s in SCENARIOS
+            }
+        return totals
+
+    # -- tables, files, plots ----------------------------------------------------------------
+    def tables(self, metrics: Mapping[str, Any]) -> str:
+        tasks = list(metrics["tasks"])
+        parts = []
+        if "forward_error_mm" in metrics:
+            parts.append("## Forward model\n\n" + format_error_table(metrics["forward_error_mm"]))
+        head = "| goal | position (m) | reach test | " + " | ".join(f"{t}: {SCENARIO_LABELS[s]}" for t in tasks for s in SCENARIOS) + " |"
+        lines = [head, "|" + "---|" * (3 + 2 * len(tasks))]
+        for i, goal in enumerate(self.goals):
+            cells = []
+            for task in tasks:
+                entry = metrics["tasks"][task]["goals"][i]
+                for s in SCENARIOS:
+                    cells.append(episodes_cell(entry["power"][s]) if "power" in entry else "-")
+            reasons = {t: metrics["tasks"][t]["goals"][i]["reach_test"]["reason"] for t in tasks}
+            reason = reasons[tasks[0]] if len(set(reasons.values())) == 1 else "; ".join(f"{t}: {r}" for t, r in reasons.items())
+            lines.append(f"| {i + 1} | ({goal[0]:.3f}, {goal[1]:.3f}, {goal[2]:.3f}) | {reason} | " + " | ".join(cells) + " |")
+        total_cells = [
+            f"{metrics['totals'][t][s]['episodes']:.1f} ({metrics['totals'][t][s]['converged']}/{metrics['totals'][t][s]['runs']})"
+            for t in tasks
+            for s in SCENARIOS
+        ]
+        lines.append("| total | | reachable goals | " + " | ".join(total_cells) + " |")
+        parts.append(
+            f"## Episodes (PoWER iterations) to convergence (end effector within {self.power['tol'] * 100:.0f} cm), "
+            f"mean over {self.n_seeds} seeds (converged runs / runs)\n\n" + "\n".join(lines)
+        )
+        parts.append(self.reach_table(metrics, tasks))
+        parts.append(original_table())
+        return "\n\n".join(parts) + "\n"
+
+    def reach_table(self, metrics: Mapping[str, Any], tasks: Sequence[str]) -> str:
+        lines = [
+            "| task | goal | steps | reached | true final error (cm) | estimated error (cm) | orientation error (deg) "
+            "| PoWER start error, models / demo (cm) |",
+            "|---|---|---:|---|---:|---:|---:|---|",
+        ]
+        for task in tasks:
+            for i, entry in enumerate(metrics["tasks"][task]["goals"]):
+                if "reach" not in entry:
+                    continue
+                r, p = entry["reach"], entry["power"]
+                lines.append(
+                    f"| {task} | {i + 1} | {r['steps']} | {'yes' if r['reached'] else 'no'} | {100 * r['final_error_m']:.2f} | "
+                    f"{100 * r['estimated_error_m']:.2f} | {r['orientation_error_deg']:.1f} | "
+                    f"{100 * p['models']['initial_error_m']:.2f} / {100 * p['demo']['initial_error_m']:.2f} |"
+                )
+        return (
+            f"## Closed-loop reaches with the models ({self.simulator}, dt {self.dt} s, stop at an estimated error "
+            f"< {self.threshold * 100:.1f} cm or {self.max_steps} steps)\n\n" + "\n".join(lines)
+        )
+
+    def write(self, out_dir: Path, metrics: dict[str, Any]) -> None:
+        write_bytes_atomic(out_dir / "protocol.md", ("# Sawyer forward/inverse models + DMP + PoWER\n\n" + metrics["tables"]).encode())
+        write_bytes_atomic(out_dir / "protocol.csv", protocol_csv(metrics).encode())
+        write_bytes_atomic(out_dir / "reach.csv", reach_csv(metrics).encode())
+        for task, data in metrics["tasks"].items():
+            plot_paths(out_dir / f"paths_{task}.png", task, self.goals, data)
+            plot_power(out_dir / f"power_{task}.png", task, data)
+        write_bytes_atomic(out_dir / "metrics.json", json_bytes(public(metrics)))
+
+
+def episodes_cell(runs: Mapping[str, Any]) -> str:
+    return f"{runs['mean_iterations']:.1f} ({sum(runs['converged'])}/{len(runs['converged'])})"
+
+
+def original_table() -> str:
+    lines = [
+        "| goal | " + " | ".join(f"{t}: {SCENARIO_LABELS[s]}" for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |",
+        "|---|" + "---:|" * 4,
+    ]
+    for i in range(len(GOALS)):
+        lines.append(f"| {i + 1} | " + " | ".join(str(ORIGINAL_EPISODES[t][s][i]) for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |")
+    lines.append("| total | " + " | ".join(str(sum(ORIGINAL_EPISODES[t][s])) for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |")
+    return "## Original (SPEC 5), episodes to convergence\n\n" + "\n".join(lines)
+
+
+def rpy_deg(rotation: np.ndarray) -> list[float]:
+    """Roll, pitch, yaw (deg, extrinsic x-y-z) of a rotation matrix ``(3, 3)``."""
+    return Rotation.from_matrix(rotation).as_euler("xyz", degrees=True).round(3).tolist()
+
+
+def public(value: Any) -> Any:
+    """``value`` without keys starting with ``_`` and with numpy values as JSON types."""
+    if isinstance(value, Mapping):
+        return {k: public(v) for k, v in value.items() if not str(k).startswith("_")}
+    if isinstance(value, (list, tuple)):
+        return [public(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer, np.bool_)):
+        return value.item()
+    return value
+
+
+def _csv(rows: list[list[Any]]) -> str:
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerows(rows)
+    return buffer.getvalue()
+
+
+def protocol_csv(metrics: Mapping[str, Any]) -> str:
+    rows: list[list[Any]] = [
+        [
+            "task",
+            "goal",
+            "x",
+            "y",
+            "z",
+            "reach_test",
+            "scenario",
+            "seed",
+            "iterations",
+            "rollouts",
+            "converged",
+            "final_error_m",
+            "pybullet_final_error_m",
+        ]
+    ]
+    for task, data in metrics["tasks"].items():
+        for i, entry in enumerate(data["goals"]):
+            base = [task, i + 1, *entry["goal"], entry["reach_test"]["reason"]]
+            if "power" not in entry:
+                rows.append(base + ["", "", "", "", "", "", ""])
+                continue
+            for s in SCENARIOS:
+                runs = entry["power"][s]
+                for seed, (it, ro, ok, err) in enumerate(
+                    zip(runs["iterations"], runs["rollouts"], runs["converged"], runs["final_error_m"])
+                ):
+                    replay = runs.get("pybullet_final_error_m", "") if seed == 0 else ""
+                    rows.append(base + [s, seed, it, ro, ok, f"{err:.6f}", replay if replay == "" else f"{replay:.6f}"])
+    return _csv(rows)
+
+
+def reach_csv(metrics: Mapping[str, Any]) -> str:
+    keys = ["steps", "reached", "final_error_m", "estimated_error_m", "orientation_error_deg"]
+    rows: list[list[Any]] = [["task", "goal", *keys]]
+    for task, data in metrics["tasks"].items():
+        rows += [[task, i + 1, *(e["reach"][k] for k in keys)] for i, e in enumerate(data["goals"]) if "reach" in e]
+    return _csv(rows)
+
+
+def plot_paths(path: Path, task: str, goals: np.ndarray, data: Mapping[str, Any]) -> None:
+    """Top (x-y) and side (x-z) views of the demonstration, the models' reaches and the
+    refined trajectories (seed 0) of one task."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.8))
+    demo_x = data["_demo_path"]
+    colours = plt.get_cmap("tab10")
+    for ax, (a, b) in zip(axes, ((0, 1), (0, 2))):
+        ax.plot(demo_x[:, a], demo_x[:, b], "k-", lw=2, label="demonstration")
+        for i, entry in enumerate(data["goals"]):
+            c = colours(i)
+            if "reach" in entry:
+                trace = data["_traces"][i]
+                ax.plot(trace.x[:, a], trace.x[:, b], "-", color=c, lw=1.5, label=f"goal {i + 1}: models" if a == 0 and b == 1 else None)
+                for s, style in (("models", "--"), ("demo", ":")):
+                    x = entry["power"][s]["_path"]
+                    ax.plot(x[:, a], x[:, b], style, color=c, lw=1.2)
+                ax.plot(goals[i, a], goals[i, b], "o", color=c, ms=8, mfc="none")
+            else:
+                ax.plot(goals[i, a], goals[i, b], "x", color="r", ms=10, mew=2, label=f"goal {i + 1}: unreachable" if b == 1 else None)
+        ax.set_xlabel(f"{'xyz'[a]} (m)")
+        ax.set_ylabel(f"{'xyz'[b]} (m)")
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.grid(alpha=0.3)
+    axes[0].set_title("top view: solid models' reach, dashed PoWER from it, dotted PoWER from the demo", fontsize=8)
+    axes[1].set_title("side view", fontsize=9)
+    axes[0].legend(fontsize=7, loc="best")
+    fig.suptitle(f"Sawyer, task '{task}': end-effector paths", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_power(path: Path, task: str, data: Mapping[str, Any]) -> None:
+    """PoWER policy error (cm) per iteration (seed 0), models vs demonstration only."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    colours = plt.get_cmap("tab10")
+    for i, entry in enumerate(data["goals"]):
+        if "power" not in entry:
+            continue
+        for s, style in (("models", "-"), ("demo", ":")):
+            curve = 100 * np.asarray(entry["power"][s]["_error_curve"])
+            ax.plot(np.arange(len(curve)), curve, style, color=colours(i), label=f"goal {i + 1}, {SCENARIO_LABELS[s]}")
+    ax.axhline(1.0, color="k", lw=0.8, ls="--")
+    ax.set_yscale("log")
+    ax.set_xlabel("PoWER iteration (episode)")
+    ax.set_ylabel("end-effector distance to goal (cm)")
+    ax.set_title(f"Sawyer, task '{task}': PoWER refinement (seed 0)", fontsize=10)
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

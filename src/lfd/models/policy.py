@@ -1,0 +1,245 @@
+"""Base LightningModule of the visuomotor policies: normalisation, optimisation, logging.
+
+A policy sees only what a robot's own sensors give it: the fixed camera's RGB image and
+the arm's joint angles. Subclasses define the network, the loss, the dataset item mode
+they train on and a closed-loop method (``plan`` or ``act``).
+
+Normalisation statistics (train split of the dataset, see :mod:`lfd.data.stats`) are
+copied from the datamodule at ``setup("fit")`` into persistent buffers, so a checkpoint
+carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import lightning as L
+import numpy as np
+import torch
+from torch import nn
+
+from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_colour_channels
+
+SCHEDULERS = ("cosine", "onecycle", "none")
+
+
+class VisuomotorPolicy(L.LightningModule):
+    """Image + joints -> action. Common constructor arguments (the subclasses add theirs):
+
+    Args:
+        name: label of the model config (``"cnn_dmp"``, ``"velocity"``...), kept as
+            :attr:`config_name`; not a hyper-parameter (Lightning merges the model's and the
+            datamodule's hyper-parameters, and the dataset has a ``name`` too).
+        channels: conv channels of the trunk, one entry per layer.
+        temperature: initial spatial soft-argmax temperature.
+        hidden: widths of the fully connected ReLU layers after the keypoints.
+        bias_dim: size of the learned bias input concatenated to the keypoints and joints
+            (0 disables it).
+        lr, weight_decay: AdamW settings.
+        scheduler: ``"cosine"`` (per step, to 0), ``"onecycle"`` (per step, peak ``lr``)
+            or ``"none"``.
+        image_size: side (px) of the square camera images of the training data.
+        duration, n_steps: demonstration duration (s) and number of samples; the control
+            period is ``duration / (n_steps - 1)``.
+        robot: robot model name (:func:`lfd.robots.load_robot`).
+        n_joints: arm degrees of freedom.
+        colour_augment: shuffle the RGB channels of each training image
+            (:func:`~lfd.models.vision.permute_colour_channels`).
+        plot_every_n_val: a validation sample plot goes to TensorBoard at every this many
+            validation runs (0: never).
+        kind: when given (from a checkpoint), must equal the class's :attr:`kind` (checked
+            before ``unknown``, so loading another kind's checkpoint names the kinds).
+        unknown: any other keyword raises ``TypeError``.
+
+    Subclasses set :attr:`kind` and :attr:`item_mode`, call :meth:`_build` at the end of
+    ``__init__`` and define ``losses(batch) -> {"loss": ..., ...}`` (scalar tensors) and
+    ``sample_figure(batch) -> matplotlib figure``.
+    """
+
+    #: Fixed identifier of the policy family, stored in the checkpoint's hyper-parameters.
+    kind: str = ""
+    #: Dataset item layout this policy trains on (``ReachDataModule(mode=...)``).
+    item_mode: str = ""
+
+    def __init__(
+        self,
+        *,
+        name: str | None = None,
+        channels: tuple[int, ...] | list[int] = (32, 32, 32, 32),
+        temperature: float = 1.0,
+        hidden: tuple[int, ...] | list[int] = (200, 200, 200),
+        bias_dim: int = 10,
+        lr: float = 1e-3,
+        weight_decay: float = 1e-4,
+        scheduler: str = "cosine",
+        image_size: int = 128,
+        duration: float = 4.0,
+        n_steps: int = 100,
+        robot: str = "pr2_right_arm",
+        n_joints: int = 7,
+        plot_every_n_val: int = 5,
+        colour_augment: bool = False,
+        kind: str | None = None,
+        **unknown,
+    ) -> None:
+        super().__init__()
+        if kind is not None and kind != self.kind:
+            raise ValueError(f"{type(self).__name__} holds '{self.kind}' policies, this checkpoint/config is a '{kind}' policy")
+        if unknown:
+            raise TypeError(f"{type(self).__name__}: unexpected arguments {sorted(unknown)}")
+        if scheduler not in SCHEDULERS:
+            raise ValueError(f"{type(self).__name__}.scheduler: expected one of {SCHEDULERS}, got {scheduler!r}")
+        if n_steps < 2 or not duration > 0:
+            raise ValueError(f"{type(self).__name__}: need n_steps >= 2 and duration > 0, got {n_steps}, {duration}")
+        self.save_hyperparameters(ignore=["name"])
+        self.hparams["kind"] = self.kind
+        self.config_name = name or self.kind
+        self.encoder = KeypointEncoder(channels, temperature)
+        self.bias_input = nn.Parameter(torch.zeros(bias_dim))
+        self._robot = None
+        self._val_runs = 0
+
+    def _build(self, output_dim: int, stat_shapes: dict[str, tuple[int, ...]]) -> None:
+        """Subclasses call this at the end of ``__init__``: the fully connected head with
+        ``output_dim`` outputs, and one persistent (mean, std) buffer pair per statistic."""
+        hp = self.hparams
+        self.head = mlp(self.encoder.out_dim + hp.n_joints + hp.bias_dim, hp.hidden, output_dim)
+        self.stat_names = tuple(stat_shapes)
+        for stat, shape in stat_shapes.items():
+            self.register_buffer(f"{stat}_mean", torch.zeros(shape))
+            self.register_buffer(f"{stat}_std", torch.ones(shape))
+
+    # ------------------------------------------------------------------ shared pieces
+    @property
+    def control_dt(self) -> float:
+        """Seconds between two samples of a demonstration (= the control period)."""
+        return self.hparams.duration / (self.hparams.n_steps - 1)
+
+    @property
+    def robot(self):
+        """The robot model (batched differentiable FK), loaded on first use."""
+        if self._robot is None:
+            from lfd.robots import load_robot
+
+            self._robot = load_robot(self.hparams.robot)
+        return self._robot
+
+    def normalise(self, stat: str, x: torch.Tensor) -> torch.Tensor:
+        return (x - getattr(self, f"{stat}_mean")) / getattr(self, f"{stat}_std")
+
+    def denormalise(self, stat: str, x: torch.Tensor) -> torch.Tensor:
+        return x * getattr(self, f"{stat}_std") + getattr(self, f"{stat}_mean")
+
+    def features(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
+        """Head output ``(B, output_dim)`` for images ``(B, 3, H, W)`` in [0, 1] and joints ``(B, n)`` rad."""
+        keypoints = self.encoder(image)
+        bias = self.bias_input.expand(image.shape[0], -1)
+        return self.head(torch.cat([keypoints, self.normalise("joints", joints), bias], dim=1))
+
+    def _observation(self, image, joints) -> tuple[torch.Tensor, torch.Tensor, bool]:
+        """Closed-loop inputs as batched tensors on this module's device; ``batched`` says
+        whether the caller gave a batch. Closed-loop calls switch the module to eval mode
+        (batch-norm running statistics)."""
+        self.eval()
+        img = image_to_tensor(image)
+        q = torch.as_tensor(np.asarray(joints), dtype=torch.float32)
+        batched = q.ndim == 2
+        q = q.reshape(-1, self.hparams.n_joints)
+        if img.shape[0] != q.shape[0]:
+            raise ValueError(f"{type(self).__name__}: {img.shape[0]} images but {q.shape[0]} joint vectors")
+        size = self.hparams.image_size
+        if img.shape[-2:] != (size, size):
+            raise ValueError(f"{type(self).__name__}: trained on {size}x{size} images, got {tuple(img.shape[-2:])}")
+        return img.to(self.device), q.to(self.device), batched
+
+    # ------------------------------------------------------------------ Lightning hooks
+    def setup(self, stage: str) -> None:
+        if stage != "fit":
+            return
+        dm = getattr(self.trainer, "datamodule", None)
+        stats = getattr(dm, "stats", None)
+        if stats is None:
+            raise RuntimeError(f"{type(self).__name__} needs a datamodule with normalisation statistics (ReachDataModule)")
+        mode = getattr(dm, "mode", self.item_mode)
+        if mode != self.item_mode:
+            raise ValueError(f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {mode!r}")
+        config = getattr(dm, "config", None)
+        if config is not None:
+            for key in ("image_size", "duration", "n_steps", "robot"):
+                if getattr(config, key) != self.hparams[key]:
+                    raise ValueError(
+                        f"{type(self).__name__}.{key}={self.hparams[key]!r} disagrees with the dataset's {key}={getattr(config, key)!r}"
+                    )
+        for stat in self.stat_names:
+            for moment in ("mean", "std"):
+                buffer = getattr(self, f"{stat}_{moment}")
+                buffer.copy_(torch.as_tensor(stats[stat][moment], dtype=buffer.dtype).reshape(buffer.shape))
+
+    def training_step(self, batch: dict[str, torch.Tensor], batch_idx: int) -> torch.Tensor:
+        if self.hparams.colour_augment:
+            batch = {**batch, "image": permute_colour_channels(batch["image"])}
+        losses = self.losses(batch)
+        n = batch["image"].shape[0]
+        self.log_dict({f"train/{k}": v for k, v in losses.items()}, prog_bar=False, on_step=True, on_epoch=True, batch_size=n)
+        self.log("train/lr", self.optimizers().param_groups[0]["lr"], on_step=True, on_epoch=False, batch_size=n)
+        return losses["loss"]
+
+    def validation_step(self, batch: dict[str, torch.Tensor], batch_idx: int) -> None:
+        losses = self.losses(batch)
+        self.log_dict({f"val/{k}": v for k, v in losses.items()}, prog_bar=True, sync_dist=True, batch_size=batch["image"].shape[0])
+        if batch_idx == 0 and not self.trainer.sanity_checking:
+            every = self.hparams.plot_every_n_val
+            if every and self._val_runs % every == 0:
+                self._log_figure(batch)
+            self._val_runs += 1
+
+    def _log_figure(self, batch: dict[str, torch.Tensor]) -> None:
+        from lightning.pytorch.loggers import TensorBoardLogger
+
+        tb = [lg for lg in self.loggers if isinstance(lg, TensorBoardLogger)]
+        if not tb or not self.trainer.is_global_zero:
+            return
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        with torch.no_grad():
+            fig = self.sample_figure(batch)
+        tb[0].experiment.add_figure("val/sample", fig, global_step=self.global_step)
+        plt.close(fig)
+
+    def configure_optimizers(self) -> dict[str, Any]:
+        hp = self.hparams
+        opt = torch.optim.AdamW(self.parameters(), lr=hp.lr, weight_decay=hp.weight_decay)
+        if hp.scheduler == "none":
+            return {"optimizer": opt}
+        total = max(1, int(self.trainer.estimated_stepping_batches)) if math.isfinite(self.trainer.estimated_stepping_batches) else 1
+        if hp.scheduler == "cosine":
+            sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=total)
+        else:
+            sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=hp.lr, total_steps=total + 1)
+        return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
+
+
+def joint_figure(t: np.ndarray, predicted: np.ndarray, demonstrated: np.ndarray, title: str, ylabel: str = "rad"):
+    """Figure with one panel per joint: ``predicted`` vs ``demonstrated`` ``(T, n)`` over ``t (T,)`` s."""
+    import matplotlib.pyplot as plt
+
+    n = predicted.shape[1]
+    cols = 4
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.4 * rows), sharex=True, squeeze=False)
+    for j, ax in enumerate(axes.flat):
+        if j >= n:
+            ax.axis("off")
+            continue
+        ax.plot(t, demonstrated[:, j], "k-", lw=1.5, label="demonstrated")
+        ax.plot(t, predicted[:, j], "r--", lw=1.5, label="predicted")
+        ax.set_title(f"joint {j}", fontsize=9)
+        ax.set_ylabel(ylabel, fontsize=8)
+    axes.flat[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,132 @@
+"""Image encoder shared by the visuomotor policies: conv trunk + spatial soft-argmax.
+
+The trunk maps an RGB image to a small set of 2-D keypoints ("where is the thing that
+feature map c responds to"), following the deep spatial autoencoder / visuomotor
+policy architecture: conv layers -> per-channel softmax over the image plane ->
+expected image coordinates.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+
+class SpatialSoftmax(nn.Module):
+    """Per-channel spatial soft-argmax with a learned temperature.
+
+    For each channel c of a feature map ``x (B, C, H, W)``::
+
+        p_c(i, j) = softmax_{i,j}(x_c(i, j) / temperature)
+        k_c = sum_{i,j} p_c(i, j) * (u_j, v_i)
+
+    where ``u_j`` and ``v_i`` are the column and row coordinates, spaced evenly in
+    ``[-1, 1]`` (``-1`` = left / top pixel centre, ``+1`` = right / bottom pixel centre).
+
+    Args:
+        temperature: initial softmax temperature (> 0). Learned in log space.
+        learn_temperature: if False the temperature stays fixed.
+
+    Returns (from ``forward``): keypoints ``(B, 2C)`` laid out ``[x_0, y_0, x_1, y_1, ...]``.
+    """
+
+    def __init__(self, temperature: float = 1.0, learn_temperature: bool = True) -> None:
+        super().__init__()
+        if temperature <= 0:
+            raise ValueError(f"SpatialSoftmax: temperature must be > 0, got {temperature}")
+        log_t = torch.tensor(math.log(temperature), dtype=torch.float32)
+        if learn_temperature:
+            self.log_temperature = nn.Parameter(log_t)
+        else:
+            self.register_buffer("log_temperature", log_t)
+
+    @property
+    def temperature(self) -> torch.Tensor:
+        return self.log_temperature.exp()
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if x.ndim != 4:
+            raise ValueError(f"SpatialSoftmax expects (B, C, H, W), got shape {tuple(x.shape)}")
+        b, c, h, w = x.shape
+        p = F.softmax(x.flatten(2) / self.temperature, dim=-1).view(b, c, h, w)
+        xs = torch.linspace(-1.0, 1.0, w, dtype=x.dtype, device=x.device)
+        ys = torch.linspace(-1.0, 1.0, h, dtype=x.dtype, device=x.device)
+        kx = (p.sum(dim=2) * xs).sum(dim=-1)  # marginal over rows -> (B, C)
+        ky = (p.sum(dim=3) * ys).sum(dim=-1)  # marginal over columns -> (B, C)
+        return torch.stack((kx, ky), dim=-1).flatten(1)
+
+
+class KeypointEncoder(nn.Module):
+    """Conv trunk + spatial soft-argmax: image ``(B, 3, H, W)`` in [0, 1] -> keypoints ``(B, 2C)``.
+
+    Layer ``0`` has a 5x5 kernel with stride 2 (halves the resolution, as in the visuomotor
+    policy papers); the following ones are 3x3, stride 1, padded. Each conv is followed by
+    batch norm and ReLU, except the last, whose raw response feeds the soft-argmax.
+
+    Args:
+        channels: output channels per conv layer, e.g. ``(32, 32, 32, 32)``. The number of
+            keypoints is ``channels[-1]``.
+        temperature: initial soft-argmax temperature.
+    """
+
+    def __init__(self, channels: tuple[int, ...] | list[int] = (32, 32, 32, 32), temperature: float = 1.0) -> None:
+        super().__init__()
+        channels = [int(c) for c in channels]
+        if not channels or min(channels) < 1:
+            raise ValueError(f"KeypointEncoder: channels must be a non-empty list of positive ints, got {channels}")
+        layers: list[nn.Module] = []
+        c_in = 3
+        for i, c_out in enumerate(channels):
+            first = i == 0
+            layers.append(nn.Conv2d(c_in, c_out, kernel_size=5 if first else 3, stride=2 if first else 1, padding=2 if first else 1))
+            if i < len(channels) - 1:
+                layers += [nn.BatchNorm2d(c_out), nn.ReLU(inplace=True)]
+            c_in = c_out
+        self.convs = nn.Sequential(*layers)
+        self.softargmax = SpatialSoftmax(temperature)
+        self.out_dim = 2 * channels[-1]
+
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        return self.softargmax(self.convs(image - 0.5))
+
+
+def mlp(in_dim: int, hidden: tuple[int, ...] | list[int], out_dim: int) -> nn.Sequential:
+    """Fully connected ReLU network ``in_dim -> hidden... -> out_dim`` (linear output)."""
+    layers: list[nn.Module] = []
+    for h in hidden:
+        layers += [nn.Linear(in_dim, int(h)), nn.ReLU(inplace=True)]
+        in_dim = int(h)
+    layers.append(nn.Linear(in_dim, out_dim))
+    return nn.Sequential(*layers)
+
+
+def image_to_tensor(image: np.ndarray | torch.Tensor) -> torch.Tensor:
+    """Camera image(s) -> float tensor ``(B, 3, H, W)`` in [0, 1].
+
+    Accepts uint8 ``(H, W, 3)`` / ``(B, H, W, 3)`` (as rendered) or float ``(3, H, W)`` /
+    ``(B, 3, H, W)`` already in [0, 1] (as stored in the datasets). An alpha channel is dropped.
+    """
+    t = torch.as_tensor(image)
+    if t.ndim == 3:
+        t = t.unsqueeze(0)
+    if t.ndim != 4:
+        raise ValueError(f"image must be (H, W, 3), (B, H, W, 3), (3, H, W) or (B, 3, H, W); got shape {tuple(t.shape)}")
+    if t.dtype == torch.uint8:
+        if t.shape[-1] not in (3, 4):
+            raise ValueError(f"uint8 images must be channels-last (..., H, W, 3); got shape {tuple(t.shape)}")
+        return t[..., :3].permute(0, 3, 1, 2).float().div_(255.0)
+    if t.shape[1] != 3:
+        raise ValueError(f"float images must be channels-first (B, 3, H, W); got shape {tuple(t.shape)}")
+    return t.float()
+
+
+def permute_colour_channels(image: torch.Tensor) -> torch.Tensor:
+    """Training-time colour augmentation: each image of ``(B, 3, H, W)`` gets its RGB
+    channels in a random order (grey surfaces stay grey, object colours change), so a
+    network cannot tell object families apart by the colours of the training instances."""
+    order = torch.argsort(torch.rand(image.shape[0], 3, device=image.device), dim=1)
+    return torch.gather(image, 1, order[:, :, None, None].expand_as(image))

@@ -1,0 +1,229 @@
+"""End to end on a tiny generated dataset, with the real Hydra configs:
+
+fast_dev_run of both policies through ``train.py``'s main; a short run that saves
+checkpoints; the checkpoints load alone; closed-loop evaluation in PyBullet writes every
+output with valid contents; the policy never receives the object pose; missing or
+mismatched checkpoints give clear errors.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import hydra
+import torch
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
+from hydra.core.hydra_config import HydraConfig
+from PIL import Image
+
+import lfd.eval.evaluator as evaluator_module
+from lfd.eval import ReachEvaluator
+from lfd.models import POLICIES, load_policy
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+import train  # noqa: E402  (the repository's entry point)
+
+#: A dataset small enough to generate in seconds: 2 training objects x 3 placements
+#: (1 of them validation), 1 test object x 2 placements, 32 px images, 30 steps.
+TINY_DATA = [
+    "data.name=tiny",
+    "data.n_train_objects=2",
+    "data.n_train_placements=3",
+    "data.val_fraction=0.34",
+    "data.n_test_objects=1",
+    "data.n_test_placements=2",
+    "data.image_size=32",
+    "data.n_steps=30",
+    "data.batch_size=4",
+    "data.progress=false",
+]
+TINY_MODEL = ["model.channels=[4,4,4,8]", "model.hidden=[16,16]", "model.plot_every_n_val=1"]
+
+
+def compose_config(name: str, root: Path, overrides: list[str]):
+    """Compose ``configs/<name>.yaml`` like the entry points do, rooted in ``root``."""
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
+        cfg = compose(
+            config_name=name,
+            overrides=[f"paths.root_dir={root}", f"paths.output_dir={root / 'run'}", *TINY_DATA, *overrides],
+            return_hydra_config=True,
+        )
+    HydraConfig.instance().set_config(cfg)
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("pipeline")
+
+
+@pytest.mark.parametrize("model", sorted(POLICIES))
+def test_fast_dev_run(workspace, model):
+    """The composed config instantiates and fits one train + one val batch; both losses are finite."""
+    cfg = compose_config("train", workspace, [f"model={model}", "++trainer.fast_dev_run=true", *TINY_MODEL])
+    assert cfg.data.mode == POLICIES[model].item_mode
+    datamodule = hydra.utils.instantiate(cfg.data)
+    policy = hydra.utils.instantiate(cfg.model)
+    trainer = hydra.utils.instantiate(cfg.trainer, logger=False, enable_checkpointing=False)
+    trainer.fit(policy, datamodule=datamodule)
+    metrics = trainer.callback_metrics
+    for key in ("train/loss", "val/loss"):
+        assert torch.isfinite(metrics[key]), key
+    assert type(policy) is POLICIES[model]
+    torch.testing.assert_close(policy.joints_std, datamodule.stats["joints"]["std"])
+
+
+@pytest.fixture(scope="module")
+def checkpoints(workspace) -> dict[str, Path]:
+    """Two optimiser steps of each policy, as ``train.py -m model=cnn_dmp,velocity`` would
+    leave them under ``outputs/train/<run>/checkpoints/last.ckpt``."""
+    out = {}
+    for model in sorted(POLICIES):
+        run_dir = workspace / "outputs" / "train" / f"run-{model}"
+        cfg = compose_config(
+            "train",
+            workspace,
+            [f"model={model}", "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run_dir}", *TINY_MODEL],
+        )
+        out[model] = Path(train.main(cfg))
+        assert out[model] == run_dir / "checkpoints" / "last.ckpt" and out[model].is_file()
+    return out
+
+
+def test_checkpoint_runs_alone(checkpoints, workspace):
+    from lfd.data.datasets import load_dataset
+
+    stats = load_dataset(workspace / "data" / "tiny").stats
+    frame = np.zeros((32, 32, 3), dtype=np.uint8)
+    for kind, path in checkpoints.items():
+        policy = load_policy(path)
+        assert policy.kind == kind and type(policy) is POLICIES[kind] and not policy.training
+        assert policy.hparams.image_size == 32 and policy.hparams.robot == "pr2_right_arm"
+        torch.testing.assert_close(policy.joints_mean, stats["joints"]["mean"])
+        out = policy.plan(frame, np.zeros(7)) if kind == "cnn_dmp" else policy.act(frame, np.zeros(7))
+        assert out.shape == ((30, 7) if kind == "cnn_dmp" else (7,)) and np.all(np.isfinite(out))
+        again = POLICIES[kind].load_from_checkpoint(path, weights_only=False)
+        torch.testing.assert_close(again.state_dict(), policy.state_dict())
+    with pytest.raises(ValueError, match="holds 'velocity' policies"):
+        POLICIES["velocity"].load_from_checkpoint(checkpoints["cnn_dmp"], weights_only=False)
+
+
+class RecordingPolicy:
+    """Wraps a policy and records every argument it is called with."""
+
+    def __init__(self, policy) -> None:
+        self.policy, self.kind, self.calls = policy, policy.kind, []
+        self.hparams = policy.hparams
+
+    def _record(self, name, args, kwargs):
+        self.calls.append((name, args, kwargs))
+
+    def plan(self, *args, **kwargs):
+        self._record("plan", args, kwargs)
+        return self.policy.plan(*args, **kwargs)
+
+    def act(self, *args, **kwargs):
+        self._record("act", args, kwargs)
+        return self.policy.act(*args, **kwargs)
+
+
+def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monkeypatch):
+    recorders = {}
+
+    def recording_load(path):
+        rec = RecordingPolicy(load_policy(path))
+        recorders[rec.kind] = rec
+        return rec
+
+    monkeypatch.setattr(evaluator_module, "load_policy", recording_load)
+    out_dir = workspace / "eval"
+    cfg = compose_config("evaluate", workspace, ["eval.n_gifs=1", "eval.max_steps=12"])
+    metrics = ReachEvaluator(**{k: v for k, v in cfg.eval.items() if k != "_target_"}).run(cfg, out_dir)
+
+    # metrics.json: both methods, every key, sane values
+    saved = json.loads((out_dir / "metrics.json").read_text())
+    assert saved == json.loads(json.dumps(metrics))
+    assert set(saved) == {"cnn_dmp", "velocity"}
+    for kind, m in saved.items():
+        assert m["checkpoint"] == str(checkpoints[kind])
+        assert m["episodes"] == 2
+        assert set(m["final_distance_m"]) == {"mean", "median", "p90"} and m["final_distance_m"]["mean"] > 0
+        for key in ("success_5cm", "success_2cm", "approach_correct"):
+            assert 0.0 <= m[key] <= 1.0
+        for key in ("success_5cm_ci", "success_2cm_ci"):
+            low, high = m[key]
+            assert 0.0 <= low <= m[key.removesuffix("_ci")] <= high <= 1.0
+        assert m["jerk_ratio"] > 0 and m["joint_limit_violations"] >= 0
+        assert 0 < m["latency_ms"]["median"] <= m["latency_ms"]["p95"]
+
+    # episodes.csv: one row per episode and method
+    with open(out_dir / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 4 and {r["method"] for r in rows} == {"cnn_dmp", "velocity"}
+    for r in rows:
+        assert float(r["final_distance_m"]) >= 0 and r["success_5cm"] in ("True", "False")
+    means = {k: np.mean([float(r["final_distance_m"]) for r in rows if r["method"] == k]) for k in saved}
+    for k in saved:
+        assert means[k] == pytest.approx(saved[k]["final_distance_m"]["mean"])
+
+    # plots and GIFs
+    objects = {r["object"] for r in rows}
+    for name in objects:
+        for prefix in ("distance", "paths3d"):
+            with Image.open(out_dir / f"{prefix}_{name}.png") as im:
+                assert im.size[0] > 200 and im.size[1] > 200
+    gifs = sorted((out_dir / "rollouts").glob("*.gif"))
+    assert {g.name.split("_")[0] for g in gifs} == {"cnn", "velocity"}
+    for gif in gifs:
+        with Image.open(gif) as im:
+            assert im.format == "GIF" and im.size == (64, 64)
+
+    # the policies saw only camera frames and joint angles
+    assert [c[0] for c in recorders["cnn_dmp"].calls] == ["plan"] * 3  # warm-up + 2 episodes
+    assert len(recorders["velocity"].calls) == 1 + 2 * 12
+    for rec in recorders.values():
+        for _, args, kwargs in rec.calls:
+            assert not kwargs and len(args) == 2
+            image, joints = args
+            assert isinstance(image, np.ndarray) and image.dtype == np.uint8 and image.shape == (32, 32, 3)
+            assert isinstance(joints, np.ndarray) and joints.shape == (7,)
+
+
+def test_evaluator_interface_cannot_pass_the_object_pose():
+    """The controllers only ever get an Observation, which holds an image and joints."""
+    from dataclasses import fields
+
+    from lfd.eval.rollout import Observation
+
+    assert [f.name for f in fields(Observation)] == ["image", "joints"]
+
+
+def test_missing_checkpoint_says_which_and_how(workspace, tmp_path):
+    cfg = compose_config("evaluate", workspace, [f"paths.output_root={tmp_path}"])
+    with pytest.raises(FileNotFoundError) as info:
+        ReachEvaluator().checkpoints(cfg)
+    msg = str(info.value)
+    assert "no 'cnn_dmp' checkpoint" in msg and "python train.py model=cnn_dmp" in msg and "ckpt_dmp=PATH" in msg
+    assert "no 'velocity' checkpoint" in msg and "python train.py model=velocity" in msg
+    cfg = compose_config("evaluate", workspace, [f"ckpt_dmp={tmp_path / 'nope.ckpt'}"])
+    with pytest.raises(FileNotFoundError, match="ckpt_dmp=.*nope.ckpt"):
+        ReachEvaluator().checkpoints(cfg)
+
+
+def test_newest_checkpoint_of_each_kind_is_found(checkpoints, workspace):
+    cfg = compose_config("evaluate", workspace, [])
+    assert ReachEvaluator().checkpoints(cfg) == checkpoints
+
+
+def test_mismatched_image_size_is_refused(checkpoints, workspace):
+    cfg = compose_config("evaluate", workspace, ["data.image_size=48", "data.name=tiny48", "eval.limit=1"])
+    with pytest.raises(ValueError, match="image_size=32.*image_size=48"):
+        ReachEvaluator().run(cfg, workspace / "eval-mismatch")

@@ -1,0 +1,120 @@
+"""The two policy networks without data: shapes, gradient flow through the DMP layer,
+the loss variants, normalisation, and the closed-loop entry points."""
+
+import numpy as np
+import pytest
+import torch
+
+from lfd.dmp import DMPLayer
+from lfd.models import POLICIES, CNNDMPPolicy, VelocityPolicy
+
+SMALL = dict(channels=[4, 4, 4, 8], hidden=[16, 16], image_size=24, n_steps=12, duration=1.1)
+
+
+def dmp_batch(b=3, n_basis=5, steps=12, size=24, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    joints = torch.randn(b, 7, generator=g) * 0.1
+    goal = joints + torch.randn(b, 7, generator=g) * 0.3
+    weights = torch.randn(b, 7, n_basis, generator=g)
+    layer = DMPLayer(n_basis=n_basis, n_steps=steps, dt=1.1 / (steps - 1))
+    traj = layer(joints, goal, weights)
+    return {
+        "image": torch.rand(b, 3, size, size, generator=g),
+        "joints": joints,
+        "goal": goal,
+        "weights": weights,
+        "trajectory": traj,
+        "ee_path": torch.zeros(b, steps, 3),
+        "t": torch.linspace(0, 1.1, steps).expand(b, steps),
+        "index": torch.arange(b),
+    }
+
+
+@pytest.fixture
+def dmp_policy():
+    torch.manual_seed(0)
+    return CNNDMPPolicy(name="cnn_dmp", n_basis=5, **SMALL)
+
+
+def test_dmp_policy_shapes(dmp_policy):
+    batch = dmp_batch()
+    goal_n, weights_n = dmp_policy.predict_params(batch["image"], batch["joints"])
+    assert goal_n.shape == (3, 7) and weights_n.shape == (3, 7, 5)
+    traj = dmp_policy(batch["image"], batch["joints"])
+    assert traj.shape == (3, 12, 7)
+    # the DMP starts where the arm is
+    torch.testing.assert_close(traj[:, 0], batch["joints"], atol=1e-5, rtol=0)
+
+
+def test_trajectory_loss_gradient_reaches_the_conv_weights_through_the_dmp_layer(dmp_policy):
+    batch = dmp_batch()
+    seen = {}
+    dmp_policy.dmp.register_forward_hook(lambda mod, inp, out: seen.update(out=out))
+    dmp_policy.train()
+    loss = dmp_policy.losses(batch)["loss"]
+    # the loss is a function of the DMP layer's output ...
+    grad_out = torch.autograd.grad(loss, seen["out"], retain_graph=True)[0]
+    assert grad_out.abs().sum() > 0
+    # ... and its gradient flows back to the first and last conv layers and the temperature
+    loss.backward()
+    convs = [m for m in dmp_policy.encoder.convs if isinstance(m, torch.nn.Conv2d)]
+    for conv in (convs[0], convs[-1]):
+        assert conv.weight.grad is not None and conv.weight.grad.abs().sum() > 0
+    assert dmp_policy.encoder.softargmax.log_temperature.grad.abs() > 0
+    assert dmp_policy.bias_input.grad.abs().sum() > 0
+
+
+def test_parameter_loss_is_the_normalised_mse(dmp_policy):
+    batch = dmp_batch()
+    dmp_policy.hparams.loss = "params"
+    out = dmp_policy.losses(batch)
+    goal_n, weights_n = dmp_policy.predict_params(batch["image"], batch["joints"])
+    expected = ((goal_n - batch["goal"]) ** 2).mean() + ((weights_n - batch["weights"]) ** 2).mean()
+    torch.testing.assert_close(out["loss"], expected)
+    with pytest.raises(ValueError, match="loss"):
+        CNNDMPPolicy(name="x", loss="nope", **SMALL)
+
+
+def test_ee_term_uses_forward_kinematics(dmp_policy):
+    batch = dmp_batch()
+    base = dmp_policy.losses(batch)
+    dmp_policy.hparams.ee_weight = 2.0
+    with_ee = dmp_policy.losses(batch)
+    traj = dmp_policy(batch["image"], batch["joints"])
+    ee = dmp_policy.robot.fk(traj.reshape(-1, 7))[:, :3, 3].reshape(3, 12, 3)
+    torch.testing.assert_close(with_ee["ee_mse"], (ee**2).sum(-1).mean())
+    torch.testing.assert_close(with_ee["loss"], base["loss"] + 2.0 * with_ee["ee_mse"])
+
+
+def test_outputs_are_denormalised_with_the_statistics(dmp_policy):
+    batch = dmp_batch()
+    goal_n, weights_n = dmp_policy.predict_params(batch["image"], batch["joints"])
+    dmp_policy.goal_mean.fill_(0.5)
+    dmp_policy.goal_std.fill_(2.0)
+    dmp_policy.weights_mean.fill_(-0.1)
+    dmp_policy.weights_std.fill_(3.0)
+    expected = DMPLayer(n_basis=5, n_steps=12, dt=0.1)(batch["joints"], 0.5 + 2.0 * goal_n, -0.1 + 3.0 * weights_n)
+    torch.testing.assert_close(dmp_policy.rollout(batch["joints"], goal_n, weights_n), expected)
+
+
+def test_plan_and_act_take_camera_frames_and_joints():
+    torch.manual_seed(0)
+    dmp = CNNDMPPolicy(name="cnn_dmp", n_basis=5, **SMALL)
+    vel = VelocityPolicy(name="velocity", **SMALL)
+    frame = np.random.default_rng(0).integers(0, 256, size=(24, 24, 3), dtype=np.uint8)
+    q = np.zeros(7)
+    plan = dmp.plan(frame, q)
+    assert plan.shape == (12, 7) and plan.dtype == np.float64 and not dmp.training
+    assert dmp.plan(np.stack([frame, frame]), np.zeros((2, 7))).shape == (2, 12, 7)
+    qd = vel.act(frame, q)
+    assert qd.shape == (7,) and np.all(np.isfinite(qd))
+    with pytest.raises(ValueError, match="24x24"):
+        vel.act(np.zeros((32, 32, 3), dtype=np.uint8), q)
+
+
+def test_kinds_and_item_modes():
+    assert {k: c.item_mode for k, c in POLICIES.items()} == {"cnn_dmp": "dmp", "velocity": "velocity"}
+    vel = VelocityPolicy(name="velocity", **SMALL)
+    assert vel.hparams.kind == "velocity"
+    with pytest.raises(ValueError, match="holds 'cnn_dmp' policies"):
+        CNNDMPPolicy(name="x", kind="velocity", **SMALL)

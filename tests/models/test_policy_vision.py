@@ -1,0 +1,70 @@
+"""SpatialSoftmax and the keypoint trunk: analytic keypoints, shapes, gradients."""
+
+import numpy as np
+import pytest
+import torch
+
+from lfd.models.vision import KeypointEncoder, SpatialSoftmax, image_to_tensor, permute_colour_channels
+
+
+@pytest.mark.parametrize(("h", "w", "row", "col"), [(5, 7, 0, 0), (5, 7, 4, 6), (8, 8, 3, 5), (16, 9, 10, 2)])
+def test_one_hot_keypoint_is_its_location(h, w, row, col):
+    """A (scaled) one-hot feature map puts the expected coordinate on the hot pixel:
+    x = -1 + 2 col / (W - 1), y = -1 + 2 row / (H - 1)."""
+    x = torch.zeros(2, 3, h, w)
+    x[:, 1, row, col] = 1e4  # softmax of a huge one-hot is the one-hot itself
+    keypoints = SpatialSoftmax(temperature=1.0)(x).view(2, 3, 2)
+    expected = torch.tensor([-1 + 2 * col / (w - 1), -1 + 2 * row / (h - 1)])
+    torch.testing.assert_close(keypoints[:, 1], expected.expand(2, 2))
+    # channels 0 and 2 are uniform maps: their keypoint is the image centre
+    torch.testing.assert_close(keypoints[:, 0], torch.zeros(2, 2), atol=1e-6, rtol=0)
+
+
+def test_low_temperature_sharpens_to_the_argmax():
+    x = torch.zeros(1, 1, 6, 6)
+    x[0, 0, 1, 4] = 1.0  # a weak peak: at temperature 1 the expectation is pulled to the centre
+    warm = SpatialSoftmax(temperature=1.0)(x)
+    cold = SpatialSoftmax(temperature=1e-3)(x)
+    target = torch.tensor([[-1 + 2 * 4 / 5, -1 + 2 * 1 / 5]])
+    torch.testing.assert_close(cold, target)
+    assert (warm - target).abs().max() > 0.3
+
+
+def test_temperature_is_learned_and_positive():
+    ss = SpatialSoftmax(temperature=0.5)
+    assert ss.temperature.item() == pytest.approx(0.5)
+    x = torch.randn(2, 4, 6, 6)
+    ss(x).pow(2).sum().backward()
+    assert ss.log_temperature.grad is not None and ss.log_temperature.grad.abs() > 0
+    fixed = SpatialSoftmax(temperature=0.5, learn_temperature=False)
+    assert not any(p.requires_grad for p in fixed.parameters())
+    with pytest.raises(ValueError, match="temperature"):
+        SpatialSoftmax(temperature=0.0)
+
+
+def test_keypoint_encoder_shapes_and_range():
+    enc = KeypointEncoder(channels=(8, 8, 8, 16))
+    out = enc(torch.rand(3, 3, 32, 40))
+    assert out.shape == (3, 32) and enc.out_dim == 32
+    assert out.abs().max() <= 1.0
+
+
+def test_image_to_tensor_accepts_rendered_and_dataset_layouts():
+    frame = np.random.default_rng(0).integers(0, 256, size=(12, 10, 3), dtype=np.uint8)
+    t = image_to_tensor(frame)
+    assert t.shape == (1, 3, 12, 10) and t.dtype == torch.float32
+    torch.testing.assert_close(t[0, :, 2, 3], torch.tensor(frame[2, 3] / 255.0, dtype=torch.float32))
+    chw = torch.rand(2, 3, 12, 10)
+    assert image_to_tensor(chw) is not None and torch.equal(image_to_tensor(chw), chw)
+    with pytest.raises(ValueError, match="channels-last"):
+        image_to_tensor(np.zeros((3, 12, 10), dtype=np.uint8))
+
+
+def test_colour_permutation_reorders_channels_per_image():
+    torch.manual_seed(0)
+    image = torch.stack([torch.full((4, 5), float(c)) for c in range(3)])[None].repeat(64, 1, 1, 1)  # channel c == c
+    out = permute_colour_channels(image)
+    orders = out[:, :, 0, 0].long()
+    assert torch.equal(orders.sort(dim=1).values, torch.arange(3).expand(64, 3))  # a permutation per image
+    assert len({tuple(o.tolist()) for o in orders}) == 6  # all six orders occur
+    assert torch.equal(out, orders[:, :, None, None].float().expand_as(out))  # whole planes move together
