@@ -3,13 +3,14 @@ bookkeeping and JSON persistence."""
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from typing import ClassVar
 
 from . import _io
 from . import _validation as check
 
 
-class Primitive:
+class Primitive(ABC):
     """Base class: subclasses set ``_KIND``, the per-DoF vectors and scalars they learn, and
     implement ``_params`` (constructor arguments). Learned attributes end in ``_``."""
 
@@ -18,8 +19,9 @@ class Primitive:
     _SCALARS: ClassVar[dict] = {"tau": check.positive_float, "n_steps": check.positive_int}
     n_basis: int
 
+    @abstractmethod
     def _params(self) -> dict:
-        raise NotImplementedError
+        """Constructor arguments, as saved with the learned state."""
 
     def __repr__(self) -> str:
         args = ", ".join(f"{name}={value!r}" for name, value in self._params().items())
