@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from lfd.eval.metrics import approach_angle_deg, mean_squared_jerk, summarise, wilson_interval
+from lfd.eval.metrics import approach_angle_deg, integrated_squared_jerk, summarise, wilson_interval
 
 
 def test_wilson_interval_known_values():
@@ -20,14 +20,20 @@ def test_wilson_interval_known_values():
         wilson_interval(3, 2)
 
 
-def test_mean_squared_jerk_of_a_cubic_is_analytic():
+def test_integrated_squared_jerk_of_a_cubic_is_analytic():
     dt = 0.01
     t = np.arange(50) * dt
     path = np.stack([2.0 * t**3, np.zeros_like(t), -t**3], axis=-1)  # jerk (12, 0, -6) everywhere
-    assert mean_squared_jerk(path, dt) == pytest.approx(144 + 36, rel=1e-6)
-    assert mean_squared_jerk(np.stack([path, 2 * path]), dt) == pytest.approx([180, 720], rel=1e-6)
+    # 47 third differences, each |j|^2 = 180, times dt
+    assert integrated_squared_jerk(path, dt) == pytest.approx(180 * 47 * dt, rel=1e-6)
+    assert integrated_squared_jerk(np.stack([path, 2 * path]), dt) == pytest.approx([180 * 0.47, 720 * 0.47], rel=1e-6)
     line = np.stack([t, t, t], axis=-1)
-    assert mean_squared_jerk(line, dt) == pytest.approx(0.0, abs=1e-6)
+    assert integrated_squared_jerk(line, dt) == pytest.approx(0.0, abs=1e-6)
+    # resting after a motion that ends at rest (a quintic) changes nothing; a mean would halve
+    u = np.linspace(0.0, 1.0, 101)
+    quintic = (10 * u**3 - 15 * u**4 + 6 * u**5)[:, None] * np.array([0.3, 0.0, 0.1])
+    rest = np.concatenate([quintic, np.repeat(quintic[-1:], 100, axis=0)])
+    assert integrated_squared_jerk(rest, dt) == pytest.approx(integrated_squared_jerk(quintic, dt), rel=0.05)
 
 
 def test_approach_angle():
@@ -38,7 +44,7 @@ def test_approach_angle():
 
 def test_summarise_layout_and_values():
     d = np.array([0.01, 0.03, 0.04, 0.10])
-    out = summarise(d, [True, True, False, True], jerk=[2.0, 4.0, 2.0, 4.0], demo_jerk=[1.0, 2.0],
+    out = summarise(d, [True, True, False, True], jerk=[2.0, 4.0, 2.0, 40.0], demo_jerk=[1.0, 2.0, 1.0, np.nan],
                     limit_violations=[0, 3, 0, 1], latency_ms=[1.0, 2.0, 3.0])
     assert out["episodes"] == 4
     assert out["final_distance_m"]["mean"] == pytest.approx(0.045)
@@ -46,8 +52,9 @@ def test_summarise_layout_and_values():
     assert out["success_5cm"] == 0.75 and out["success_2cm"] == 0.25
     assert out["success_5cm_ci"] == pytest.approx(list(wilson_interval(3, 4)))
     assert out["approach_correct"] == 0.75
-    assert out["jerk_ratio"] == pytest.approx(2.0)
+    assert out["jerk_ratio"] == pytest.approx(8.0 / 4.0)  # the episode without a demonstration is left out
+    assert out["jerk_ratio_median"] == pytest.approx(2.0)
     assert out["joint_limit_violations"] == 4
     assert out["latency_ms"]["median"] == 2.0
-    assert summarise(d, [True] * 4, [1.0] * 4, [], [0] * 4, [1.0])["jerk_ratio"] is None
+    assert summarise(d, [True] * 4, [1.0] * 4, [np.nan] * 4, [0] * 4, [1.0])["jerk_ratio"] is None
     assert all(not (isinstance(v, float) and math.isnan(v)) for v in out.values())

@@ -117,11 +117,13 @@ def test_checkpoint_runs_alone(checkpoints, workspace):
 
 
 class RecordingPolicy:
-    """Wraps a policy and records every argument it is called with."""
+    """Wraps a policy and records every argument its closed-loop methods are called with."""
 
     def __init__(self, policy) -> None:
-        self.policy, self.kind, self.calls = policy, policy.kind, []
-        self.hparams = policy.hparams
+        self.policy, self.calls = policy, []
+
+    def __getattr__(self, name):
+        return getattr(self.policy, name)
 
     def _record(self, name, args, kwargs):
         self.calls.append((name, args, kwargs))
@@ -161,7 +163,7 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monk
         for key in ("success_5cm_ci", "success_2cm_ci"):
             low, high = m[key]
             assert 0.0 <= low <= m[key.removesuffix("_ci")] <= high <= 1.0
-        assert m["jerk_ratio"] > 0 and m["joint_limit_violations"] >= 0
+        assert m["jerk_ratio"] > 0 and m["jerk_ratio_median"] > 0 and m["joint_limit_violations"] >= 0
         assert 0 < m["latency_ms"]["median"] <= m["latency_ms"]["p95"]
 
     # episodes.csv: one row per episode and method
@@ -197,6 +199,31 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monk
             assert isinstance(joints, np.ndarray) and joints.shape == (7,)
 
 
+def test_scenario_file_evaluation(checkpoints, workspace):
+    """Every object x placement of a scenario, with the scripted expert's path as reference."""
+    scenario = workspace / "scenario.yaml"
+    scenario.write_text(
+        "objects:\n"
+        "  - {name: can, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1.0, 0.5, 0.0, 1.0]}\n"
+        "  - {name: block, shape: box, size: [0.05, 0.07, 0.06], rgba: [0.5, 0.0, 0.5, 1.0]}\n"
+        "placements:\n"
+        "  - [0.55, 0.05, 0.3]\n"
+    )
+    cfg = compose_config("evaluate", workspace, [f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=6"])
+    out_dir = workspace / "eval-scenario"
+    metrics = ReachEvaluator(**{k: v for k, v in cfg.eval.items() if k != "_target_"}).run(cfg, out_dir)
+    assert {m["episodes"] for m in metrics.values()} == {2}
+    assert all(m["cases"] == f"scenario {scenario}" for m in metrics.values())
+    with open(out_dir / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert sorted((r["method"], r["object"], r["approach_mode"]) for r in rows) == [
+        ("cnn_dmp", "block", "top"), ("cnn_dmp", "can", "side"), ("velocity", "block", "top"), ("velocity", "can", "side")
+    ]
+    assert all(float(r["demo_jerk"]) > 0 for r in rows)  # the expert demonstrated both cases
+    assert (out_dir / "distance_can.png").is_file() and (out_dir / "paths3d_block.png").is_file()
+    assert not (out_dir / "rollouts").exists()
+
+
 def test_evaluator_interface_cannot_pass_the_object_pose():
     """The controllers only ever get an Observation, which holds an image and joints."""
     from dataclasses import fields
@@ -225,5 +252,5 @@ def test_newest_checkpoint_of_each_kind_is_found(checkpoints, workspace):
 
 def test_mismatched_image_size_is_refused(checkpoints, workspace):
     cfg = compose_config("evaluate", workspace, ["data.image_size=48", "data.name=tiny48", "eval.limit=1"])
-    with pytest.raises(ValueError, match="image_size=32.*image_size=48"):
+    with pytest.raises(ValueError, match="built with image_size=32, the dataset has image_size=48"):
         ReachEvaluator().run(cfg, workspace / "eval-mismatch")

@@ -28,14 +28,14 @@ import torch
 
 from lfd.data.datasets import load_dataset
 from lfd.data.storage import json_bytes, write_bytes_atomic
-from lfd.eval.metrics import approach_angle_deg, mean_squared_jerk, summarise
+from lfd.eval.metrics import approach_angle_deg, integrated_squared_jerk, summarise
 from lfd.eval.plots import distance_bars, paths_3d, write_gif
 from lfd.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, run_episode
 from lfd.eval.scenario import load_scenario
-from lfd.sim.approach import ApproachPlan, plan_approach
 from lfd.models import checkpoint_kind, load_policy
 from lfd.robots import load_robot
-from lfd.sim.expert import DemoDiscarded, run_demonstration
+from lfd.sim.approach import ApproachPlan, plan_approach
+from lfd.sim.expert import DemoDiscarded, ScriptedExpert
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.scene import ReachScene
 
@@ -84,6 +84,14 @@ class Case:
     def label(self) -> str:
         p = self.placement
         return f"p{self.placement_index} ({p.x:.2f}, {p.y:+.2f}, {math.degrees(p.yaw):+.0f} deg)"
+
+
+def _expert_path(expert: ScriptedExpert, scene, obj: ObjectSpec, placement: Placement) -> np.ndarray | None:
+    """Tool path ``(T, 3)`` of the scripted expert's demonstration of a case (None if discarded)."""
+    try:
+        return expert.run(scene, obj, placement).ee_poses[:, :3, 3]
+    except DemoDiscarded:
+        return None
 
 
 class ReachEvaluator:
@@ -155,12 +163,17 @@ class ReachEvaluator:
         return {k: p for k, p in out.items() if p is not None}
 
     def cases(self, data, scene) -> tuple[list[Case], str]:
-        """The evaluation cases and a description of their source."""
+        """The evaluation cases and a description of their source. Scenario cases get the
+        scripted expert's demonstration (the jerk reference) run in ``scene``."""
         table_z = scene.table_z
         if self.scenario is not None:
             scenario = load_scenario(self.scenario)
+            gen = data.config
+            expert = ScriptedExpert(
+                scene.robot, duration=gen.duration, n_steps=gen.n_steps, approach_fraction=gen.approach_fraction, tolerance=gen.tolerance
+            )
             cases = [
-                Case(i, j, obj, placement, plan_approach(obj, placement, table_z=table_z), self._expert_path(scene, data.config, obj, placement))
+                Case(i, j, obj, placement, plan_approach(obj, placement, table_z=table_z), _expert_path(expert, scene, obj, placement))
                 for i, obj, j, placement in scenario.cases()
             ]
             return cases[: self.limit], f"scenario {scenario.source}"
@@ -180,23 +193,6 @@ class ReachEvaluator:
         ]
         return cases[: self.limit], f"test split of {data.path}"
 
-    @staticmethod
-    def _expert_path(scene, config, obj: ObjectSpec, placement: Placement) -> np.ndarray | None:
-        """Tool path of the scripted expert's demonstration for a scenario case (None if discarded)."""
-        try:
-            demo = run_demonstration(
-                scene,
-                obj,
-                placement,
-                duration=config.duration,
-                n_steps=config.n_steps,
-                approach_fraction=config.approach_fraction,
-                tolerance=config.tolerance,
-            )
-        except DemoDiscarded:
-            return None
-        return demo.ee_poses[:, :3, 3]
-
     # ------------------------------------------------------------------ run
     def run(self, cfg, out_dir: str | Path) -> dict[str, Any]:
         """Evaluate, write the outputs into ``out_dir`` and return the ``metrics.json`` content.
@@ -213,65 +209,59 @@ class ReachEvaluator:
         datamodule = hydra.utils.instantiate(cfg.data)
         gen = datamodule.config
         for kind, policy in policies.items():
-            self._check_compatible(kind, checkpoints[kind], policy, gen)
+            try:
+                policy.check_data(gen)
+            except ValueError as e:
+                raise ValueError(f"{kind} checkpoint {checkpoints[kind]}: {e}; evaluate with the data config it was trained on") from e
         datamodule.prepare_data()
         data = load_dataset(datamodule.path, gen)
-        robot = load_robot(gen.robot)
-        scene = ReachScene(robot, image_size=gen.image_size, control_dt=gen.control_dt, substeps=gen.substeps)
+        steps = self.max_steps or 2 * (gen.n_steps - 1)
         threads = torch.get_num_threads()
         torch.set_num_threads(self.torch_threads)
         try:
-            cases, source = self.cases(data, scene)
-            demo_jerk = np.array([mean_squared_jerk(c.demo_ee, gen.control_dt) for c in cases if c.demo_ee is not None])
-            steps = self.max_steps or 2 * (gen.n_steps - 1)
-            lower, upper = (np.where(robot.continuous.numpy(), sign * np.inf, lim.numpy()) for sign, lim in ((-1, robot.lower), (1, robot.upper)))
-            rows: list[dict[str, Any]] = []
-            traces: dict[str, list[EpisodeTrace]] = {}
-            metrics: dict[str, Any] = {}
-            for kind, policy in policies.items():
-                controller = CONTROLLERS[kind](policy, gen.control_dt)
-                self._warm_up(scene, robot, cases[0], controller)
-                traces[kind] = []
-                for i, case in enumerate(cases):
-                    scene.reset(case.obj, case.placement, q=robot.home.numpy())
-                    record = self.gif_every if i < self.n_gifs else 0
-                    trace = run_episode(scene, controller, steps, lower, upper, record_every=record)
-                    traces[kind].append(trace)
-                    rows.append(self._row(kind, case, trace, gen.control_dt))
-                    if trace.frames:
-                        (out_dir / "rollouts").mkdir(exist_ok=True)
-                        write_gif(out_dir / "rollouts" / f"{kind}_{case.obj.name}_p{case.placement_index}.gif", trace.frames, gen.control_dt * self.gif_every)
-                mine = [r for r in rows if r["method"] == kind]
-                metrics[kind] = summarise(
-                    final_distance=np.array([r["final_distance_m"] for r in mine]),
-                    approach_ok=np.array([r["approach_correct"] for r in mine]),
-                    jerk=np.array([r["jerk"] for r in mine]),
-                    demo_jerk=demo_jerk,
-                    limit_violations=np.array([r["joint_limit_violations"] for r in mine]),
-                    latency_ms=np.concatenate([t.latencies_ms for t in traces[kind]]),
-                )
-                metrics[kind].update({"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps})
+            with ReachScene(load_robot(gen.robot), image_size=gen.image_size, control_dt=gen.control_dt, substeps=gen.substeps) as scene:
+                cases, source = self.cases(data, scene)
+                traces = {kind: self._episodes(kind, policy, cases, scene, steps, out_dir) for kind, policy in policies.items()}
         finally:
             torch.set_num_threads(threads)
-            scene.close()
+        rows = [self._row(kind, case, trace, gen.control_dt) for kind in traces for case, trace in zip(cases, traces[kind])]
+        metrics = {}
+        for kind in traces:
+            mine = [r for r in rows if r["method"] == kind]
+            metrics[kind] = summarise(
+                final_distance=np.array([r["final_distance_m"] for r in mine]),
+                approach_ok=np.array([r["approach_correct"] for r in mine]),
+                jerk=np.array([r["jerk"] for r in mine]),
+                demo_jerk=np.array([r["demo_jerk"] for r in mine]),
+                limit_violations=np.array([r["joint_limit_violations"] for r in mine]),
+                latency_ms=np.concatenate([t.latencies_ms for t in traces[kind]]),
+            )
+            metrics[kind].update({"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps})
         self._write(out_dir, metrics, rows, cases, traces)
         return metrics
 
-    @staticmethod
-    def _check_compatible(kind: str, path: Path, policy, gen) -> None:
-        """The checkpoint must have been trained on data rendered and timed like the evaluation's."""
-        hp = policy.hparams
-        for key in ("image_size", "duration", "n_steps", "robot"):
-            if hp[key] != getattr(gen, key):
-                raise ValueError(
-                    f"{kind} checkpoint {path} was trained with {key}={hp[key]!r}, the evaluation data config has "
-                    f"{key}={getattr(gen, key)!r}: evaluate with the data config it was trained on (e.g. data=<name>)"
-                )
+    def _episodes(self, kind: str, policy, cases: list[Case], scene, steps: int, out_dir: Path) -> list[EpisodeTrace]:
+        """Closed-loop episodes of one policy on every case (GIFs of the first ``n_gifs``)."""
+        robot, dt = scene.robot, scene.control_dt
+        continuous = robot.continuous.numpy()
+        lower = np.where(continuous, -np.inf, robot.lower.numpy())
+        upper = np.where(continuous, np.inf, robot.upper.numpy())
+        controller = CONTROLLERS[kind](policy, dt)
+        self._warm_up(scene, cases[0], controller)
+        traces = []
+        for i, case in enumerate(cases):
+            scene.reset(case.obj, case.placement, q=robot.home.numpy())
+            trace = run_episode(scene, controller, steps, lower, upper, record_every=self.gif_every if i < self.n_gifs else 0)
+            if trace.frames:
+                (out_dir / "rollouts").mkdir(exist_ok=True)
+                write_gif(out_dir / "rollouts" / f"{kind}_{case.obj.name}_p{case.placement_index}.gif", trace.frames, dt * self.gif_every)
+            traces.append(trace)
+        return traces
 
     @staticmethod
-    def _warm_up(scene, robot, case: Case, controller) -> None:
+    def _warm_up(scene, case: Case, controller) -> None:
         """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
-        scene.reset(case.obj, case.placement, q=robot.home.numpy())
+        scene.reset(case.obj, case.placement, q=scene.robot.home.numpy())
         controller.start()
         controller.command(Observation(image=scene.render(), joints=scene.joint_state()[0]), 0, [])
 
@@ -295,8 +285,8 @@ class ReachEvaluator:
             "success_2cm": distance < 0.02,
             "approach_angle_deg": angle,
             "approach_correct": angle <= self.approach_tol_deg,
-            "jerk": float(mean_squared_jerk(trace.ee_poses[:, :3, 3], dt)),
-            "demo_jerk": float(mean_squared_jerk(case.demo_ee, dt)) if case.demo_ee is not None else "",
+            "jerk": float(integrated_squared_jerk(trace.ee_poses[:, :3, 3], dt)),
+            "demo_jerk": float(integrated_squared_jerk(case.demo_ee, dt)) if case.demo_ee is not None else math.nan,
             "joint_limit_violations": trace.limit_violations,
             "policy_calls": len(trace.latencies_ms),
             "latency_ms_median": float(np.median(trace.latencies_ms)),

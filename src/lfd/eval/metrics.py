@@ -10,9 +10,13 @@ Definitions (used in ``metrics.json`` / ``episodes.csv``):
   ``approach_tol_deg`` of the approach direction the object's shape asks for (horizontal
   towards the object for side grasps, straight down for top grasps). See
   :func:`approach_angle_deg`.
-- ``jerk_ratio``: mean squared end-effector jerk of the rollouts divided by that of the
-  scripted demonstrations of the same cases (1 = as smooth as the demonstrations; null
-  when no case has a demonstration).
+- ``jerk_ratio``: squared end-effector jerk of the rollouts, integrated over each episode
+  and averaged over episodes, divided by the same for the scripted demonstrations of the
+  same cases (1 = as smooth as the demonstrations; null when no case has a
+  demonstration). Integrated rather than time-averaged, so that resting at the end of a
+  longer episode does not count as smoothness. A few episodes in which the arm hits the
+  object or the table can dominate it, so ``jerk_ratio_median`` (median over episodes of
+  the per-episode ratio) is given too.
 - ``joint_limit_violations``: number of control steps whose commanded joint target lay
   outside the robot's joint limits (the command is clamped before execution).
 - ``latency_ms``: wall time of one policy call (``plan`` for the DMP policy, once per
@@ -43,16 +47,17 @@ def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tup
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def mean_squared_jerk(path: np.ndarray, dt: float) -> np.ndarray:
-    """Mean squared jerk of positions ``path (..., T, 3)`` sampled every ``dt`` s -> ``(...)`` in m^2/s^6.
+def integrated_squared_jerk(path: np.ndarray, dt: float) -> np.ndarray:
+    """Integrated squared jerk of positions ``path (..., T, 3)`` sampled every ``dt`` s ->
+    ``(...)`` in m^2/s^5: ``sum_t |dddx_t|^2 dt`` (third finite differences; ``T >= 4``).
 
-    Third finite difference; ``T`` must be at least 4.
-    """
+    Unlike the time average it does not shrink when the arm rests after the motion, so
+    episodes of different lengths compare fairly."""
     path = np.asarray(path, dtype=np.float64)
     if path.shape[-2] < 4:
-        raise ValueError(f"mean_squared_jerk needs at least 4 samples, got {path.shape[-2]}")
+        raise ValueError(f"integrated_squared_jerk needs at least 4 samples, got {path.shape[-2]}")
     jerk = np.diff(path, n=3, axis=-2) / dt**3
-    return (jerk**2).sum(axis=-1).mean(axis=-1)
+    return (jerk**2).sum(axis=(-2, -1)) * dt
 
 
 def approach_angle_deg(tool_axis: np.ndarray, wanted_axis: np.ndarray) -> np.ndarray:
@@ -71,7 +76,8 @@ def summarise(
     limit_violations: np.ndarray,
     latency_ms: np.ndarray,
 ) -> dict:
-    """One method's ``metrics.json`` entry from per-episode arrays (``latency_ms``: one value per policy call)."""
+    """One method's ``metrics.json`` entry from per-episode arrays (``demo_jerk``: NaN where
+    the case has no demonstration; ``latency_ms``: one value per policy call)."""
     d = np.asarray(final_distance, dtype=np.float64)
     n = int(d.size)
     out: dict = {
@@ -87,8 +93,10 @@ def summarise(
         out[f"success_{cm}cm"] = k / n
         out[f"success_{cm}cm_ci"] = list(wilson_interval(k, n))
     out["approach_correct"] = float(np.mean(approach_ok))
-    demo_jerk = np.asarray(demo_jerk, dtype=np.float64)
-    out["jerk_ratio"] = float(np.mean(jerk) / np.mean(demo_jerk)) if demo_jerk.size else None
+    jerk, demo_jerk = np.asarray(jerk, dtype=np.float64), np.asarray(demo_jerk, dtype=np.float64)
+    valid = np.isfinite(demo_jerk)
+    out["jerk_ratio"] = float(jerk[valid].mean() / demo_jerk[valid].mean()) if valid.any() else None
+    out["jerk_ratio_median"] = float(np.median(jerk[valid] / demo_jerk[valid])) if valid.any() else None
     out["joint_limit_violations"] = int(np.sum(limit_violations))
     lat = np.asarray(latency_ms, dtype=np.float64)
     out["latency_ms"] = {"median": float(np.median(lat)), "p95": float(np.percentile(lat, 95))}

@@ -429,11 +429,14 @@ class SawyerProtocol:
         rotation = robot.fk(torch.from_numpy(demo.q[-1:]))[0, :3, :3].numpy()
         tests = [workspace.test(g, rotation) for g in self.goals]
         reachable = [i for i, test in enumerate(tests) if test.reachable]
-        arm = ARMS[self.simulator](robot, self.dt)
-        reaches = closed_loop_reach(
-            models.forward_model, models.inverse_models[task], robot, self.goals[reachable], self.start, arm, self.max_steps, self.threshold
-        )
-        traces = dict(zip(reachable, reaches))
+        traces: dict[int, ReachTrace] = {}
+        if reachable:
+            arm = ARMS[self.simulator](robot, self.dt)
+            inverse = models.inverse_models[task]
+            reaches = closed_loop_reach(
+                models.forward_model, inverse, robot, self.goals[reachable], self.start, arm, self.max_steps, self.threshold
+            )
+            traces = dict(zip(reachable, reaches))
         goals_out = []
         for i, goal in enumerate(self.goals):
             entry: dict[str, Any] = {"goal": goal.tolist(), "reach_test": asdict(tests[i])}

@@ -22,6 +22,8 @@ from torch import nn
 from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_colour_channels
 
 SCHEDULERS = ("cosine", "onecycle", "none")
+#: Hyper-parameters that must equal the dataset's (``GeneratorConfig``) ones.
+DATA_KEYS = ("image_size", "duration", "n_steps", "robot")
 
 
 class VisuomotorPolicy(L.LightningModule):
@@ -153,6 +155,13 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__}: trained on {size}x{size} images, got {tuple(img.shape[-2:])}")
         return img.to(self.device), q.to(self.device), batched
 
+    def check_data(self, config) -> None:
+        """Raise ``ValueError`` unless a dataset's generator ``config`` (rendering, timing,
+        robot: :data:`DATA_KEYS`) matches what this policy was built for."""
+        for key in DATA_KEYS:
+            if getattr(config, key) != self.hparams[key]:
+                raise ValueError(f"{type(self).__name__} was built with {key}={self.hparams[key]!r}, the dataset has {key}={getattr(config, key)!r}")
+
     # ------------------------------------------------------------------ Lightning hooks
     def setup(self, stage: str) -> None:
         if stage != "fit":
@@ -166,11 +175,7 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {mode!r}")
         config = getattr(dm, "config", None)
         if config is not None:
-            for key in ("image_size", "duration", "n_steps", "robot"):
-                if getattr(config, key) != self.hparams[key]:
-                    raise ValueError(
-                        f"{type(self).__name__}.{key}={self.hparams[key]!r} disagrees with the dataset's {key}={getattr(config, key)!r}"
-                    )
+            self.check_data(config)
         for stat in self.stat_names:
             for moment in ("mean", "std"):
                 buffer = getattr(self, f"{stat}_{moment}")
