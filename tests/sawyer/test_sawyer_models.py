@@ -55,6 +55,29 @@ def test_forward_model_error_is_measured_against_fk(robot):
 
 
 # ---------------------------------------------------------------------------- forward model
+def test_yaw_equivariant_forward_model_turns_with_joint_0(robot):
+    """Any network output, turned by q0 about joint 0's axis: the prediction rotates rigidly
+    with joint 0 exactly like the true FK does, and the MLP never sees q0."""
+    torch.manual_seed(0)
+    model = ForwardModel(width=16, n_blocks=1).eval()
+    q, x = sample_fk(robot, 64, torch.Generator().manual_seed(2))
+    # the model frame is the FK position with joint 0 undone: the same for every q0
+    turned = q.clone()
+    turned[:, 0] = torch.empty(64).uniform_(-3.0, 3.0)
+    x_turned = robot.fk(turned.double())[:, :3, 3].float()
+    assert torch.allclose(model.to_model_frame(turned, x_turned), model.to_model_frame(q, x), atol=1e-5)
+    with torch.no_grad():
+        p, p_turned = model(q), model(turned)
+        assert torch.equal(model.features(q), model.features(turned))
+        # |p - pivot| and the height along the axis are unchanged by turning joint 0
+        a, c = model.axis, model.pivot
+        assert torch.allclose((p - c) @ a, (p_turned - c) @ a, atol=1e-5)
+        assert torch.allclose((p - c).norm(dim=1), (p_turned - c).norm(dim=1), atol=1e-5)
+    plain = ForwardModel(width=16, n_blocks=1, yaw_equivariant=False)
+    assert plain.features(q).shape == (64, 21) and model.features(q).shape == (64, 18)
+    assert not torch.equal(plain.features(q), plain.features(turned))
+
+
 def test_tiny_forward_model_beats_the_mean_position_baseline(tmp_path, robot):
     torch.manual_seed(0)
     dm = SawyerFKDataModule(batch_size=512, batches_per_epoch=80, n_val=512, n_test=4000, eval_batch_size=4000, seed=0)

