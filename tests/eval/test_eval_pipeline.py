@@ -108,7 +108,7 @@ def test_checkpoint_runs_alone(checkpoints, workspace):
         assert policy.kind == kind and type(policy) is POLICIES[kind] and not policy.training
         assert policy.hparams.image_size == 32 and policy.hparams.robot == "pr2_right_arm"
         torch.testing.assert_close(policy.joints_mean, stats["joints"]["mean"])
-        out = policy.plan(frame, np.zeros(7)) if kind == "cnn_dmp" else policy.act(frame, np.zeros(7))
+        out = policy.plan(frame, np.zeros(7)) if kind == "cnn_dmp" else policy.act(frame, np.zeros(7), 0.0)
         assert out.shape == ((30, 7) if kind == "cnn_dmp" else (7,)) and np.all(np.isfinite(out))
         again = POLICIES[kind].load_from_checkpoint(path, weights_only=False)
         torch.testing.assert_close(again.state_dict(), policy.state_dict())
@@ -188,15 +188,20 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monk
         with Image.open(gif) as im:
             assert im.format == "GIF" and im.size == (64, 64)
 
-    # the policies saw only camera frames and joint angles
+    # the policies saw only camera frames, joint angles and (velocity) the clock
     assert [c[0] for c in recorders["cnn_dmp"].calls] == ["plan"] * 3  # warm-up + 2 episodes
     assert len(recorders["velocity"].calls) == 1 + 2 * 12
-    for rec in recorders.values():
+    for kind, rec in recorders.items():
+        times = []
         for _, args, kwargs in rec.calls:
-            assert not kwargs and len(args) == 2
-            image, joints = args
+            assert not kwargs and len(args) == (2 if kind == "cnn_dmp" else 3)
+            image, joints, *time = args
             assert isinstance(image, np.ndarray) and image.dtype == np.uint8 and image.shape == (32, 32, 3)
             assert isinstance(joints, np.ndarray) and joints.shape == (7,)
+            times += time
+        if kind == "velocity":  # warm-up at 0 s, then each episode's steps 0..11
+            dt = 4.0 / 29
+            np.testing.assert_allclose(times, [0.0] + 2 * [k * dt for k in range(12)])
 
 
 def test_scenario_file_evaluation(checkpoints, workspace):
@@ -225,12 +230,12 @@ def test_scenario_file_evaluation(checkpoints, workspace):
 
 
 def test_evaluator_interface_cannot_pass_the_object_pose():
-    """The controllers only ever get an Observation, which holds an image and joints."""
+    """The controllers only ever get an Observation: an image, joints and the clock."""
     from dataclasses import fields
 
     from lfd.eval.rollout import Observation
 
-    assert [f.name for f in fields(Observation)] == ["image", "joints"]
+    assert [f.name for f in fields(Observation)] == ["image", "joints", "time"]
 
 
 def test_missing_checkpoint_says_which_and_how(workspace, tmp_path):

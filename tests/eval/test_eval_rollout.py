@@ -53,8 +53,8 @@ class ConstantVelocity:
     def __init__(self, qd):
         self.qd, self.calls = np.asarray(qd, dtype=float), []
 
-    def act(self, image, joints):
-        self.calls.append((image.copy(), joints.copy()))
+    def act(self, image, joints, time):
+        self.calls.append((image.copy(), joints.copy(), time))
         return self.qd
 
 
@@ -84,9 +84,10 @@ def test_velocity_controller_acts_every_step_on_fresh_observations():
     trace = run_episode(scene, VelocityController(policy, DT), steps=4, lower=LIMITS[0], upper=LIMITS[1], record_every=2)
     assert len(policy.calls) == 4 and len(trace.latencies_ms) == 4
     # each call sees the frame and the joints measured at that step
-    for k, (image, joints) in enumerate(policy.calls):
+    for k, (image, joints, time) in enumerate(policy.calls):
         assert image[0, 0, 0] == k
         np.testing.assert_allclose(joints, trace.joints[k])
+        assert time == pytest.approx(k * DT)  # the robot's clock, s since the start
     np.testing.assert_allclose(trace.joints[1], [0.05, -1.0, 0.1])  # q + qd dt, joint 1 clamped
     assert trace.limit_violations == 4
     assert [f[0, 0, 0] for f in trace.frames] == [0, 2, 4]
@@ -101,5 +102,6 @@ def test_no_frames_recorded_unless_asked():
 def test_policy_calls_carry_only_image_and_joints(controller):
     policy = LinePlanner() if controller is PlanController else ConstantVelocity(np.zeros(N))
     run_episode(IdealScene(), controller(policy, DT), steps=3, lower=LIMITS[0], upper=LIMITS[1])
-    for image, joints in policy.calls:
+    for image, joints, *time in policy.calls:
         assert image.shape == (4, 4, 3) and image.dtype == np.uint8 and joints.shape == (N,)
+        assert all(isinstance(t, float) for t in time)

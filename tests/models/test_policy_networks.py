@@ -106,10 +106,38 @@ def test_plan_and_act_take_camera_frames_and_joints():
     plan = dmp.plan(frame, q)
     assert plan.shape == (12, 7) and plan.dtype == np.float64 and not dmp.training
     assert dmp.plan(np.stack([frame, frame]), np.zeros((2, 7))).shape == (2, 12, 7)
-    qd = vel.act(frame, q)
+    qd = vel.act(frame, q, 0.2)
     assert qd.shape == (7,) and np.all(np.isfinite(qd))
+    assert vel.act(np.stack([frame, frame]), np.zeros((2, 7)), np.array([0.2, 0.3])).shape == (2, 7)
     with pytest.raises(ValueError, match="24x24"):
-        vel.act(np.zeros((32, 32, 3), dtype=np.uint8), q)
+        vel.act(np.zeros((32, 32, 3), dtype=np.uint8), q, 0.2)
+
+
+def test_velocity_policy_sees_the_phase_of_the_episode():
+    """The clock is an input (the demonstrations start at rest: without it the start pose
+    is a fixed point of the closed loop); the phase t / duration is held at 1 after the end."""
+    torch.manual_seed(0)
+    vel = VelocityPolicy(name="velocity", **SMALL)
+    frame = np.random.default_rng(0).integers(0, 256, size=(24, 24, 3), dtype=np.uint8)
+    q = np.zeros(7)
+    early, late = vel.act(frame, q, 0.0), vel.act(frame, q, 0.8)
+    assert not np.allclose(early, late)
+    np.testing.assert_allclose(vel.act(frame, q, 1.1), vel.act(frame, q, 5.0))
+    with pytest.raises(ValueError, match="needs `time`"):
+        vel.act(frame, q)
+    with pytest.raises(ValueError, match="time must be finite and >= 0"):
+        vel.act(frame, q, float("nan"))
+    with pytest.raises(ValueError, match="time must be finite and >= 0"):
+        vel.act(frame, q, -0.1)
+    # the time enters the loss through the batch's "t"
+    batch = {"image": torch.rand(4, 3, 24, 24), "joints": torch.zeros(4, 7), "velocity": torch.zeros(4, 7)}
+    loss0 = vel.losses({**batch, "t": torch.zeros(4)})["loss"]
+    loss1 = vel.losses({**batch, "t": torch.full((4,), 0.9)})["loss"]
+    assert loss0 != loss1
+    # without the phase input the head is one input narrower and time is not needed
+    blind = VelocityPolicy(name="velocity", phase_input=False, **SMALL)
+    assert blind.head[0].in_features == vel.head[0].in_features - 1
+    np.testing.assert_allclose(blind.act(frame, q), blind.act(frame, q, 0.5))
 
 
 def test_kinds_and_item_modes():

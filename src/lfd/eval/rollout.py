@@ -1,7 +1,8 @@
 """Closed-loop execution of a policy in a :class:`~lfd.sim.scene.ReachScene`.
 
 The policy is reached only through a *controller* that receives an :class:`Observation`:
-the fixed camera's RGB frame and the measured joint angles, nothing else. The scene (and
+the fixed camera's RGB frame, the measured joint angles and the robot's clock (seconds
+since the episode started), nothing else. The scene (and
 with it the object's pose) never leaves :func:`run_episode`, so no policy can be given the
 object pose by construction.
 
@@ -11,8 +12,8 @@ Controllers:
   first observation, then the planned trajectory is tracked sample by sample (position
   control with velocity feed-forward, like the demonstrations); after its last sample the
   arm holds the final position.
-* :class:`VelocityController` (velocity baseline): ``policy.act(image, joints)`` every
-  control step; the position target is one control period ahead of the measured joints
+* :class:`VelocityController` (velocity baseline): ``policy.act(image, joints, time)``
+  every control step; the position target is one control period ahead of the measured joints
   (``q + qd * dt``) with ``qd`` as velocity feed-forward.
 
 Every command is clamped into the joint limits before execution (with no velocity
@@ -36,10 +37,12 @@ class Observation:
         image: ``(H, W, 3)`` uint8 RGB frame of the fixed camera (None at steps where the
             controller said it does not look, to save rendering).
         joints: ``(n,)`` float64 measured joint angles, rad.
+        time: seconds since the episode started (control step x control period).
     """
 
     image: np.ndarray
     joints: np.ndarray
+    time: float = 0.0
 
 
 class PlanController:
@@ -72,7 +75,7 @@ class PlanController:
 
 
 class VelocityController:
-    """Runs a velocity policy (``act(image, joints) -> (n,)`` rad/s) every control step."""
+    """Runs a velocity policy (``act(image, joints, time) -> (n,)`` rad/s) every control step."""
 
     needs_image = True
 
@@ -84,7 +87,7 @@ class VelocityController:
 
     def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
         t0 = time.perf_counter()
-        qd = np.asarray(self.policy.act(obs.image, obs.joints), dtype=np.float64)
+        qd = np.asarray(self.policy.act(obs.image, obs.joints, obs.time), dtype=np.float64)
         latencies.append((time.perf_counter() - t0) * 1e3)
         return obs.joints + qd * self.dt, qd
 
@@ -136,7 +139,8 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
             frames.append(image)
         if step == steps:
             break
-        q_target, qd_target = controller.command(Observation(image=image, joints=q), step, latencies)
+        obs = Observation(image=image, joints=q, time=step * controller.dt)
+        q_target, qd_target = controller.command(obs, step, latencies)
         clamped = np.clip(q_target, lower, upper)
         outside = clamped != q_target
         violations += int(outside.any())

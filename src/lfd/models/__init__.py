@@ -8,7 +8,7 @@ Example (closed loop from a checkpoint)::
     if policy.kind == "cnn_dmp":
         trajectory = policy.plan(image, joints)    # uint8 (H, W, 3), (7,) rad -> (T, 7) rad
     else:
-        qd = policy.act(image, joints)             # -> (7,) rad/s, call every control step
+        qd = policy.act(image, joints, t)          # t: s since the start -> (7,) rad/s, every control step
 """
 
 from __future__ import annotations

@@ -102,11 +102,13 @@ class VisuomotorPolicy(L.LightningModule):
         self._robot = None
         self._val_runs = 0
 
-    def _build(self, output_dim: int, stat_shapes: dict[str, tuple[int, ...]]) -> None:
+    def _build(self, output_dim: int, stat_shapes: dict[str, tuple[int, ...]], extra_inputs: int = 0) -> None:
         """Subclasses call this at the end of ``__init__``: the fully connected head with
-        ``output_dim`` outputs, and one persistent (mean, std) buffer pair per statistic."""
+        ``output_dim`` outputs (and ``extra_inputs`` more inputs besides keypoints, joints
+        and bias, see :meth:`features`), and one persistent (mean, std) buffer pair per
+        statistic."""
         hp = self.hparams
-        self.head = mlp(self.encoder.out_dim + hp.n_joints + hp.bias_dim, hp.hidden, output_dim)
+        self.head = mlp(self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs, hp.hidden, output_dim)
         self.stat_names = tuple(stat_shapes)
         for stat, shape in stat_shapes.items():
             self.register_buffer(f"{stat}_mean", torch.zeros(shape))
@@ -133,11 +135,15 @@ class VisuomotorPolicy(L.LightningModule):
     def denormalise(self, stat: str, x: torch.Tensor) -> torch.Tensor:
         return x * getattr(self, f"{stat}_std") + getattr(self, f"{stat}_mean")
 
-    def features(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
-        """Head output ``(B, output_dim)`` for images ``(B, 3, H, W)`` in [0, 1] and joints ``(B, n)`` rad."""
+    def features(self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
+        """Head output ``(B, output_dim)`` for images ``(B, 3, H, W)`` in [0, 1], joints
+        ``(B, n)`` rad and, when the head was built with ``extra_inputs``, those inputs ``(B, e)``."""
         keypoints = self.encoder(image)
         bias = self.bias_input.expand(image.shape[0], -1)
-        return self.head(torch.cat([keypoints, self.normalise("joints", joints), bias], dim=1))
+        parts = [keypoints, self.normalise("joints", joints), bias]
+        if extra is not None:
+            parts.append(extra)
+        return self.head(torch.cat(parts, dim=1))
 
     def _observation(self, image, joints) -> tuple[torch.Tensor, torch.Tensor, bool]:
         """Closed-loop inputs as batched tensors on this module's device; ``batched`` says

@@ -1,8 +1,14 @@
-"""Velocity baseline: the current image and joints -> the joint velocity to command now.
+"""Velocity baseline: the current image, joints and clock -> the joint velocity to command now.
 
 Same trunk and head as :class:`~lfd.models.cnn_dmp.CNNDMPPolicy`; the output is the
 normalised joint velocity ``(n,)``, trained by mean squared error against the
 demonstration's velocity at that step, and executed every control step in closed loop.
+
+By default the head also sees the phase ``min(t / duration, 1)`` (``t``: seconds since the
+episode started, the robot's own clock). Without it the baseline cannot leave the start
+pose: every demonstration starts at rest, so at the start image and joints the learned
+velocity is ~0 and the closed loop stays at that fixed point (``phase_input=False``
+reproduces this: about 29 cm final error, the arm barely moves).
 """
 
 from __future__ import annotations
@@ -15,26 +21,42 @@ from lfd.models.policy import VisuomotorPolicy, joint_figure
 
 
 class VelocityPolicy(VisuomotorPolicy):
-    """Image ``(3, H, W)`` + joints ``(n,)`` at step t -> joint velocity ``(n,)`` rad/s at step t.
+    """Image ``(3, H, W)`` + joints ``(n,)`` (+ time) at step t -> joint velocity ``(n,)`` rad/s at step t.
 
     Args:
+        phase_input: give the head the phase ``min(t / duration, 1)`` as one more input.
         **common: :class:`~lfd.models.policy.VisuomotorPolicy` arguments.
     """
 
     kind = "velocity"
     item_mode = "velocity"
 
-    def __init__(self, **common) -> None:
+    def __init__(self, *, phase_input: bool = True, **common) -> None:
         super().__init__(**common)
         n = self.hparams.n_joints
-        self._build(n, {"joints": (n,), "velocity": (n,)})
+        self._build(n, {"joints": (n,), "velocity": (n,)}, extra_inputs=int(phase_input))
 
-    def forward(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
-        """Images ``(B, 3, H, W)`` in [0, 1], joints ``(B, n)`` rad -> joint velocities ``(B, n)`` rad/s."""
-        return self.denormalise("velocity", self.features(image, joints))
+    def phase(self, time: torch.Tensor | None, batch: int) -> torch.Tensor | None:
+        """Head input ``(B, 1)`` from ``time`` (``(B,)`` or scalar, s since the start), or None
+        when the policy was built without ``phase_input``."""
+        if not self.hparams.phase_input:
+            return None
+        if time is None:
+            raise ValueError("VelocityPolicy(phase_input=True) needs `time` (s since the episode started)")
+        t = torch.as_tensor(time, dtype=torch.float32, device=self.device).reshape(-1, 1)
+        if not torch.isfinite(t).all() or (t < 0).any():
+            raise ValueError(f"VelocityPolicy: time must be finite and >= 0 s, got {t.flatten().tolist()}")
+        if t.shape[0] not in (1, batch):
+            raise ValueError(f"VelocityPolicy: {t.shape[0]} times for a batch of {batch}")
+        return (t / self.hparams.duration).clamp(max=1.0).expand(batch, 1)
+
+    def forward(self, image: torch.Tensor, joints: torch.Tensor, time: torch.Tensor | None = None) -> torch.Tensor:
+        """Images ``(B, 3, H, W)`` in [0, 1], joints ``(B, n)`` rad, time ``(B,)`` s since the
+        episode started (needed with ``phase_input``) -> joint velocities ``(B, n)`` rad/s."""
+        return self.denormalise("velocity", self.features(image, joints, self.phase(time, image.shape[0])))
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-        pred_n = self.features(batch["image"], batch["joints"])
+        pred_n = self.features(batch["image"], batch["joints"], self.phase(batch["t"], batch["image"].shape[0]))
         loss = F.mse_loss(pred_n, self.normalise("velocity", batch["velocity"]))
         rad_s = (self.denormalise("velocity", pred_n) - batch["velocity"]).norm(dim=-1).mean()
         return {"loss": loss, "velocity_err": rad_s}
@@ -43,17 +65,18 @@ class VelocityPolicy(VisuomotorPolicy):
         """Open-loop integral of the predicted velocities along the first episode of the
         batch, against the demonstrated joints (the same frames and joints as inputs)."""
         first = batch["index"] == batch["index"][0]
-        qd = self(batch["image"][first], batch["joints"][first]).cpu().numpy()
+        qd = self(batch["image"][first], batch["joints"][first], batch["t"][first]).cpu().numpy()
         demo = batch["joints"][first].cpu().numpy()
         predicted = demo[0] + np.concatenate([np.zeros((1, qd.shape[1])), np.cumsum(qd[:-1], axis=0) * self.control_dt])
         t = batch["t"][first].cpu().numpy()
         return joint_figure(t, predicted, demo, f"velocity policy (integrated), episode {int(batch['index'][0])}")
 
     @torch.inference_mode()
-    def act(self, image, joints) -> np.ndarray:
-        """Closed-loop entry point: camera image(s) uint8 ``(H, W, 3)`` / ``(B, H, W, 3)`` and
-        current joints ``(n,)`` / ``(B, n)`` rad -> joint velocity command ``(n,)`` / ``(B, n)``
-        rad/s (float64) for the next control period."""
+    def act(self, image, joints, time=None) -> np.ndarray:
+        """Closed-loop entry point: camera image(s) uint8 ``(H, W, 3)`` / ``(B, H, W, 3)``,
+        current joints ``(n,)`` / ``(B, n)`` rad and the time since the episode started (s,
+        scalar or ``(B,)``; needed with ``phase_input``) -> joint velocity command ``(n,)`` /
+        ``(B, n)`` rad/s (float64) for the next control period."""
         img, q, batched = self._observation(image, joints)
-        qd = self(img, q).double().cpu().numpy()
+        qd = self(img, q, time).double().cpu().numpy()
         return qd if batched else qd[0]
