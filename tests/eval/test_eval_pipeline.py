@@ -194,7 +194,9 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monk
     for kind, rec in recorders.items():
         times = []
         for _, args, kwargs in rec.calls:
-            assert not kwargs and len(args) == (2 if kind == "cnn_dmp" else 3)
+            # the DMP policy is asked for a plan covering the episode (start + 12 steps)
+            assert kwargs == ({"n_steps": 13} if kind == "cnn_dmp" else {})
+            assert len(args) == (2 if kind == "cnn_dmp" else 3)
             image, joints, *time = args
             assert isinstance(image, np.ndarray) and image.dtype == np.uint8 and image.shape == (32, 32, 3)
             assert isinstance(joints, np.ndarray) and joints.shape == (7,)

@@ -40,10 +40,12 @@ class LinePlanner:
     kind = "cnn_dmp"
 
     def __init__(self):
-        self.calls = []
+        self.calls, self.horizons = [], []
 
-    def plan(self, image, joints):
+    def plan(self, image, joints, n_steps=None):
+        """A 5-sample line whatever the horizon asked for (shorter plans are held)."""
         self.calls.append((image.copy(), joints.copy()))
+        self.horizons.append(n_steps)
         return joints + np.linspace(0.0, 1.0, 5)[:, None] * np.array([1.0, 2.0, 3.0])
 
 
@@ -65,6 +67,7 @@ def test_plan_controller_plans_once_tracks_then_holds():
     scene, policy = IdealScene(), LinePlanner()
     trace = run_episode(scene, PlanController(policy, DT), steps=7, lower=LIMITS[0], upper=LIMITS[1])
     assert len(policy.calls) == 1 and scene.renders == 1  # one image, at the start
+    assert policy.horizons == [8]  # a plan for the whole episode: start + 7 steps
     targets = np.array([c[0] for c in scene.commands])
     plan = np.linspace(0.0, 1.0, 5)[:, None] * np.array([1.0, 2.0, 3.0])
     expected = np.clip(np.concatenate([plan[1:], np.repeat(plan[-1:], 3, axis=0)]), *LIMITS)

@@ -49,7 +49,8 @@ def test_dmp_policy_shapes(dmp_policy):
 def test_trajectory_loss_gradient_reaches_the_conv_weights_through_the_dmp_layer(dmp_policy):
     batch = dmp_batch()
     seen = {}
-    dmp_policy.dmp.register_forward_hook(lambda mod, inp, out: seen.update(out=out))
+    hp = dmp_policy.hparams
+    dmp_policy.layer(hp.n_steps + hp.rest_steps).register_forward_hook(lambda mod, inp, out: seen.update(out=out))
     dmp_policy.train()
     loss = dmp_policy.losses(batch)["loss"]
     # the loss is a function of the DMP layer's output ...
@@ -62,6 +63,27 @@ def test_trajectory_loss_gradient_reaches_the_conv_weights_through_the_dmp_layer
         assert conv.weight.grad is not None and conv.weight.grad.abs().sum() > 0
     assert dmp_policy.encoder.softargmax.log_temperature.grad.abs() > 0
     assert dmp_policy.bias_input.grad.abs().sum() > 0
+
+
+def test_trajectory_loss_covers_rest_samples_after_the_demonstration(dmp_policy, monkeypatch):
+    """The loss compares the DMP run on past its duration with the demonstration's last
+    sample: zero for the DMP that drew the demonstration (it rests at its goal), and for a
+    wrong goal it counts the rest samples too."""
+    batch = dmp_batch()
+    pred = {"goal": batch["goal"], "weights": batch["weights"]}
+    monkeypatch.setattr(dmp_policy, "predict_params", lambda image, joints: (pred["goal"], pred["weights"]))
+    dmp_policy.hparams.ee_weight = 0.0
+    for rest in (0, 8):
+        dmp_policy.hparams.rest_steps = rest
+        assert dmp_policy.losses(batch)["loss"] < 1e-10
+    pred["goal"] = batch["goal"] + 0.3
+    on = DMPLayer(n_basis=5, n_steps=20, dt=0.1, tau=1.1)(batch["joints"], pred["goal"], batch["weights"])
+    target = torch.cat([batch["trajectory"], batch["trajectory"][:, -1:].expand(-1, 8, -1)], dim=1)
+    torch.testing.assert_close(dmp_policy.losses(batch)["loss"], ((on - target) ** 2).mean())
+    dmp_policy.hparams.final_weight = 2.0  # the rest samples count as the end of the motion
+    assert torch.equal(dmp_policy.time_weights(), torch.tensor([1.0] * 9 + [3.0] * 11))
+    with pytest.raises(ValueError, match="rest_steps"):
+        CNNDMPPolicy(name="x", rest_steps=-1, **SMALL)
 
 
 def test_parameter_loss_is_the_normalised_mse(dmp_policy):
@@ -80,8 +102,9 @@ def test_ee_term_uses_forward_kinematics(dmp_policy):
     base = dmp_policy.losses(batch)
     dmp_policy.hparams.ee_weight = 2.0
     with_ee = dmp_policy.losses(batch)
-    traj = dmp_policy(batch["image"], batch["joints"])
-    ee = dmp_policy.robot.fk(traj.reshape(-1, 7))[:, :3, 3].reshape(3, 12, 3)
+    steps = 12 + dmp_policy.hparams.rest_steps  # the demonstration + the rest samples (target: zeros here)
+    traj = dmp_policy.rollout(batch["joints"], *dmp_policy.predict_params(batch["image"], batch["joints"]), n_steps=steps)
+    ee = dmp_policy.robot.fk(traj.reshape(-1, 7))[:, :3, 3].reshape(3, steps, 3)
     torch.testing.assert_close(with_ee["ee_mse"], (ee**2).sum(-1).mean())
     torch.testing.assert_close(with_ee["loss"], base["loss"] + 2.0 * with_ee["ee_mse"])
 
@@ -111,6 +134,24 @@ def test_plan_and_act_take_camera_frames_and_joints():
     assert vel.act(np.stack([frame, frame]), np.zeros((2, 7)), np.array([0.2, 0.3])).shape == (2, 7)
     with pytest.raises(ValueError, match="24x24"):
         vel.act(np.zeros((32, 32, 3), dtype=np.uint8), q, 0.2)
+
+
+def test_longer_plans_continue_the_same_dmp_to_rest_at_its_goal(dmp_policy):
+    """A plan past the demonstrations' length is the same DMP run on: the first T samples are
+    unchanged, and the spring-damper then settles at the predicted goal."""
+    frame = np.random.default_rng(1).integers(0, 256, size=(24, 24, 3), dtype=np.uint8)
+    q = np.full(7, 0.1)
+    short, long = dmp_policy.plan(frame, q), dmp_policy.plan(frame, q, n_steps=60)
+    assert long.shape == (60, 7)
+    np.testing.assert_allclose(long[:12], short, atol=1e-6)
+    img, qt, _ = dmp_policy._observation(frame, q)
+    goal = dmp_policy.denormalise("goal", dmp_policy.predict_params(img, qt)[0])[0].detach().numpy()
+    np.testing.assert_allclose(long[-1], goal, atol=1e-4)
+    assert np.abs(np.diff(long[-3:], axis=0)).max() < 1e-5  # at rest
+    assert dmp_policy.layer(60) is dmp_policy.layer(60) and dmp_policy.layer() is dmp_policy.dmp
+    assert not any("horizon" in k for k in dmp_policy.state_dict())
+    with pytest.raises(ValueError, match="n_steps must be >= 2"):
+        dmp_policy.plan(frame, q, n_steps=1)
 
 
 def test_velocity_policy_sees_the_phase_of_the_episode():

@@ -247,7 +247,7 @@ class ReachEvaluator:
         lower = np.where(continuous, -np.inf, robot.lower.numpy())
         upper = np.where(continuous, np.inf, robot.upper.numpy())
         controller = CONTROLLERS[kind](policy, dt)
-        self._warm_up(scene, cases[0], controller)
+        self._warm_up(scene, cases[0], controller, steps)
         traces = []
         for i, case in enumerate(cases):
             scene.reset(case.obj, case.placement, q=robot.home.numpy())
@@ -259,10 +259,10 @@ class ReachEvaluator:
         return traces
 
     @staticmethod
-    def _warm_up(scene, case: Case, controller) -> None:
+    def _warm_up(scene, case: Case, controller, steps: int) -> None:
         """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
         scene.reset(case.obj, case.placement, q=scene.robot.home.numpy())
-        controller.start()
+        controller.start(steps)
         controller.command(Observation(image=scene.render(), joints=scene.joint_state()[0]), 0, [])
 
     def _row(self, kind: str, case: Case, trace: EpisodeTrace, dt: float) -> dict[str, Any]:

@@ -8,10 +8,11 @@ object pose by construction.
 
 Controllers:
 
-* :class:`PlanController` (CNN -> DMP): one ``policy.plan(image, joints)`` call on the
-  first observation, then the planned trajectory is tracked sample by sample (position
-  control with velocity feed-forward, like the demonstrations); after its last sample the
-  arm holds the final position.
+* :class:`PlanController` (CNN -> DMP): one ``policy.plan(image, joints, n_steps=S + 1)``
+  call on the first observation of an episode of ``S`` control steps, then the planned
+  trajectory is tracked sample by sample (position control with velocity feed-forward,
+  like the demonstrations); the DMP plan covers the whole episode (past its duration it
+  keeps converging to its goal), and a shorter plan is held at its last sample.
 * :class:`VelocityController` (velocity baseline): ``policy.act(image, joints, time)``
   every control step; the position target is one control period ahead of the measured joints
   (``q + qd * dt``) with ``qd`` as velocity feed-forward.
@@ -52,20 +53,27 @@ class PlanController:
         self.policy, self.dt = policy, dt
         self.plan: np.ndarray | None = None
         self.velocity: np.ndarray | None = None
+        self.horizon: int | None = None
 
     @property
     def needs_image(self) -> bool:
         """Whether :meth:`command` will look at the image this step."""
         return self.plan is None
 
-    def start(self) -> None:
+    def start(self, steps: int | None = None) -> None:
+        """A new episode of ``steps`` control steps (None: plan the policy's default length)."""
         self.plan = self.velocity = None
+        self.horizon = None if steps is None else steps + 1
 
     def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
         """Joint position and velocity targets for control step ``step`` (0-based)."""
         if self.plan is None:
             t0 = time.perf_counter()
-            self.plan = np.asarray(self.policy.plan(obs.image, obs.joints), dtype=np.float64)
+            if self.horizon is None:
+                plan = self.policy.plan(obs.image, obs.joints)
+            else:
+                plan = self.policy.plan(obs.image, obs.joints, n_steps=self.horizon)
+            self.plan = np.asarray(plan, dtype=np.float64)
             latencies.append((time.perf_counter() - t0) * 1e3)
             self.velocity = np.gradient(self.plan, self.dt, axis=0)
         k = step + 1
@@ -82,8 +90,8 @@ class VelocityController:
     def __init__(self, policy, dt: float) -> None:
         self.policy, self.dt = policy, dt
 
-    def start(self) -> None:
-        """Nothing to reset: the controller is stateless."""
+    def start(self, steps: int | None = None) -> None:
+        """Nothing to reset: the controller is stateless (it acts until the episode ends)."""
 
     def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
         t0 = time.perf_counter()
@@ -124,7 +132,7 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
             continuous joints).
         record_every: keep a camera frame every this many steps for a GIF (0: none).
     """
-    controller.start()
+    controller.start(steps)
     latencies: list[float] = []
     frames: list[np.ndarray] = []
     joints, poses = [], []
