@@ -154,6 +154,27 @@ def test_longer_plans_continue_the_same_dmp_to_rest_at_its_goal(dmp_policy):
         dmp_policy.plan(frame, q, n_steps=1)
 
 
+def test_velocity_labels_at_perturbed_states_are_the_experts_correction(monkeypatch):
+    torch.manual_seed(0)
+    vel = VelocityPolicy(name="velocity", state_noise=0.1, correction_gain=2.0, **SMALL)
+    batch = {
+        "image": torch.rand(4, 3, 24, 24), "joints": torch.randn(4, 7) * 0.1,
+        "velocity": torch.randn(4, 7) * 0.2, "t": torch.full((4,), 0.3),
+    }
+    noise = torch.randn(4, 7) * 0.1
+    monkeypatch.setattr(vel, "perturbation", lambda joints: noise)
+    pred = vel.features(batch["image"], batch["joints"] + noise, vel.phase(batch["t"], 4))
+    expected = ((pred - vel.normalise("velocity", batch["velocity"] - 2.0 * noise)) ** 2).mean()
+    torch.testing.assert_close(vel.losses(batch)["loss"], expected)
+    monkeypatch.undo()
+    vel.train()
+    assert vel.perturbation(batch["joints"]).std() > 0.05
+    vel.eval()  # validation and closed loop: the demonstrated states, unperturbed
+    assert torch.equal(vel.perturbation(batch["joints"]), torch.zeros(4, 7))
+    with pytest.raises(ValueError, match="state_noise"):
+        VelocityPolicy(name="velocity", state_noise=-0.1, **SMALL)
+
+
 def test_velocity_policy_sees_the_phase_of_the_episode():
     """The clock is an input (the demonstrations start at rest: without it the start pose
     is a fixed point of the closed loop); the phase t / duration is held at 1 after the end."""

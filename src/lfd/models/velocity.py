@@ -9,6 +9,12 @@ episode started, the robot's own clock). Without it the baseline cannot leave th
 pose: every demonstration starts at rest, so at the start image and joints the learned
 velocity is ~0 and the closed loop stays at that fixed point (``phase_input=False``
 reproduces this: about 29 cm final error, the arm barely moves).
+
+Trained on the demonstrated states only, the closed loop falls behind the demonstration
+and never sees how to catch up (covariate shift). With ``state_noise`` the training joints
+are perturbed by Gaussian noise and the label becomes the expert's corrective command at
+that state, ``qd_demo(t) + correction_gain * (q_demo(t) - q_noisy)`` (noise injection with
+the time-indexed demonstration as the expert, as in DART, Laskey et al. 2017).
 """
 
 from __future__ import annotations
@@ -25,14 +31,19 @@ class VelocityPolicy(VisuomotorPolicy):
 
     Args:
         phase_input: give the head the phase ``min(t / duration, 1)`` as one more input.
+        state_noise: std (rad) of the Gaussian noise added to the training joints (0: none).
+        correction_gain: gain (1/s) of the corrective term of the perturbed labels.
         **common: :class:`~lfd.models.policy.VisuomotorPolicy` arguments.
     """
 
     kind = "velocity"
     item_mode = "velocity"
 
-    def __init__(self, *, phase_input: bool = True, **common) -> None:
+    def __init__(self, *, phase_input: bool = True, state_noise: float = 0.1, correction_gain: float = 2.0, **common) -> None:
         super().__init__(**common)
+        for name, value in (("state_noise", state_noise), ("correction_gain", correction_gain)):
+            if not value >= 0:
+                raise ValueError(f"VelocityPolicy.{name}: expected a number >= 0, got {value}")
         n = self.hparams.n_joints
         self._build(n, {"joints": (n,), "velocity": (n,)}, extra_inputs=int(phase_input))
 
@@ -55,10 +66,18 @@ class VelocityPolicy(VisuomotorPolicy):
         episode started (needed with ``phase_input``) -> joint velocities ``(B, n)`` rad/s."""
         return self.denormalise("velocity", self.features(image, joints, self.phase(time, image.shape[0])))
 
+    def perturbation(self, joints: torch.Tensor) -> torch.Tensor:
+        """Noise ``(B, n)`` rad added to the training joints (zeros in eval mode or without ``state_noise``)."""
+        if not self.training or self.hparams.state_noise == 0:
+            return torch.zeros_like(joints)
+        return torch.randn_like(joints) * self.hparams.state_noise
+
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-        pred_n = self.features(batch["image"], batch["joints"], self.phase(batch["t"], batch["image"].shape[0]))
-        loss = F.mse_loss(pred_n, self.normalise("velocity", batch["velocity"]))
-        rad_s = (self.denormalise("velocity", pred_n) - batch["velocity"]).norm(dim=-1).mean()
+        noise = self.perturbation(batch["joints"])
+        target = batch["velocity"] - self.hparams.correction_gain * noise  # the expert's correction
+        pred_n = self.features(batch["image"], batch["joints"] + noise, self.phase(batch["t"], batch["image"].shape[0]))
+        loss = F.mse_loss(pred_n, self.normalise("velocity", target))
+        rad_s = (self.denormalise("velocity", pred_n) - target).norm(dim=-1).mean()
         return {"loss": loss, "velocity_err": rad_s}
 
     def sample_figure(self, batch: dict[str, torch.Tensor]):
