@@ -55,8 +55,6 @@ class VelocityPolicy(VisuomotorPolicy):
         if time is None:
             raise ValueError("VelocityPolicy(phase_input=True) needs `time` (s since the episode started)")
         t = torch.as_tensor(time, dtype=torch.float32, device=self.device).reshape(-1, 1)
-        if not torch.isfinite(t).all() or (t < 0).any():
-            raise ValueError(f"VelocityPolicy: time must be finite and >= 0 s, got {t.flatten().tolist()}")
         if t.shape[0] not in (1, batch):
             raise ValueError(f"VelocityPolicy: {t.shape[0]} times for a batch of {batch}")
         return (t / self.hparams.duration).clamp(max=1.0).expand(batch, 1)
@@ -97,5 +95,7 @@ class VelocityPolicy(VisuomotorPolicy):
         scalar or ``(B,)``; needed with ``phase_input``) -> joint velocity command ``(n,)`` /
         ``(B, n)`` rad/s (float64) for the next control period."""
         img, q, batched = self._observation(image, joints)
+        if time is not None and not (np.all(np.isfinite(time)) and np.all(np.asarray(time) >= 0)):
+            raise ValueError(f"VelocityPolicy.act: time must be finite and >= 0 s, got {time}")
         qd = self(img, q, time).double().cpu().numpy()
         return qd if batched else qd[0]
