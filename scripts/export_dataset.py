@@ -20,8 +20,8 @@ CONFIGS = str(Path(__file__).resolve().parents[1] / "configs")
 SUFFIX = {"lerobot": ".lerobot", "robomimic": ".hdf5"}
 
 
-@hydra.main(version_base="1.3", config_path=CONFIGS, config_name="export_dataset")
-def main(cfg: DictConfig) -> str:
+def export(cfg: DictConfig) -> Path:
+    """Generate or verify ``cfg.data``'s dataset, then export it as ``cfg.format``."""
     from lfd.data.export import FORMATS, export_dataset
 
     if cfg.format not in FORMATS:
@@ -35,7 +35,12 @@ def main(cfg: DictConfig) -> str:
         datamodule.path, out, format=cfg.format, overwrite=cfg.overwrite, progress=cfg.progress, limit=cfg.limit, **options
     )
     print(f"[lfd] {cfg.format} export of {datamodule.path} written to {out} in {time.perf_counter() - t0:.1f} s")
-    return str(out)
+    return out
+
+
+@hydra.main(version_base="1.3", config_path=CONFIGS, config_name="export_dataset")
+def main(cfg: DictConfig) -> str:
+    return str(export(cfg))
 
 
 if __name__ == "__main__":
