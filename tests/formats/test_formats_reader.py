@@ -162,3 +162,23 @@ def test_policies_train_on_a_lerobot_folder(tiny_lerobot, tmp_path, policy):
     assert torch.isfinite(trainer.callback_metrics["train/loss"])
     if policy == "cnn_dmp":
         torch.testing.assert_close(model.goal_mean, dm.stats["goal"]["mean"])
+
+
+def test_hydra_data_config(tiny_lerobot):
+    from hydra import compose, initialize_config_dir
+    from hydra.utils import instantiate
+
+    configs = Path(__file__).resolve().parents[2] / "configs"
+    with initialize_config_dir(config_dir=str(configs), version_base="1.3"):
+        over = [f"data.root={tiny_lerobot}", "data.image_size=64", "data.n_steps=30", "data.n_basis=8", "model.channels=[8]", "model.hidden=[8]"]
+        cfg = compose("train", overrides=["data=lerobot", "model=cnn_dmp", *over])
+        dm, model = instantiate(cfg.data), instantiate(cfg.model)
+        dm.setup("fit")
+        model.check_data(dm.config)
+        assert dm.mode == "dmp" and len(dm.datasets["train"]) == 4
+        bad = instantiate(compose("train", overrides=["data=lerobot", *over, "data.n_steps=100"]).data)
+        with pytest.raises(ValueError, match="n_steps=100"):
+            bad.setup("fit")
+        bad = instantiate(compose("train", overrides=["data=lerobot", *over, "data.n_basis=20"]).data)
+        with pytest.raises(ValueError, match="n_basis=20"):
+            bad.setup("fit")

@@ -248,10 +248,14 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
             (one item per frame).
         camera: camera name (feature ``observation.images.<camera>``; default: the first video feature).
         n_joints: arm joints (default: the action's size).
-        n_basis: DMP bases when parameters are fitted (no ``lfd/dmp_*`` columns).
+        n_basis: DMP bases: must match the ``lfd/n_basis`` column when the folder has DMP
+            columns; the number fitted otherwise (None: the column's, or 20).
         val_fraction: held-out share of the training episodes when ``info.json`` has no ``val`` split.
         batch_size, num_workers, augment: as :class:`~lfd.data.ReachDataModule`.
         tolerance_s: timestamp tolerance of the video decoding.
+        image_size, duration, n_steps, robot: expected values (the model configs read them
+            from ``data.*``); each given one must equal the folder's (square image side,
+            ``(T - 1) / fps``, longest episode ``T``, ``robot_type``), else ``ValueError``.
     """
 
     def __init__(
@@ -261,14 +265,19 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         *,
         camera: str | None = None,
         n_joints: int | None = None,
-        n_basis: int = 20,
+        n_basis: int | None = None,
         val_fraction: float = 0.2,
         batch_size: int = 32,
         num_workers: int = 0,
         augment: bool = False,
         tolerance_s: float = 1e-4,
+        image_size: int | None = None,
+        duration: float | None = None,
+        n_steps: int | None = None,
+        robot: str | None = None,
     ) -> None:
         super().__init__()
+        self.expected = {"image_size": image_size, "duration": duration, "n_steps": n_steps, "robot": robot}
         from lfd.data.datamodule import MODES
 
         if mode not in MODES:
@@ -335,6 +344,8 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
             if self.mode == "dmp":
                 if "lfd/dmp_goal" in row:
                     k = int(row["lfd/n_basis"])
+                    if self.n_basis is not None and self.n_basis != k:
+                        raise ValueError(f"LeRobotDataModule.n_basis={self.n_basis}, but {self.root} holds DMPs with {k} bases")
                     arrays.update(
                         dmp_goal=np.asarray(row["lfd/dmp_goal"]),
                         dmp_weights=np.asarray(row["lfd/dmp_weights"]).reshape(n, k),
@@ -342,7 +353,7 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                         dmp_tau=np.float64(row["lfd/dmp_tau"]),
                     )
                 else:
-                    dmp = DMP(n_basis=self.n_basis).fit(t, joints)
+                    dmp = DMP(n_basis=self.n_basis or 20).fit(t, joints)
                     arrays.update(dmp_goal=dmp.goal_, dmp_weights=dmp.weights_, dmp_y0=dmp.y0_, dmp_tau=np.float64(dmp.tau_))
                 if "lfd/ee_path" in row:
                     ee = np.asarray(row["lfd/ee_path"]).reshape(-1, 3)
@@ -360,6 +371,10 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         self.folder, self.data = folder, _Data(self.root, episodes)
         T = max(lengths)
         self.config = LeRobotDataConfig(image_size=int(h), duration=(T - 1) / folder.fps, n_steps=int(T), robot=robot_type)
+        for key, want in self.expected.items():
+            have = getattr(self.config, key)
+            if want is not None and (have != want if isinstance(want, str) else not np.isclose(have, want, rtol=1e-9, atol=0)):
+                raise ValueError(f"LeRobotDataModule.{key}={want!r}, but the dataset {self.root} has {key}={have!r}")
 
     def setup(self, stage: str | None = None) -> None:
         """Read the folder and build the split datasets of :attr:`mode`."""
