@@ -23,6 +23,12 @@ TINY = dict(
 
 
 @pytest.fixture(scope="session")
+def tiny_params() -> dict:
+    """The tiny dataset's generator settings (ReachDataModule keyword arguments)."""
+    return dict(TINY)
+
+
+@pytest.fixture(scope="session")
 def tiny_root(tmp_path_factory) -> Path:
     """Folder holding the generated dataset ``tiny``."""
     from lfd.data import ReachDataModule

@@ -20,7 +20,6 @@ REFERENCE = Path(__file__).resolve().parents[1] / "fixtures" / "lerobot_v3_refer
 #: PSNR bounds (dB) of the decoded frames against the originals (AV1, crf 30, 64 px; measured
 #: here: worst frame about 32 dB, mean about 38 dB).
 MIN_PSNR_DB, MEAN_PSNR_DB = 30.0, 35.0
-TINY = dict(seed=3, n_train_objects=2, n_train_placements=3, n_test_objects=1, n_test_placements=1, image_size=64, n_steps=30, n_basis=8)
 
 
 def psnr(a: torch.Tensor, b: torch.Tensor) -> float:
@@ -51,8 +50,8 @@ def test_reads_the_lerobot_written_reference():
 
 
 @pytest.mark.parametrize("mode", ["velocity", "dmp"])
-def test_round_trip_ours_lerobot_ours(tiny_root, tiny_lerobot, mode):
-    ours = ReachDataModule(name="tiny", root=tiny_root, mode=mode, progress=False, **TINY)
+def test_round_trip_ours_lerobot_ours(tiny_root, tiny_lerobot, tiny_params, mode):
+    ours = ReachDataModule(name="tiny", root=tiny_root, mode=mode, progress=False, **tiny_params)
     ours.setup()
     theirs = LeRobotDataModule(tiny_lerobot, mode=mode)
     theirs.setup()
