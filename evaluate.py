@@ -2,7 +2,7 @@
 
 A thin Hydra entry point (lightning-hydra-template's ``eval.py``): it composes
 ``configs/evaluate.yaml`` with your overrides, instantiates the evaluator named by
-``eval._target_`` and the datamodule, finds the checkpoints, and calls
+``eval._target_`` and the datamodule it reads, finds the checkpoints, and calls
 ``evaluator.run(datamodule=..., checkpoints=..., out_dir=...)`` with those plain objects in
 this run's output directory, whose path it prints. Metrics, tables and plots land there.
 
@@ -25,10 +25,11 @@ from lfd.eval.evaluator import CKPT_KEYS
 
 
 def evaluate(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
-    """Instantiate ``cfg.eval`` and ``cfg.data``, resolve the checkpoints (``ckpt_dmp``,
-    ``ckpt_velocity`` or the newest under ``paths.output_root``) and run; returns the metrics."""
+    """Instantiate ``cfg.eval`` and (for evaluators that read a dataset) ``cfg.data``, resolve
+    the checkpoints (``ckpt_dmp``, ``ckpt_velocity``, ``eval.checkpoint`` or the newest under
+    ``paths.output_root``) and run; returns the metrics."""
     evaluator = hydra.utils.instantiate(cfg.eval, _recursive_=False)
-    datamodule = hydra.utils.instantiate(cfg.data)
+    datamodule = hydra.utils.instantiate(cfg.data) if evaluator.needs_datamodule else None
     given = {kind: cfg.get(key) for kind, key in CKPT_KEYS.items()}
     checkpoints = evaluator.resolve_checkpoints(cfg.paths.output_root, given)
     return evaluator.run(datamodule=datamodule, checkpoints=checkpoints, out_dir=Path(out_dir))

@@ -19,6 +19,27 @@ from pathlib import Path  # noqa: E402
 import pytest  # noqa: E402
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+#: Overrides that shrink the reaching data and the visuomotor networks to seconds of CPU:
+#: 2 training objects x 3 placements (1 of them validation), no test split, 32 px, 30 steps.
+TINY_REACHING = (
+    "data.n_train_objects=2",
+    "data.n_train_placements=3",
+    "data.val_fraction=0.34",
+    "data.n_test_objects=0",
+    "data.n_test_placements=0",
+    "data.image_size=32",
+    "data.n_steps=30",
+    "data.batch_size=2",
+    "data.progress=false",
+    "model.channels=[4,4,4,8]",
+    "model.hidden=[16,16]",
+)
+
+
+@pytest.fixture(scope="session")
+def tiny_reaching() -> tuple[str, ...]:
+    """:data:`TINY_REACHING`: overrides for a tiny reaching dataset (``data.name`` is the caller's)."""
+    return TINY_REACHING
 
 
 @pytest.fixture(scope="session")

@@ -10,22 +10,10 @@ import pytest
 import train  # the repository's entry point (pytest's pythonpath holds the root)
 
 EXPERIMENTS = sorted(p.stem for p in (Path(__file__).resolve().parents[1] / "configs" / "experiment").glob("*.yaml"))
-#: Overrides that shrink an experiment, per datamodule class (the experiment's data._target_).
+#: Overrides that shrink an experiment, per datamodule class (the experiment's data._target_);
+#: the reaching experiments add the ``tiny_reaching`` fixture's.
 SHRINK = {
-    "lfd.data.ReachDataModule": [
-        "data.name=tiny",
-        "data.n_train_objects=2",
-        "data.n_train_placements=3",
-        "data.val_fraction=0.34",
-        "data.n_test_objects=0",
-        "data.n_test_placements=0",
-        "data.image_size=32",
-        "data.n_steps=30",
-        "data.batch_size=2",
-        "data.progress=false",
-        "model.channels=[4,4,4,8]",
-        "model.hidden=[16,16]",
-    ],
+    "lfd.data.ReachDataModule": ["data.name=tiny"],
     "lfd.data.sawyer.SawyerModelsDataModule": [
         "data.forward.batch_size=64",
         "data.forward.n_val=200",
@@ -43,10 +31,11 @@ def test_every_experiment_is_covered():
 
 
 @pytest.mark.parametrize("name", EXPERIMENTS)
-def test_experiment_fast_dev_run(compose, tmp_path_factory, capsys, name):
+def test_experiment_fast_dev_run(compose, tiny_reaching, tmp_path_factory, capsys, name):
     root = tmp_path_factory.getbasetemp() / "experiments"  # shared: the reaching experiments reuse one tiny dataset
     target = compose("train", f"experiment={name}").data._target_
     assert target in SHRINK, f"experiment={name}: no shrinking overrides for data {target}"
-    cfg = compose("train", f"experiment={name}", f"paths.root_dir={root}", "++trainer.fast_dev_run=true", *SHRINK[target])
+    shrink = [*SHRINK[target], *(tiny_reaching if target == "lfd.data.ReachDataModule" else ())]
+    cfg = compose("train", f"experiment={name}", f"paths.root_dir={root}", "++trainer.fast_dev_run=true", *shrink)
     train.main(cfg)  # instantiates datamodule, model, callbacks, loggers, trainer; fits one batch
     assert f"[lfd] run directory: {root / 'run'}" in capsys.readouterr().out

@@ -114,6 +114,9 @@ class ReachEvaluator:
             gains nothing from more, and loses much to thread hand-offs on a busy CPU).
     """
 
+    #: :meth:`run` reads the policies' dataset (``evaluate.py`` instantiates ``cfg.data`` for it).
+    needs_datamodule = True
+
     def __init__(
         self,
         scenario: str | None = None,

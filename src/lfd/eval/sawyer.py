@@ -98,6 +98,9 @@ class SawyerProtocol:
         fk_seed: the training data seed (``configs/eval/sawyer.yaml``: the config's ``seed``).
     """
 
+    #: The protocol draws its own goals and forward-model test set: ``evaluate.py`` passes no datamodule.
+    needs_datamodule = False
+
     def __init__(
         self,
         checkpoint: str | None = None,
@@ -157,8 +160,9 @@ class SawyerProtocol:
         """Run the protocol with the ``checkpoints["sawyer_models"]`` models and write the
         outputs to ``out_dir``; returns the metrics.
 
-        ``datamodule`` is accepted so that ``evaluate.py`` calls every evaluator alike; the
-        protocol draws its own goals and forward-model test set (``n_fk_test``, ``fk_seed``).
+        ``datamodule`` is accepted (and ignored) so that ``evaluate.py`` calls every evaluator
+        alike (:attr:`needs_datamodule` is False: it passes None); the protocol draws its own
+        goals and forward-model test set (``n_fk_test``, ``fk_seed``).
         """
         if not checkpoints or SawyerModels.kind not in checkpoints:
             raise ValueError(f"SawyerProtocol.run: checkpoints must hold a '{SawyerModels.kind}' path, got {checkpoints!r}")

@@ -14,7 +14,7 @@ Example::
     data = SawyerModelsDataModule()
     models = SawyerModels()
     models.adapt(data.adaptation_data())      # normalisation + demonstrations (train.py does this)
-    lightning.Trainer(max_epochs=10).fit(models, datamodule=data)
+    L.Trainer(max_epochs=10).fit(models, datamodule=data)     # import lightning as L
 """
 
 from __future__ import annotations
