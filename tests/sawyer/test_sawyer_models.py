@@ -109,6 +109,9 @@ def test_tiny_forward_model_beats_the_mean_position_baseline(tmp_path, robot):
 def test_inverse_model_drives_the_kinematic_arm_towards_goals(tmp_path, robot, cube_data):
     torch.manual_seed(0)
     model = InverseModel(task="cube")
+    with pytest.raises(RuntimeError, match="adapt"):
+        trainer(max_epochs=1, default_root_dir=tmp_path).fit(model, datamodule=cube_data)
+    model.adapt(cube_data.adaptation_data())  # the data reach the model as plain objects, as in train.py
     trainer(max_epochs=12, default_root_dir=tmp_path).fit(model, datamodule=cube_data)
     goals = np.array([[0.035, -0.573, -0.04], [0.237, -0.466, -0.04], [-0.179, -0.678, -0.04]])
     initial = np.linalg.norm(robot.fk(torch.from_numpy(START[None]))[0, :3, 3].numpy() - goals, axis=1)

@@ -468,6 +468,12 @@ class SawyerInverseDataModule(L.LightningDataModule):
     def setup(self, stage: str | None = None) -> None:
         self.prepare()
 
+    def adaptation_data(self) -> dict[str, InverseData]:
+        """Every task's :class:`InverseData` (built once), from which
+        :meth:`lfd.models.inverse.InverseModel.adapt` takes its normalisation and
+        demonstration; ``train.py`` hands it over before fitting."""
+        return self.prepare()
+
     def _split(self, data: InverseData) -> dict[str, TensorDataset]:
         n_paths = len(data.goals)
         order = 1 + np.random.default_rng(self.seed).permutation(n_paths - 1)

@@ -71,8 +71,14 @@ class InverseModel(L.LightningModule):
         self.register_buffer("v_std", torch.ones(n_joints))
         self.demo: JointDemonstration | None = None
 
-    def adapt(self, data: InverseData) -> None:
-        """Take the normalisation statistics and the demonstration from the training data."""
+    def adapt(self, data: InverseData | Mapping[str, InverseData]) -> None:
+        """Take the normalisation statistics and the demonstration from the training data:
+        this task's :class:`~lfd.data.sawyer.InverseData`, or ``{task: InverseData}``
+        (``SawyerInverseDataModule.adaptation_data()``, which ``train.py`` hands over)."""
+        if isinstance(data, Mapping):
+            if self.hparams.task not in data:
+                raise ValueError(f"InverseModel.task {self.hparams.task!r} is not among the data's tasks {sorted(data)}")
+            data = data[self.hparams.task]
         e = torch.from_numpy(data.errors.reshape(-1, 3))
         v = torch.from_numpy(data.velocities.reshape(-1, data.velocities.shape[-1]))
         if v.shape[-1] != self.hparams.n_joints:
@@ -97,8 +103,11 @@ class InverseModel(L.LightningModule):
 
     # -- standalone training on SawyerInverseDataModule ({task: (e, v)} batches) ----------
     def setup(self, stage: str) -> None:
-        if stage == "fit":
-            self.adapt(self.trainer.datamodule.prepare()[self.hparams.task])
+        if stage == "fit" and self.demo is None:
+            raise RuntimeError(
+                f"InverseModel({self.hparams.task}): no training data yet; call "
+                "model.adapt(datamodule.adaptation_data()) before fitting (train.py does)"
+            )
 
     def training_step(self, batch, batch_idx: int) -> Tensor:
         loss = self.loss(*batch[self.hparams.task])
