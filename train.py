@@ -11,6 +11,7 @@ Examples::
     python train.py experiment=original trainer=gpu   # original-scale data on a GPU
     python train.py trainer=ddp trainer.devices=2     # Lightning DDP (gloo on CPU)
     python train.py trainer.fast_dev_run=true         # one batch of train + val, a smoke test
+    python train.py experiment=sawyer_models          # the Sawyer forward + inverse models
 """
 
 from __future__ import annotations
@@ -36,6 +37,10 @@ def main(cfg: DictConfig) -> str | None:
     callbacks = _instantiate_group(cfg.get("callbacks"))
     loggers = _instantiate_group(cfg.get("logger"))
     trainer = hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False)
+    # Models that take normalisation statistics (and demonstrations) from their training
+    # data get them here, as plain objects: the model never reaches into the datamodule.
+    if callable(getattr(model, "adapt", None)) and callable(getattr(datamodule, "adaptation_data", None)):
+        model.adapt(datamodule.adaptation_data())
 
     if trainer.is_global_zero:
         print(OmegaConf.to_yaml(cfg, resolve=False))

@@ -1,10 +1,68 @@
-"""Suite-wide settings.
+"""Suite-wide settings and fixtures.
 
 torch's OpenMP threads busy-wait between parallel regions by default; on a small shared
 machine (CI has 2 cores and the tests start worker processes) that stalls everything
 else. Passive waiting must be chosen before torch loads its OpenMP runtime, hence here.
+
+``compose(config_name, *overrides)`` composes the repository's Hydra configs the way the
+entry points do (lightning-hydra-template's ``cfg_train`` / ``cfg_eval`` fixtures), with
+``paths.root_dir`` in a fresh temporary folder unless an override sets it
+(``paths.output_dir``: ``<root_dir>/run``).
 """
 
 import os
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+from pathlib import Path  # noqa: E402
+
+import pytest  # noqa: E402
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+#: Overrides that shrink the reaching data and the visuomotor networks to seconds of CPU:
+#: 2 training objects x 3 placements (1 of them validation), no test split, 32 px, 30 steps.
+TINY_REACHING = (
+    "data.n_train_objects=2",
+    "data.n_train_placements=3",
+    "data.val_fraction=0.34",
+    "data.n_test_objects=0",
+    "data.n_test_placements=0",
+    "data.image_size=32",
+    "data.n_steps=30",
+    "data.batch_size=2",
+    "data.progress=false",
+    "model.channels=[4,4,4,8]",
+    "model.hidden=[16,16]",
+)
+
+
+@pytest.fixture(scope="session")
+def tiny_reaching() -> tuple[str, ...]:
+    """:data:`TINY_REACHING`: overrides for a tiny reaching dataset (``data.name`` is the caller's)."""
+    return TINY_REACHING
+
+
+@pytest.fixture(scope="session")
+def compose(tmp_path_factory):
+    """``compose(config_name, *overrides) -> DictConfig``: ``configs/<config_name>.yaml`` with
+    the overrides (later ones win), its Hydra config set as the current run's, rooted in a
+    new temporary folder (``paths.root_dir``; outputs in ``<root>/run``)."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.hydra_config import HydraConfig
+
+    def _compose(config_name: str, *overrides: str):
+        root = tmp_path_factory.mktemp(config_name)
+        GlobalHydra.instance().clear()
+        with initialize_config_dir(config_dir=str(CONFIGS), version_base="1.3"):
+            cfg = hydra_compose(
+                config_name=config_name,
+                overrides=[f"paths.root_dir={root}", "paths.output_dir=${paths.root_dir}/run", *overrides],
+                return_hydra_config=True,
+            )
+        HydraConfig.instance().set_config(cfg)
+        return cfg
+
+    yield _compose
+    GlobalHydra.instance().clear()

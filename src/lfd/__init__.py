@@ -4,10 +4,10 @@ Sub-packages (one-way dependencies, top depends on bottom)::
 
     models/  LightningModules (forward MLP, inverse MLP, CNN->DMP, velocity CNN)
     data/    LightningDataModules + on-disk dataset format
-    eval/    closed-loop evaluation, metrics, plots
-    sim/     PyBullet scenes, objects, camera, scripted demonstrations
-    rl/      PoWER and rewards (numpy/torch)
-    robots/  robot specs, batched FK / Jacobian / IK / RNE, URDF writer (torch)
+    eval/    closed-loop controllers and evaluation, metrics, plots, the Sawyer protocol
+    sim/     PyBullet scenes, objects, camera, scripted demonstrations, simulated arms
+    rl/      PoWER, rewards, goal adaptation and refinement (numpy/torch)
+    robots/  robot specs, batched FK / Jacobian / IK / RNE, reach tests, URDF writer (torch)
     dmp/     canonical system, bases, LWR fitting, batched + differentiable DMP layer
 """
 

@@ -4,12 +4,10 @@ from pathlib import Path
 
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 from hydra.utils import instantiate
 
 from lfd.data import DatasetError, ReachDataModule
 
-CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 TINY = dict(
     seed=3,
     n_train_objects=2,
@@ -96,15 +94,8 @@ def test_errors(root):
 
 
 @pytest.mark.parametrize(("name", "train", "placements", "test"), [("quick", 12, 16, 4), ("original", 27, 22, 4)])
-def test_hydra_configs_compose_and_instantiate(tmp_path, name, train, placements, test):
-    # a minimal root config providing what configs/data expects: seed and paths.data_dir
-    (tmp_path / "root.yaml").write_text(
-        f"defaults:\n  - data: quick\n  - _self_\nseed: 9\npaths:\n  data_dir: {tmp_path}\n"
-        f"hydra:\n  searchpath:\n    - file://{CONFIGS}\n"
-    )
-    with initialize_config_dir(config_dir=str(tmp_path), version_base="1.3"):
-        cfg = compose(config_name="root", overrides=[f"data={name}"])
-    data = cfg.data
+def test_hydra_configs_compose_and_instantiate(compose, tmp_path, name, train, placements, test):
+    data = compose("train", f"data={name}", "seed=9", f"paths.data_dir={tmp_path}").data
     assert data._target_ == "lfd.data.ReachDataModule"
     assert (data.n_train_objects, data.n_train_placements, data.n_test_objects) == (train, placements, test)
     dm = instantiate(data, _convert_="all")

@@ -10,25 +10,19 @@ from __future__ import annotations
 
 import csv
 import json
-import sys
 from pathlib import Path
 
+import hydra
 import numpy as np
 import pytest
-import hydra
 import torch
-from hydra import compose, initialize_config_dir
-from hydra.core.global_hydra import GlobalHydra
-from hydra.core.hydra_config import HydraConfig
 from PIL import Image
 
+import evaluate  # the repository's entry points (pytest's pythonpath holds the root)
 import lfd.eval.evaluator as evaluator_module
+import train
 from lfd.eval import ReachEvaluator
 from lfd.models import POLICIES, load_policy
-
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
-import train  # noqa: E402  (the repository's entry point)
 
 #: A dataset small enough to generate in seconds: 2 training objects x 3 placements
 #: (1 of them validation), 1 test object x 2 placements, 32 px images, 30 steps.
@@ -47,17 +41,19 @@ TINY_DATA = [
 TINY_MODEL = ["model.channels=[4,4,4,8]", "model.hidden=[16,16]", "model.plot_every_n_val=1"]
 
 
-def compose_config(name: str, root: Path, overrides: list[str]):
-    """Compose ``configs/<name>.yaml`` like the entry points do, rooted in ``root``."""
-    GlobalHydra.instance().clear()
-    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
-        cfg = compose(
-            config_name=name,
-            overrides=[f"paths.root_dir={root}", f"paths.output_dir={root / 'run'}", *TINY_DATA, *overrides],
-            return_hydra_config=True,
-        )
-    HydraConfig.instance().set_config(cfg)
-    return cfg
+@pytest.fixture(scope="module")
+def tiny(compose, workspace):
+    """``compose`` rooted in this module's workspace, on the tiny dataset."""
+
+    def _compose(name: str, *overrides: str):
+        return compose(name, f"paths.root_dir={workspace}", *TINY_DATA, *overrides)
+
+    return _compose
+
+
+def given(cfg) -> dict:
+    """The checkpoints named on the command line, as ``evaluate.py`` passes them."""
+    return {"cnn_dmp": cfg.ckpt_dmp, "velocity": cfg.ckpt_velocity}
 
 
 @pytest.fixture(scope="module")
@@ -66,9 +62,9 @@ def workspace(tmp_path_factory) -> Path:
 
 
 @pytest.mark.parametrize("model", sorted(POLICIES))
-def test_fast_dev_run(workspace, model):
+def test_fast_dev_run(tiny, model):
     """The composed config instantiates and fits one train + one val batch; both losses are finite."""
-    cfg = compose_config("train", workspace, [f"model={model}", "++trainer.fast_dev_run=true", *TINY_MODEL])
+    cfg = tiny("train", f"model={model}", "++trainer.fast_dev_run=true", *TINY_MODEL)
     assert cfg.data.mode == POLICIES[model].item_mode
     datamodule = hydra.utils.instantiate(cfg.data)
     policy = hydra.utils.instantiate(cfg.model)
@@ -82,16 +78,14 @@ def test_fast_dev_run(workspace, model):
 
 
 @pytest.fixture(scope="module")
-def checkpoints(workspace) -> dict[str, Path]:
+def checkpoints(tiny, workspace) -> dict[str, Path]:
     """Two optimiser steps of each policy, as ``train.py -m model=cnn_dmp,velocity`` would
     leave them under ``outputs/train/<run>/checkpoints/last.ckpt``."""
     out = {}
     for model in sorted(POLICIES):
         run_dir = workspace / "outputs" / "train" / f"run-{model}"
-        cfg = compose_config(
-            "train",
-            workspace,
-            [f"model={model}", "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run_dir}", *TINY_MODEL],
+        cfg = tiny(
+            "train", f"model={model}", "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run_dir}", *TINY_MODEL
         )
         out[model] = Path(train.main(cfg))
         assert out[model] == run_dir / "checkpoints" / "last.ckpt" and out[model].is_file()
@@ -137,7 +131,7 @@ class RecordingPolicy:
         return self.policy.act(*args, **kwargs)
 
 
-def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monkeypatch):
+def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace, monkeypatch):
     recorders = {}
 
     def recording_load(path):
@@ -147,8 +141,8 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monk
 
     monkeypatch.setattr(evaluator_module, "load_policy", recording_load)
     out_dir = workspace / "eval"
-    cfg = compose_config("evaluate", workspace, ["eval.n_gifs=1", "eval.max_steps=12"])
-    metrics = ReachEvaluator(**{k: v for k, v in cfg.eval.items() if k != "_target_"}).run(cfg, out_dir)
+    cfg = tiny("evaluate", "eval.n_gifs=1", "eval.max_steps=12")
+    metrics = evaluate.evaluate(cfg, out_dir)
 
     # metrics.json: both methods, every key, sane values
     saved = json.loads((out_dir / "metrics.json").read_text())
@@ -206,7 +200,7 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, workspace, monk
             np.testing.assert_allclose(times, [0.0] + 2 * [k * dt for k in range(12)])
 
 
-def test_scenario_file_evaluation(checkpoints, workspace):
+def test_scenario_file_evaluation(checkpoints, tiny, workspace):
     """Every object x placement of a scenario, with the scripted expert's path as reference."""
     scenario = workspace / "scenario.yaml"
     scenario.write_text(
@@ -216,9 +210,9 @@ def test_scenario_file_evaluation(checkpoints, workspace):
         "placements:\n"
         "  - [0.55, 0.05, 0.3]\n"
     )
-    cfg = compose_config("evaluate", workspace, [f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=6"])
+    cfg = tiny("evaluate", f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=6")
     out_dir = workspace / "eval-scenario"
-    metrics = ReachEvaluator(**{k: v for k, v in cfg.eval.items() if k != "_target_"}).run(cfg, out_dir)
+    metrics = evaluate.evaluate(cfg, out_dir)
     assert {m["episodes"] for m in metrics.values()} == {2}
     assert all(m["cases"] == f"scenario {scenario}" for m in metrics.values())
     with open(out_dir / "episodes.csv") as f:
@@ -240,24 +234,24 @@ def test_evaluator_interface_cannot_pass_the_object_pose():
     assert [f.name for f in fields(Observation)] == ["image", "joints", "time"]
 
 
-def test_missing_checkpoint_says_which_and_how(workspace, tmp_path):
-    cfg = compose_config("evaluate", workspace, [f"paths.output_root={tmp_path}"])
+def test_missing_checkpoint_says_which_and_how(tiny, tmp_path):
+    cfg = tiny("evaluate", f"paths.output_root={tmp_path}")
     with pytest.raises(FileNotFoundError) as info:
-        ReachEvaluator().checkpoints(cfg)
+        ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
     msg = str(info.value)
     assert "no 'cnn_dmp' checkpoint" in msg and "python train.py model=cnn_dmp" in msg and "ckpt_dmp=PATH" in msg
     assert "no 'velocity' checkpoint" in msg and "python train.py model=velocity" in msg
-    cfg = compose_config("evaluate", workspace, [f"ckpt_dmp={tmp_path / 'nope.ckpt'}"])
+    cfg = tiny("evaluate", f"ckpt_dmp={tmp_path / 'nope.ckpt'}")
     with pytest.raises(FileNotFoundError, match="ckpt_dmp=.*nope.ckpt"):
-        ReachEvaluator().checkpoints(cfg)
+        ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
 
 
-def test_newest_checkpoint_of_each_kind_is_found(checkpoints, workspace):
-    cfg = compose_config("evaluate", workspace, [])
-    assert ReachEvaluator().checkpoints(cfg) == checkpoints
+def test_newest_checkpoint_of_each_kind_is_found(checkpoints, tiny):
+    cfg = tiny("evaluate")
+    assert ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg)) == checkpoints
 
 
-def test_mismatched_image_size_is_refused(checkpoints, workspace):
-    cfg = compose_config("evaluate", workspace, ["data.image_size=48", "data.name=tiny48", "eval.limit=1"])
+def test_mismatched_image_size_is_refused(checkpoints, tiny, workspace):
+    cfg = tiny("evaluate", "data.image_size=48", "data.name=tiny48", "eval.limit=1")
     with pytest.raises(ValueError, match="built with image_size=32, the dataset has image_size=48"):
-        ReachEvaluator().run(cfg, workspace / "eval-mismatch")
+        evaluate.evaluate(cfg, workspace / "eval-mismatch")

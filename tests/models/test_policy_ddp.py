@@ -11,23 +11,7 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[2]
 
-TINY = [
-    "data.name=tiny-ddp",
-    "data.n_train_objects=2",
-    "data.n_train_placements=3",
-    "data.val_fraction=0.34",
-    "data.n_test_objects=0",
-    "data.n_test_placements=0",
-    "data.image_size=32",
-    "data.n_steps=30",
-    "data.batch_size=2",
-    "data.progress=false",
-    "model.channels=[4,4,4,8]",
-    "model.hidden=[16,16]",
-]
-
-
-def test_ddp_two_cpu_processes_train_and_save(tmp_path):
+def test_ddp_two_cpu_processes_train_and_save(tmp_path, tiny_reaching):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]), "OMP_NUM_THREADS": "1"}
     cmd = [
         sys.executable,
@@ -40,7 +24,8 @@ def test_ddp_two_cpu_processes_train_and_save(tmp_path):
         "++trainer.limit_val_batches=1",
         f"paths.root_dir={tmp_path}",
         f"hydra.run.dir={tmp_path / 'outputs' / 'train' / 'ddp'}",
-        *TINY,
+        "data.name=tiny-ddp",
+        *tiny_reaching,
     ]
     proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     log = proc.stdout + proc.stderr

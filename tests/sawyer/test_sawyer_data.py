@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,18 +15,17 @@ from lfd.data.sawyer import (
     DEMO_GOAL,
     TASK_ORIENTATIONS_DEG,
     DemoFileError,
+    InverseDataConfig,
     SawyerFKDataModule,
     build_inverse_data,
-    fk_positions,
-    follow_paths,
     load_demo_csv,
     make_demonstration,
-    pose_from_rpy,
-    warp_to_goals,
 )
-from lfd.robots import load_robot
+from lfd.robots import load_robot, make_transform
+from lfd.sim.trajectory import follow_paths, warp_to_goals
 
-FIXTURE = Path(__file__).resolve().parents[2] / "data" / "fixtures" / "sawyer_demo.csv"
+ROOT = Path(__file__).resolve().parents[2]
+FIXTURE = ROOT / "data" / "fixtures" / "sawyer_demo.csv"
 HEADER = "time,j0,j1,j2,j3,j4,j5,j6"
 
 
@@ -63,7 +65,7 @@ def test_fixture_demo_loads_within_limits(robot):
     demo = make_demonstration(robot, demo_csv=FIXTURE)
     assert demo.q.shape == (100, 7)
     assert demo.duration == pytest.approx(3.96, abs=0.05)
-    assert np.linalg.norm(fk_positions(robot, demo.q[-1]) - DEMO_GOAL) < 0.005
+    assert np.linalg.norm(robot.fk_positions(demo.q[-1]).numpy() - DEMO_GOAL) < 0.005
 
 
 @pytest.mark.parametrize(
@@ -98,7 +100,7 @@ def test_csv_missing_file_and_out_of_limits(tmp_path, robot):
 def test_scripted_demo_reaches_the_goal_pose_at_rest(robot, cube_demo):
     assert cube_demo.q[0] == pytest.approx(np.radians([0, -50, 0, 120, 0, 0, 0]))
     pose = robot.fk(torch.from_numpy(cube_demo.q[-1:]))[0].numpy()
-    target = pose_from_rpy(DEMO_GOAL, TASK_ORIENTATIONS_DEG["cube"])
+    target = make_transform(DEMO_GOAL, np.radians(TASK_ORIENTATIONS_DEG["cube"]))
     assert np.abs(pose - target).max() < 1e-3
     assert np.abs(cube_demo.q[1] - cube_demo.q[0]).max() < 1e-3  # quintic: starts at rest
 
@@ -129,10 +131,11 @@ def test_follow_paths_exponential_progress():
 
 
 def test_inverse_data_pairs_are_fk_errors_and_velocities(robot, cube_demo):
-    data = build_inverse_data(robot, cube_demo, n_goals=6, n_seeds=4, dt=0.2, n_steps=40, cross_paths=1)  # 5.3 time constants
+    config = InverseDataConfig(n_goals=6, n_seeds=4, dt=0.2, n_steps=40, cross_paths=1)  # 5.3 time constants
+    data = build_inverse_data(robot, cube_demo, config)
     n_goals = 1 + 6 - data.n_failed
     assert data.q.shape == (2 * n_goals, 40, 7) and data.errors.shape == (2 * n_goals, 40, 3)
-    assert data.errors == pytest.approx(fk_positions(robot, data.q) - data.goals[:, None], abs=1e-12)
+    assert data.errors == pytest.approx(robot.fk_positions(data.q).numpy() - data.goals[:, None], abs=1e-12)
     assert data.goals[0] == pytest.approx(np.array(DEMO_GOAL), abs=1e-3)
     # warped paths start at the start pose, cross paths at another goal; all end near their goal
     assert data.q[:n_goals, 0] == pytest.approx(np.repeat(cube_demo.q[:1], n_goals, axis=0))
@@ -153,3 +156,26 @@ def test_fk_datamodule_fresh_training_samples_fixed_test_set(robot):
     assert torch.allclose(x.double(), robot.fk(q.double())[:, :3, 3], atol=1e-5)
     with pytest.raises(ValueError, match="batch_size"):
         SawyerFKDataModule(batch_size=0)
+
+
+def test_inverse_data_config_names_bad_fields():
+    with pytest.raises(ValueError, match="orders"):
+        InverseDataConfig(orders=(3, 4))
+    with pytest.raises(ValueError, match="time_constant"):
+        InverseDataConfig(time_constant=0.0)
+    with pytest.raises(ValueError, match=r"unknown field\(s\) \['n_goal'\]"):
+        InverseDataConfig.from_mapping({"n_goal": 3})
+    assert InverseDataConfig.from_mapping({"goal_spread": [0.1, 0.1, 0.0]}).goal_spread == (0.1, 0.1, 0.0)
+
+
+def test_sawyer_data_imports_without_pybullet():
+    """The numeric data pipeline (lfd.data.sawyer, lfd.sim.trajectory) needs no simulator."""
+    code = (
+        "import sys; sys.modules['pybullet'] = None\n"  # any `import pybullet` now raises ImportError
+        "import lfd.data.sawyer, lfd.sim.trajectory, lfd.robots\n"
+        "print(sorted(m for m in sys.modules if m.startswith('lfd.sim')))"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert result.stdout.strip() == "['lfd.sim', 'lfd.sim.trajectory']"

@@ -7,11 +7,13 @@ import numpy as np
 import pytest
 import torch
 
-from lfd.data.sawyer import TASK_ORIENTATIONS_DEG, SawyerFKDataModule, SawyerInverseDataModule, sample_fk
-from lfd.eval.sawyer import KinematicArm, closed_loop_reach
+from lfd.data.sawyer import TASK_ORIENTATIONS_DEG, InverseDataConfig, SawyerFKDataModule, SawyerInverseDataModule, sample_fk
+from lfd.eval.rollout import closed_loop_reach
+from lfd.models import SawyerModels, load_sawyer_models
 from lfd.models.forward import ForwardModel, error_summary, position_errors_mm
-from lfd.models.inverse import InverseModel, SawyerModels, load_sawyer_models
+from lfd.models.inverse import InverseModel
 from lfd.robots import load_robot
+from lfd.sim.arms import KinematicArm
 
 START = np.radians([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])
 
@@ -29,7 +31,8 @@ def robot():
 @pytest.fixture(scope="module")
 def cube_data():
     """Small inverse-model data of the cube task (shared by the inverse-model tests)."""
-    dm = SawyerInverseDataModule(tasks={"cube": {"orientation_deg": TASK_ORIENTATIONS_DEG["cube"]}}, n_goals=24, batch_size=128, seed=3)
+    tasks = {"cube": {"orientation_deg": TASK_ORIENTATIONS_DEG["cube"]}}
+    dm = SawyerInverseDataModule(tasks=tasks, config=InverseDataConfig(n_goals=24, seed=3), batch_size=128)
     dm.prepare()
     return dm
 
@@ -106,6 +109,9 @@ def test_tiny_forward_model_beats_the_mean_position_baseline(tmp_path, robot):
 def test_inverse_model_drives_the_kinematic_arm_towards_goals(tmp_path, robot, cube_data):
     torch.manual_seed(0)
     model = InverseModel(task="cube")
+    with pytest.raises(RuntimeError, match="adapt"):
+        trainer(max_epochs=1, default_root_dir=tmp_path).fit(model, datamodule=cube_data)
+    model.adapt(cube_data.adaptation_data())  # the data reach the model as plain objects, as in train.py
     trainer(max_epochs=12, default_root_dir=tmp_path).fit(model, datamodule=cube_data)
     goals = np.array([[0.035, -0.573, -0.04], [0.237, -0.466, -0.04], [-0.179, -0.678, -0.04]])
     initial = np.linalg.norm(robot.fk(torch.from_numpy(START[None]))[0, :3, 3].numpy() - goals, axis=1)

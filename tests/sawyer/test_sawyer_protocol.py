@@ -12,12 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from hydra import compose, initialize_config_dir
 
-from lfd.data.sawyer import DEMO_GOAL, TASK_ORIENTATIONS_DEG, make_demonstration, pose_from_rpy, solve_near
-from lfd.eval.sawyer import GOALS, KinematicArm, PyBulletArm, Workspace, closed_loop_reach, refine
-from lfd.models.inverse import load_sawyer_models
-from lfd.robots import load_robot
+from lfd.data.sawyer import DEMO_GOAL, TASK_ORIENTATIONS_DEG, make_demonstration
+from lfd.eval.rollout import closed_loop_reach
+from lfd.eval.sawyer import GOALS
+from lfd.models import load_sawyer_models
+from lfd.rl import refine
+from lfd.robots import Workspace, load_robot, make_transform, solve_near
+from lfd.sim.arms import KinematicArm, PyBulletArm
 
 ROOT = Path(__file__).resolve().parents[2]
 START = np.radians([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])
@@ -36,7 +38,7 @@ SMALL_TRAIN = [
     "data.forward.batches_per_epoch=375",
     "data.forward.n_val=2000",
     "data.forward.n_test=2000",
-    "data.inverse.n_goals=24",
+    "data.inverse.config.n_goals=24",
     "data.inverse.batch_size=128",
 ]
 
@@ -69,7 +71,7 @@ def trained(tmp_path_factory) -> Path:
 # ---------------------------------------------------------------------------- reach test
 def test_goal_3_is_reported_unreachable(robot):
     workspace = Workspace(robot, n_samples=20_000, n_seeds=8)
-    rotation = pose_from_rpy(GOALS[0], TASK_ORIENTATIONS_DEG["cube"])[:3, :3]
+    rotation = make_transform(GOALS[0], np.radians(TASK_ORIENTATIONS_DEG["cube"]))[:3, :3]
     far = workspace.test(GOALS[2], rotation)
     assert not far.reachable and not far.position_ik and not far.pose_ik
     assert far.shoulder_distance > far.max_reach > 1.0
@@ -82,8 +84,9 @@ def test_goal_3_is_reported_unreachable(robot):
 def test_power_refines_a_nearby_trajectory_to_within_1_cm(robot):
     demo = make_demonstration(robot, TASK_ORIENTATIONS_DEG["cube"])
     goal = np.array(GOALS[0])
-    q_goal, ok = solve_near(robot, pose_from_rpy(goal + [0.03, 0.02, 0.0], TASK_ORIENTATIONS_DEG["cube"])[None], demo.q[-1])
-    assert ok[0]
+    solution = solve_near(robot, make_transform(goal + [0.03, 0.02, 0.0], np.radians(TASK_ORIENTATIONS_DEG["cube"]))[None], demo.q[-1])
+    assert solution.success[0]
+    q_goal = solution.q.numpy()
     t = np.linspace(0.0, 4.0, 80)
     s = (t / 4.0)[:, None]
     trajectory = START + (10 * s**3 - 15 * s**4 + 6 * s**5) * (q_goal[0] - START)  # ends 3.6 cm from the goal
@@ -114,10 +117,9 @@ def test_pybullet_arm_follows_the_kinematic_arm(robot):
 
 
 # ---------------------------------------------------------------------------- the commands
-def test_experiment_config_composes():
-    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
-        cfg = compose(config_name="train", overrides=["experiment=sawyer_models", "+trainer.fast_dev_run=true"])
-    assert cfg.model._target_ == "lfd.models.inverse.SawyerModels"
+def test_experiment_config_composes(compose):
+    cfg = compose("train", "experiment=sawyer_models", "+trainer.fast_dev_run=true")
+    assert cfg.model._target_ == "lfd.models.SawyerModels"
     assert cfg.data._target_ == "lfd.data.sawyer.SawyerModelsDataModule"
     assert list(cfg.model.tasks) == list(cfg.data.inverse.tasks) and cfg.test
 
@@ -128,7 +130,7 @@ def test_fast_dev_run_smoke(tmp_path):
         "train.py",
         "experiment=sawyer_models",
         "+trainer.fast_dev_run=true",
-        "data.inverse.n_goals=4",
+        "data.inverse.config.n_goals=4",
         "data.forward.n_test=500",
         f"paths.output_root={tmp_path}",
         cwd=tmp_path,

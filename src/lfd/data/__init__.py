@@ -11,48 +11,36 @@ The on-disk format is documented in ``data/README.md``. Typical use::
 
 Lower level: :func:`generate_dataset` (also per shard) and :func:`merge_shards`,
 :func:`load_dataset` / :func:`verify_dataset`, the dataset views
-:class:`DMPReachDataset` and :class:`VelocityReachDataset`.
+:class:`DMPReachDataset` and :class:`VelocityReachDataset`. The Sawyer models' data
+(forward-kinematics samples, demonstrations, inverse-model paths) is in :mod:`lfd.data.sawyer`.
+
+Names are loaded on first use (PEP 562): Lightning and PyBullet are imported only by the
+modules that need them, so e.g. ``import lfd.data.sawyer`` works without PyBullet.
 """
 
 from typing import TYPE_CHECKING
 
-from .config import GeneratorConfig
-from .datasets import DMPReachDataset, ReachData, VelocityReachDataset, image_augmentation, load_dataset
-from .episodes import SPLITS, EpisodePlan, EpisodeRecord, plan_episodes
-from .generate import GenerationReport, code_version, dataset_dir, generate_dataset, merge_shards
-from .manifest import verify_dataset
-from .storage import DatasetError
+from lfd._lazy import exports, lazy_getattr
+
+_EXPORTS = exports(
+    {
+        "config": ["GeneratorConfig"],
+        "datamodule": ["ReachDataModule"],
+        "datasets": ["DMPReachDataset", "ReachData", "VelocityReachDataset", "image_augmentation", "load_dataset"],
+        "episodes": ["SPLITS", "EpisodePlan", "EpisodeRecord", "plan_episodes"],
+        "generate": ["GenerationReport", "code_version", "dataset_dir", "generate_dataset", "merge_shards"],
+        "manifest": ["verify_dataset"],
+        "storage": ["DatasetError"],
+    }
+)
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_getattr(__name__, _EXPORTS)
 
 if TYPE_CHECKING:
+    from .config import GeneratorConfig
     from .datamodule import ReachDataModule
-
-__all__ = [
-    "SPLITS",
-    "DMPReachDataset",
-    "DatasetError",
-    "EpisodePlan",
-    "EpisodeRecord",
-    "GenerationReport",
-    "GeneratorConfig",
-    "ReachData",
-    "ReachDataModule",
-    "VelocityReachDataset",
-    "code_version",
-    "dataset_dir",
-    "generate_dataset",
-    "image_augmentation",
-    "load_dataset",
-    "merge_shards",
-    "plan_episodes",
-    "verify_dataset",
-]
-
-
-def __getattr__(name: str):
-    # Lightning is imported on first use of the datamodule only: generation workers, the
-    # simulator-side tools and the tests of the dataset format do not need it.
-    if name == "ReachDataModule":
-        from .datamodule import ReachDataModule
-
-        return ReachDataModule
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from .datasets import DMPReachDataset, ReachData, VelocityReachDataset, image_augmentation, load_dataset
+    from .episodes import SPLITS, EpisodePlan, EpisodeRecord, plan_episodes
+    from .generate import GenerationReport, code_version, dataset_dir, generate_dataset, merge_shards
+    from .manifest import verify_dataset
+    from .storage import DatasetError

@@ -6,9 +6,10 @@
   test sets are fixed by the seed.
 * **Inverse model**: one demonstration (scripted -- IK of the demonstration goal + a
   quintic in joint space -- or recorded, :func:`load_demo_csv`) plus, for nearby goals,
-  third/fifth-order polynomial warps of it (:func:`warp_to_goals`) and straight joint-space
-  paths into each goal from another goal (:func:`build_inverse_data`). Each path is
-  followed with *exponential progress* (:func:`follow_paths`): the commanded joint
+  third/fifth-order polynomial warps of it (:func:`lfd.sim.trajectory.warp_to_goals`) and
+  straight joint-space paths into each goal from another goal (:func:`build_inverse_data`,
+  settings in :class:`InverseDataConfig`). Each path is followed with *exponential
+  progress* (:func:`lfd.sim.trajectory.follow_paths`): the commanded joint
   velocity is the path tangent times the remaining fraction of the path over a time
   constant. A rest-to-rest timing would pair the largest Cartesian errors (at the start)
   with zero velocity, and the learned error -> velocity map would never leave the start
@@ -17,7 +18,9 @@
   ``(x_e(t) - goal, qd(t))`` with ``x_e`` from forward kinematics.
 
 Units: metres, radians, seconds. Orientations are roll-pitch-yaw in degrees at the edges
-(configs), i.e. extrinsic x-y-z rotations ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
+(configs), i.e. extrinsic x-y-z rotations ``R = Rz(yaw) Ry(pitch) Rx(roll)``, converted once
+(:func:`lfd.robots.make_transform`). No PyBullet here: ``import lfd.data.sawyer`` works
+without a simulator.
 """
 
 from __future__ import annotations
@@ -25,19 +28,18 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import lightning as L
 import numpy as np
 import torch
 from lightning.pytorch.utilities import CombinedLoader
-from scipy.spatial.transform import Rotation
 from torch import Tensor
 from torch.utils.data import DataLoader, IterableDataset, TensorDataset
 
-from lfd.robots import load_robot
-from lfd.sim.trajectory import via_quintic
+from lfd.robots import load_robot, make_transform, solve_near
+from lfd.sim.trajectory import follow_paths, via_quintic, warp_to_goals
 
 __all__ = [
     "DEMO_GOAL",
@@ -46,21 +48,16 @@ __all__ = [
     "DemoFileError",
     "FKSampleStream",
     "InverseData",
+    "InverseDataConfig",
     "JointDemonstration",
     "SawyerFKDataModule",
     "SawyerInverseDataModule",
     "SawyerModelsDataModule",
     "build_inverse_data",
-    "follow_paths",
-    "fk_positions",
     "load_demo_csv",
     "make_demonstration",
-    "pose_from_rpy",
     "sample_fk",
     "scripted_demo",
-    "smoothstep",
-    "solve_near",
-    "warp_to_goals",
 ]
 
 #: Start pose of the original experiments (deg), joints j0..j6.
@@ -71,58 +68,67 @@ DEMO_GOAL = (0.035, -0.573, -0.04)
 TASK_ORIENTATIONS_DEG = {"cube": (180.0, 0.0, 90.0), "cup": (-135.0, -90.0, 135.0)}
 
 
-# ---------------------------------------------------------------------------- geometry
-def pose_from_rpy(position: Sequence[float], rpy_deg: Sequence[float]) -> np.ndarray:
-    """``(4, 4)`` pose from a position (m) and roll-pitch-yaw angles (deg, extrinsic x-y-z)."""
-    pose = np.eye(4)
-    pose[:3, :3] = Rotation.from_euler("xyz", np.asarray(rpy_deg, dtype=np.float64), degrees=True).as_matrix()
-    pose[:3, 3] = np.asarray(position, dtype=np.float64)
-    return pose
+# ---------------------------------------------------------------------------- settings
+@dataclass(frozen=True)
+class InverseDataConfig:
+    """Everything that determines one task's inverse-model data (besides the task's
+    orientation or recorded file), like :class:`lfd.data.GeneratorConfig` for the reaching data.
 
-
-def fk_positions(robot, q) -> np.ndarray:
-    """End-effector positions ``(..., 3)`` (m) of joint vectors ``q (..., n)`` (rad), one FK call."""
-    q = np.asarray(q, dtype=np.float64)
-    flat = robot.fk(torch.from_numpy(q.reshape(-1, q.shape[-1])))[:, :3, 3]
-    return flat.numpy().reshape(*q.shape[:-1], 3)
-
-
-def solve_near(robot, poses: np.ndarray, reference: np.ndarray, n_seeds: int = 16, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Full-pose IK of each target, choosing among several seeds the solution nearest ``reference``.
-
-    Seeds per target: ``reference`` itself, half of the rest near it (Gaussian, 0.3 rad) and
-    half uniform within the joint limits. Picking the successful solution closest to the
-    reference keeps a family of targets on one IK branch.
-
-    Args:
-        robot: a :class:`lfd.robots.Robot`.
-        poses: ``(G, 4, 4)`` target tool poses (m).
-        reference: ``(n,)`` joint vector (rad) the solutions should stay close to.
-        n_seeds: IK attempts per target (>= 1).
-        seed: seed of the random seeds.
-
-    Returns:
-        ``q (G, n)`` (rad; the best attempt where none succeeded) and ``success (G,)`` bool.
+    Attributes:
+        start_deg: start pose of the scripted demonstration (deg, one per joint).
+        demo_goal: goal of the scripted demonstration (m, robot world frame).
+        duration: scripted demonstration length (s).
+        n_demo_steps: samples of the demonstration (a recorded one is resampled to them).
+        n_goals: augmentation goals drawn around the demonstration's end point.
+        goal_spread: half-widths (m) of the goal box, x, y, z.
+        orders: polynomial blend orders (3 or 5) of the warps, cycled over the goals.
+        cross_paths: straight joint-space paths into each goal from other goals.
+        time_constant: seconds of exponential progress along each path.
+        dt: seconds between training samples; n_steps: samples per path.
+        n_seeds: IK seeds per augmentation goal (:func:`lfd.robots.solve_near`).
+        seed: seed of the goals, the IK seeds, the cross paths and the train/val split.
     """
-    poses = np.asarray(poses, dtype=np.float64)
-    reference = np.asarray(reference, dtype=np.float64)
-    n_targets, n = poses.shape[0], reference.shape[-1]
-    gen = torch.Generator().manual_seed(seed)
-    n_near = (n_seeds - 1) // 2
-    near = torch.from_numpy(reference) + 0.3 * torch.randn(n_targets, n_near, n, generator=gen, dtype=torch.float64)
-    uniform = robot.sample_q(n_targets * (n_seeds - 1 - n_near), gen).reshape(n_targets, -1, n)
-    seeds = torch.cat(
-        [torch.from_numpy(reference).expand(n_targets, 1, n), robot.clamp(near.reshape(-1, n)).reshape(near.shape), uniform], 1
-    )
-    targets = torch.from_numpy(poses)[:, None].expand(n_targets, n_seeds, 4, 4).reshape(-1, 4, 4)
-    result = robot.ik(targets, q0=seeds.reshape(-1, n), restarts=0)
-    q = result.q.reshape(n_targets, n_seeds, n)
-    distance = (q - torch.from_numpy(reference)).norm(dim=-1)
-    ok = result.success.reshape(n_targets, n_seeds)
-    score = torch.where(ok, distance, distance + 1e3 + result.pos_error.reshape(n_targets, n_seeds) * 1e3)
-    best = score.argmin(dim=1)
-    rows = torch.arange(n_targets)
-    return q[rows, best].numpy(), ok[rows, best].numpy()
+
+    start_deg: tuple[float, ...] = SAWYER_START_DEG
+    demo_goal: tuple[float, float, float] = DEMO_GOAL
+    duration: float = 4.0
+    n_demo_steps: int = 100
+    n_goals: int = 125
+    goal_spread: tuple[float, float, float] = (0.25, 0.15, 0.05)
+    orders: tuple[int, ...] = (3, 5)
+    cross_paths: int = 1
+    time_constant: float = 1.5
+    dt: float = 0.075
+    n_steps: int = 100
+    n_seeds: int = 8
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("start_deg", "demo_goal", "goal_spread", "orders"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
+        if len(self.demo_goal) != 3 or len(self.goal_spread) != 3 or min(self.goal_spread) < 0:
+            raise ValueError(
+                f"InverseDataConfig: demo_goal and goal_spread need 3 values (m, spread >= 0), got {self.demo_goal}, {self.goal_spread}"
+            )
+        if not self.orders or set(self.orders) - {3, 5}:
+            raise ValueError(f"InverseDataConfig.orders: expected blend orders 3 and/or 5, got {self.orders}")
+        for name in ("duration", "time_constant", "dt"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"InverseDataConfig.{name}: expected seconds > 0, got {getattr(self, name)!r}")
+        for name, low in (("n_demo_steps", 3), ("n_goals", 0), ("cross_paths", 0), ("n_steps", 2), ("n_seeds", 1)):
+            if int(getattr(self, name)) < low:
+                raise ValueError(f"InverseDataConfig.{name}: expected an int >= {low}, got {getattr(self, name)!r}")
+
+    @classmethod
+    def from_mapping(cls, values: Mapping | InverseDataConfig | None) -> InverseDataConfig:
+        """A config from a mapping of its fields (e.g. a Hydra node); unknown keys raise ``ValueError``."""
+        if isinstance(values, cls):
+            return values
+        values = dict(values or {})
+        unknown = sorted(set(values) - {f.name for f in fields(cls)})
+        if unknown:
+            raise ValueError(f"InverseDataConfig: unknown field(s) {unknown}; expected some of {[f.name for f in fields(cls)]}")
+        return cls(**values)
 
 
 # ---------------------------------------------------------------------------- demonstrations
@@ -217,11 +223,11 @@ def scripted_demo(
     Raises:
         ValueError: IK finds no solution of the goal pose within the joint limits.
     """
-    q_goal, ok = solve_near(robot, goal_pose[None], start, n_seeds=n_seeds, seed=seed)
-    if not ok[0]:
+    solution = solve_near(robot, goal_pose[None], start, n_seeds=n_seeds, seed=seed)
+    if not bool(solution.success[0]):
         raise ValueError(f"scripted_demo: no IK solution for the demonstration goal pose\n{np.round(goal_pose, 4)}")
     t = np.linspace(0.0, duration, n_steps)
-    q, _, _ = via_quintic(t, np.array([0.0, duration]), np.stack([start, q_goal[0]]))
+    q, _, _ = via_quintic(t, np.array([0.0, duration]), np.stack([start, solution.q[0].numpy()]))
     return JointDemonstration(t=t, q=q, source="scripted")
 
 
@@ -229,88 +235,32 @@ def make_demonstration(
     robot,
     orientation_deg: Sequence[float] | None = None,
     demo_csv: str | Path | None = None,
-    *,
-    start_deg: Sequence[float] = SAWYER_START_DEG,
-    demo_goal: Sequence[float] = DEMO_GOAL,
-    duration: float = 4.0,
-    n_steps: int = 100,
-    seed: int = 0,
+    config: InverseDataConfig | None = None,
 ) -> JointDemonstration:
-    """The demonstration of one task: the CSV file if given, else the scripted one from
-    ``start_deg`` to ``demo_goal`` with the end-effector orientation ``orientation_deg``.
+    """The demonstration of one task: the CSV file if given (resampled to
+    ``config.n_demo_steps``), else the scripted one from ``config.start_deg`` to
+    ``config.demo_goal`` with the end-effector orientation ``orientation_deg`` (roll, pitch,
+    yaw in deg).
 
     Raises:
         ValueError: neither an orientation nor a file, or a recorded sample outside the
             joint limits (the message names the file).
     """
+    config = config or InverseDataConfig()
     if demo_csv is not None:
-        demo = load_demo_csv(demo_csv, robot.n_dof, n_steps)
+        demo = load_demo_csv(demo_csv, robot.n_dof, config.n_demo_steps)
         outside = ~robot.within_limits(torch.from_numpy(demo.q)).numpy()
         if outside.any():
             raise DemoFileError(f"{demo.source}: {int(outside.sum())} resampled sample(s) outside the {robot.name} joint limits")
         return demo
     if orientation_deg is None:
         raise ValueError("make_demonstration: give an orientation_deg for the scripted demonstration or a demo_csv file")
-    start = np.radians(np.asarray(start_deg, dtype=np.float64))
-    return scripted_demo(robot, start, pose_from_rpy(demo_goal, orientation_deg), duration, n_steps, seed=seed)
+    start = np.radians(np.asarray(config.start_deg, dtype=np.float64))
+    goal_pose = make_transform(config.demo_goal, np.radians(np.asarray(orientation_deg, dtype=np.float64)))
+    return scripted_demo(robot, start, goal_pose, config.duration, config.n_demo_steps, seed=config.seed)
 
 
 # ---------------------------------------------------------------------------- augmentation
-def smoothstep(p: np.ndarray, order: int) -> np.ndarray:
-    """Rest-to-rest polynomial blend from 0 to 1 on ``p`` in [0, 1]: order 3
-    (``3p^2 - 2p^3``) or 5 (``10p^3 - 15p^4 + 6p^5``)."""
-    if order == 3:
-        return p * p * (3 - 2 * p)
-    if order == 5:
-        return p**3 * (10 - 15 * p + 6 * p * p)
-    raise ValueError(f"smoothstep: order must be 3 or 5, got {order}")
-
-
-def warp_to_goals(demo_q: np.ndarray, goal_q: np.ndarray, orders: Sequence[int]) -> np.ndarray:
-    """Paths ``(G, T, n)``: the demonstration ``demo_q (T, n)`` bent to end at each
-    ``goal_q (G, n)`` by a third- or fifth-order polynomial blend of the offset,
-    ``q_demo(p) + s(p) (q_goal - q_demo(1))``; ``orders (G,)`` picks 3 or 5 per path. The
-    start and the demonstrated shape are kept; the path ends exactly at its goal."""
-    p = np.linspace(0.0, 1.0, demo_q.shape[0])
-    blend = np.stack([smoothstep(p, int(o)) for o in orders])  # (G, T)
-    return demo_q[None] + blend[:, :, None] * (goal_q - demo_q[-1])[:, None, :]
-
-
-def follow_paths(paths: np.ndarray, time_constant: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Follow each path with exponential progress: ``sigma(t) = 1 - exp(-t / time_constant)``
-    of its joint-space arc length, so the velocity is the tangent times ``(1 - sigma) / time_constant``.
-
-    Args:
-        paths: ``(G, P, n)`` joint paths (rad), ``P >= 2`` points each, not of zero length.
-        time_constant: seconds for the remaining path to shrink by ``e``.
-        dt: sample spacing (s); ``n_steps`` samples from ``t = 0``.
-
-    Returns:
-        ``t (N,)`` (s), positions ``q (G, N, n)`` (rad) and velocities ``qd (G, N, n)`` (rad/s).
-    """
-    steps = np.linalg.norm(np.diff(paths, axis=1), axis=-1)  # (G, P-1)
-    length = steps.sum(axis=1)
-    if np.any(length <= 1e-9):
-        raise ValueError("follow_paths: a path has zero length (its goal is its start)")
-    sigma_path = np.concatenate([np.zeros((len(paths), 1)), np.cumsum(steps, axis=1) / length[:, None]], axis=1)
-    t = np.arange(n_steps) * dt
-    sigma = 1.0 - np.exp(-t / time_constant)  # (N,)
-    # Batched segment lookup: offset row g by 2g so one sorted array holds every path.
-    offsets = 2.0 * np.arange(len(paths))[:, None]
-    flat = (sigma_path + offsets).ravel()
-    idx = np.searchsorted(flat, (sigma[None] + offsets).ravel(), side="right").reshape(len(paths), -1) - 1
-    idx = np.clip(idx - np.arange(len(paths))[:, None] * paths.shape[1], 0, paths.shape[1] - 2)
-    rows = np.arange(len(paths))[:, None]
-    s0, s1 = sigma_path[rows, idx], sigma_path[rows, idx + 1]
-    q0, q1 = paths[rows, idx], paths[rows, idx + 1]
-    width = np.maximum(s1 - s0, 1e-12)
-    frac = ((sigma[None] - s0) / width)[..., None]
-    q = q0 + frac * (q1 - q0)
-    tangent = (q1 - q0) / width[..., None]
-    qd = tangent * ((1.0 - sigma) / time_constant)[None, :, None]
-    return t, q, qd
-
-
 @dataclass(frozen=True)
 class InverseData:
     """Training pairs of one task's inverse model.
@@ -334,53 +284,44 @@ class InverseData:
     n_failed: int
 
 
-def build_inverse_data(
-    robot,
-    demo: JointDemonstration,
-    n_goals: int = 125,
-    goal_spread: Sequence[float] = (0.25, 0.15, 0.05),
-    orders: Sequence[int] = (3, 5),
-    cross_paths: int = 1,
-    time_constant: float = 1.5,
-    dt: float = 0.075,
-    n_steps: int = 100,
-    n_seeds: int = 8,
-    seed: int = 0,
-) -> InverseData:
-    """Training paths of one task's inverse model.
+def build_inverse_data(robot, demo: JointDemonstration, config: InverseDataConfig | None = None) -> InverseData:
+    """Training paths of one task's inverse model (settings: :class:`InverseDataConfig`).
 
-    ``n_goals`` goals are drawn uniformly in a box of half-widths ``goal_spread`` (m) around
-    the demonstration's end point, each with the demonstration's final orientation (IK
-    nearest the demonstrated final configuration; goals without a solution are dropped and
-    counted). Paths, all followed with :func:`follow_paths`:
+    ``config.n_goals`` goals are drawn uniformly in a box of half-widths ``goal_spread`` (m)
+    around the demonstration's end point, each with the demonstration's final orientation
+    (IK nearest the demonstrated final configuration; goals without a solution are dropped
+    and counted). Paths, all followed with :func:`~lfd.sim.trajectory.follow_paths`:
 
     * the demonstration itself (row 0);
     * per goal, the demonstration warped to it by a polynomial blend of order
-      ``orders[k % len(orders)]`` (:func:`warp_to_goals`): the approach from the start;
+      ``orders[k % len(orders)]`` (:func:`~lfd.sim.trajectory.warp_to_goals`): the approach
+      from the start;
     * per goal (the demonstration's included), ``cross_paths`` straight joint-space paths
       from the configuration of another, random goal. Without them every path near a goal
       arrives from the start's side, the errors near the goals span one direction only and
       the learned map cannot correct errors in the others.
     """
+    c = config or InverseDataConfig()
     end_pose = robot.fk(torch.from_numpy(demo.q[-1:]))[0].numpy()
-    rng = np.random.default_rng(seed)
-    offsets = rng.uniform(-1.0, 1.0, size=(n_goals, 3)) * np.asarray(goal_spread, dtype=np.float64)
-    poses = np.repeat(end_pose[None], n_goals, axis=0)
+    rng = np.random.default_rng(c.seed)
+    offsets = rng.uniform(-1.0, 1.0, size=(c.n_goals, 3)) * np.asarray(c.goal_spread, dtype=np.float64)
+    poses = np.repeat(end_pose[None], c.n_goals, axis=0)
     poses[:, :3, 3] += offsets
-    goal_q, ok = solve_near(robot, poses, demo.q[-1], n_seeds=n_seeds, seed=seed)
-    goal_q = np.concatenate([demo.q[-1:], goal_q[ok]])
-    order_list = [orders[k % len(orders)] for k in range(len(goal_q))]
+    solution = solve_near(robot, poses, demo.q[-1], n_seeds=c.n_seeds, seed=c.seed)
+    ok = solution.success.numpy()
+    goal_q = np.concatenate([demo.q[-1:], solution.q.numpy()[ok]])
+    order_list = [c.orders[k % len(c.orders)] for k in range(len(goal_q))]
     paths = [warp_to_goals(demo.q, goal_q, order_list)]
     ends = [goal_q]
     if len(goal_q) > 1:
-        for _ in range(cross_paths):
+        for _ in range(c.cross_paths):
             origin = (np.arange(len(goal_q)) + rng.integers(1, len(goal_q), len(goal_q))) % len(goal_q)  # never the goal itself
             p = np.linspace(0.0, 1.0, demo.q.shape[0])[None, :, None]
             paths.append(goal_q[origin][:, None] + p * (goal_q - goal_q[origin])[:, None])
             ends.append(goal_q)
-    t, q, qd = follow_paths(np.concatenate(paths), time_constant, dt, n_steps)
-    goals = fk_positions(robot, np.concatenate(ends))
-    errors = fk_positions(robot, q) - goals[:, None, :]
+    t, q, qd = follow_paths(np.concatenate(paths), c.time_constant, c.dt, c.n_steps)
+    goals = robot.fk_positions(np.concatenate(ends)).numpy()
+    errors = robot.fk_positions(q).numpy() - goals[:, None, :]
     return InverseData(demo=demo, goals=goals, t=t, q=q, errors=errors, velocities=qd, n_failed=int((~ok).sum()))
 
 
@@ -476,41 +417,28 @@ class SawyerInverseDataModule(L.LightningDataModule):
     """Inverse-model data of one or more tasks (end-effector orientations).
 
     Each task gets its demonstration (:func:`make_demonstration`) and its augmented paths
-    (:func:`build_inverse_data`); 10 % of the augmented paths (``val_fraction``, never the
-    demonstration) are held out for validation. Batches are dictionaries ``{task: (errors
-    (B, 3), velocities (B, n))}``.
+    (:func:`build_inverse_data`), both set by one :class:`InverseDataConfig`; 10 % of the
+    augmented paths (``val_fraction``, never the demonstration) are held out for
+    validation. Batches are dictionaries ``{task: (errors (B, 3), velocities (B, n))}``.
 
     Args:
         tasks: ``{name: {"orientation_deg": [r, p, y], "demo_csv": path}}`` with either key
             (the recorded file wins when both are given); default the original cube and cup
             orientations with scripted demonstrations.
         robot: robot name.
-        start_deg, demo_goal, duration, n_demo_steps: the scripted demonstration.
-        n_goals, goal_spread, orders, cross_paths, time_constant, dt, n_steps: augmentation
-            (see :func:`build_inverse_data`).
+        config: demonstration and augmentation settings, an :class:`InverseDataConfig` or a
+            mapping of its fields (``configs/data/sawyer_models.yaml``: ``inverse.config``).
         val_fraction: fraction of paths held out.
         batch_size: samples per step and task.
-        seed: seed of goal sampling, IK seeds and the split.
     """
 
     def __init__(
         self,
         tasks: Mapping[str, Mapping] | None = None,
         robot: str = "sawyer",
-        start_deg: Sequence[float] = SAWYER_START_DEG,
-        demo_goal: Sequence[float] = DEMO_GOAL,
-        duration: float = 4.0,
-        n_demo_steps: int = 100,
-        n_goals: int = 125,
-        goal_spread: Sequence[float] = (0.25, 0.15, 0.05),
-        orders: Sequence[int] = (3, 5),
-        cross_paths: int = 1,
-        time_constant: float = 1.5,
-        dt: float = 0.075,
-        n_steps: int = 100,
+        config: InverseDataConfig | Mapping | None = None,
         val_fraction: float = 0.1,
         batch_size: int = 128,
-        seed: int = 0,
     ) -> None:
         super().__init__()
         tasks = {k: dict(v) for k, v in (tasks or {k: {"orientation_deg": v} for k, v in TASK_ORIENTATIONS_DEG.items()}).items()}
@@ -522,24 +450,8 @@ class SawyerInverseDataModule(L.LightningDataModule):
             raise ValueError(f"SawyerInverseDataModule.val_fraction: expected a number in [0, 1), got {val_fraction}")
         self.tasks = tasks
         self.robot_name = robot
-        self.demo_kwargs = {
-            "start_deg": tuple(start_deg),
-            "demo_goal": tuple(demo_goal),
-            "duration": duration,
-            "n_steps": n_demo_steps,
-            "seed": seed,
-        }
-        self.augment_kwargs = {
-            "n_goals": n_goals,
-            "goal_spread": tuple(goal_spread),
-            "orders": tuple(orders),
-            "cross_paths": cross_paths,
-            "time_constant": time_constant,
-            "dt": dt,
-            "n_steps": n_steps,
-            "seed": seed,
-        }
-        self.val_fraction, self.batch_size, self.seed = val_fraction, int(batch_size), seed
+        self.config = InverseDataConfig.from_mapping(config)
+        self.val_fraction, self.batch_size, self.seed = val_fraction, int(batch_size), self.config.seed
         self.data: dict[str, InverseData] = {}
         self._splits: dict[str, dict[str, TensorDataset]] = {}
 
@@ -548,13 +460,19 @@ class SawyerInverseDataModule(L.LightningDataModule):
         if not self.data:
             robot = load_robot(self.robot_name)
             for name, task in self.tasks.items():
-                demo = make_demonstration(robot, task.get("orientation_deg"), task.get("demo_csv"), **self.demo_kwargs)
-                self.data[name] = build_inverse_data(robot, demo, **self.augment_kwargs)
+                demo = make_demonstration(robot, task.get("orientation_deg"), task.get("demo_csv"), self.config)
+                self.data[name] = build_inverse_data(robot, demo, self.config)
                 self._splits[name] = self._split(self.data[name])
         return self.data
 
     def setup(self, stage: str | None = None) -> None:
         self.prepare()
+
+    def adaptation_data(self) -> dict[str, InverseData]:
+        """Every task's :class:`InverseData` (built once), from which
+        :meth:`lfd.models.inverse.InverseModel.adapt` takes its normalisation and
+        demonstration; ``train.py`` hands it over before fitting."""
+        return self.prepare()
 
     def _split(self, data: InverseData) -> dict[str, TensorDataset]:
         n_paths = len(data.goals)
@@ -606,6 +524,12 @@ class SawyerModelsDataModule(L.LightningDataModule):
     def setup(self, stage: str | None = None) -> None:
         if stage in (None, "fit", "validate"):
             self.inverse.prepare()
+
+    def adaptation_data(self) -> dict[str, InverseData]:
+        """Every task's :class:`InverseData` (built once), from which
+        :meth:`lfd.models.SawyerModels.adapt` takes its normalisation and demonstrations;
+        ``train.py`` hands it over before fitting."""
+        return self.inverse.prepare()
 
     def train_dataloader(self) -> CombinedLoader:
         return CombinedLoader({"forward": self.forward.train_dataloader(), "inverse": self.inverse.loaders("train")}, mode="max_size_cycle")

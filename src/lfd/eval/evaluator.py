@@ -22,6 +22,7 @@ import io
 import math
 import time
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -117,6 +118,9 @@ class ReachEvaluator:
             gains nothing from more, and loses much to thread hand-offs on a busy CPU).
     """
 
+    #: :meth:`run` reads the policies' dataset (``evaluate.py`` instantiates ``cfg.data`` for it).
+    needs_datamodule = True
+
     def __init__(
         self,
         scenario: str | None = None,
@@ -142,20 +146,20 @@ class ReachEvaluator:
         self.torch_threads = int(torch_threads)
 
     # ------------------------------------------------------------------ inputs
-    def checkpoints(self, cfg) -> dict[str, Path]:
-        """Checkpoint per method: ``cfg.ckpt_dmp`` / ``cfg.ckpt_velocity`` when given (must
-        exist), else the newest found under ``cfg.paths.output_root``. Missing ones are
-        reported with the command that makes them; none at all raises."""
-        given = {kind: cfg.get(CKPT_KEYS[kind]) for kind in self.methods}
+    def resolve_checkpoints(self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None) -> dict[str, Path]:
+        """Checkpoint per method: ``given[kind]`` when set (must exist; ``evaluate.py`` passes
+        ``ckpt_dmp`` / ``ckpt_velocity``), else the newest found under ``output_root``.
+        Missing ones are reported with the command that makes them; none at all raises."""
+        given = {kind: (given or {}).get(kind) for kind in self.methods}
         for kind, path in given.items():
             if path is not None and not Path(path).is_file():
                 raise FileNotFoundError(f"{CKPT_KEYS[kind]}={path}: no such checkpoint file")
         searched = [k for k, p in given.items() if p is None]
-        found = find_checkpoints(cfg.paths.output_root, tuple(searched)) if searched else {}
+        found = find_checkpoints(output_root, tuple(searched)) if searched else {}
         out = {kind: Path(given[kind]) if given[kind] is not None else found.get(kind) for kind in self.methods}
         missing = [k for k, p in out.items() if p is None]
         hints = "; ".join(
-            f"no '{k}' checkpoint under {Path(cfg.paths.output_root) / CHECKPOINT_GLOB}: train one with "
+            f"no '{k}' checkpoint under {Path(output_root) / CHECKPOINT_GLOB}: train one with "
             f"`{TRAIN_COMMANDS[k]}` or pass {CKPT_KEYS[k]}=PATH"
             for k in missing
         )
@@ -198,20 +202,23 @@ class ReachEvaluator:
         return cases[: self.limit], f"test split of {data.path}"
 
     # ------------------------------------------------------------------ run
-    def run(self, cfg, out_dir: str | Path) -> dict[str, Any]:
+    def run(self, datamodule, checkpoints: Mapping[str, str | Path], out_dir: str | Path) -> dict[str, Any]:
         """Evaluate, write the outputs into ``out_dir`` and return the ``metrics.json`` content.
 
         Args:
-            cfg: the composed ``evaluate.yaml`` config (``data``, ``paths``, ``ckpt_*``).
+            datamodule: the :class:`~lfd.data.ReachDataModule` the policies were trained on
+                (its dataset gives the test split and the rendering and timing settings).
+            checkpoints: ``{kind: path}`` of the policies to run (:meth:`resolve_checkpoints`).
+            out_dir: run directory for the outputs (created).
         """
-        import hydra
-
+        unknown = sorted(set(checkpoints) - set(CONTROLLERS))
+        if unknown or not checkpoints:
+            raise ValueError(f"ReachEvaluator.run: checkpoints must map some of {sorted(CONTROLLERS)} to files, got {sorted(checkpoints)}")
         t0 = time.perf_counter()
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
-        checkpoints = self.checkpoints(cfg)
+        checkpoints = {kind: Path(path) for kind, path in checkpoints.items()}
         policies = {kind: load_policy(path) for kind, path in checkpoints.items()}
-        datamodule = hydra.utils.instantiate(cfg.data)
         gen = datamodule.config
         for kind, policy in policies.items():
             try:
@@ -244,7 +251,7 @@ class ReachEvaluator:
             metrics[kind].update({"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps})
         self._write(out_dir, metrics, rows, cases, traces)
         # the same episodes in LeRobot's layout: <out_dir>/<method>/eval_info.json and videos/eval_episode_<i>.mp4
-        write_lerobot_eval(out_dir, rows, cases, traces, gen, seed=cfg.get("seed"), eval_s=time.perf_counter() - t0, n_videos=self.n_gifs, frame_every=self.gif_every)
+        write_lerobot_eval(out_dir, rows, cases, traces, gen, seed=gen.seed, eval_s=time.perf_counter() - t0, n_videos=self.n_gifs, frame_every=self.gif_every)
         return metrics
 
     def _episodes(self, kind: str, policy, cases: list[Case], scene, steps: int, out_dir: Path) -> list[EpisodeTrace]:

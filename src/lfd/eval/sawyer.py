@@ -2,22 +2,25 @@
 
 For each task (end-effector orientation: cube, cup) and each goal:
 
-1. **Reach test** (:class:`Workspace`): full-pose and position-only IK from several seeds,
+1. **Reach test** (:class:`lfd.robots.Workspace`): full-pose and position-only IK from several seeds,
    and the goal's distance from the shoulder (joint 1) against the arm's maximum reach.
    A goal without a position-only IK solution is not attempted: it is reported as
    unreachable when it also lies beyond the reach, as "no IK solution" otherwise.
-2. **Models** (:func:`closed_loop_reach`): the forward model estimates the end-effector
-   position from the measured joints, the task's inverse model turns the estimated error
-   into joint velocities (clamped to the velocity limits), the arm integrates them
-   (:class:`KinematicArm`, or PyBullet with the generated URDF, :class:`PyBulletArm`) until
-   the *estimated* error is below ``threshold`` or ``max_steps`` is reached.
-3. **DMP + PoWER** (:func:`refine`): a DMP is fitted to the models' trajectory and PoWER
+2. **Models** (:func:`lfd.eval.rollout.closed_loop_reach`): the forward model estimates the
+   end-effector position from the measured joints, the task's inverse model turns the
+   estimated error into joint velocities (clamped to the velocity limits), the arm
+   integrates them (:class:`lfd.sim.arms.KinematicArm`, or PyBullet with the generated URDF,
+   :class:`lfd.sim.arms.PyBulletArm`) until the *estimated* error is below ``threshold`` or
+   ``max_steps`` is reached.
+3. **DMP + PoWER** (:func:`lfd.rl.refine`): a DMP is fitted to the models' trajectory and PoWER
    (:func:`lfd.rl.power`, weights and goal explored, eq. 5.4 reward on the FK position)
    refines it until the end effector is within ``tol`` (1 cm) of the goal. The baseline
    fits the DMP to the task's demonstration only (the one the inverse model was trained
    on, stored in the checkpoint) and runs the same PoWER. Episodes = PoWER iterations.
-4. Optionally the refined trajectories are replayed in PyBullet (position control) and
-   their final distance to the goal measured there.
+4. Optionally the refined trajectories are replayed in PyBullet (position control,
+   :func:`lfd.sim.arms.replay_in_pybullet`) and their final distance to the goal measured there.
+
+This module holds the protocol (:class:`SawyerProtocol`) and its report (tables, CSV, plots).
 
 Outputs in the run directory: ``protocol.md`` (tables), ``protocol.csv`` (one row per
 task x goal x scenario x PoWER seed), ``reach.csv`` (closed-loop reaches),
@@ -30,9 +33,8 @@ from __future__ import annotations
 import csv
 import io
 import math
-import warnings
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -42,32 +44,19 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
-from scipy.spatial.transform import Rotation  # noqa: E402
-from torch import Tensor  # noqa: E402
 
-from lfd.data.sawyer import SAWYER_START_DEG, SawyerFKDataModule, fk_positions, solve_near  # noqa: E402
+from lfd.data.sawyer import SAWYER_START_DEG, SawyerFKDataModule  # noqa: E402
 from lfd.data.storage import json_bytes, write_bytes_atomic  # noqa: E402
-from lfd.dmp import DMP  # noqa: E402
 from lfd.eval.evaluator import find_checkpoints  # noqa: E402
+from lfd.eval.rollout import ReachTrace, closed_loop_reach  # noqa: E402
 from lfd.models.forward import format_error_table  # noqa: E402
-from lfd.models.inverse import SawyerModels, load_sawyer_models  # noqa: E402
-from lfd.rl import PowerResult, TaskGoalReward, power  # noqa: E402
-from lfd.robots import load_robot, rotation_log  # noqa: E402
-from lfd.sim.scene import ReachScene  # noqa: E402
+from lfd.models.sawyer import SawyerModels, load_sawyer_models  # noqa: E402
+from lfd.rl import refine  # noqa: E402
+from lfd.robots import Workspace, load_robot, rotation_log  # noqa: E402
+from lfd.robots.spec import matrix_to_rpy  # noqa: E402
+from lfd.sim.arms import ARMS, replay_in_pybullet  # noqa: E402
 
-__all__ = [
-    "GOALS",
-    "ORIGINAL_EPISODES",
-    "KinematicArm",
-    "PyBulletArm",
-    "ReachTest",
-    "ReachTrace",
-    "SawyerProtocol",
-    "Workspace",
-    "closed_loop_reach",
-    "refine",
-    "replay_in_pybullet",
-]
+__all__ = ["GOALS", "ORIGINAL_EPISODES", "SawyerProtocol"]
 
 #: The five goals of the original protocol (m, Sawyer world frame).
 GOALS = ((0.237, -0.466, -0.04), (-0.217, -0.474, -0.04), (1.110, -0.551, -0.04), (-0.179, -0.678, -0.04), (0.217, -0.680, -0.04))
@@ -80,242 +69,9 @@ SCENARIOS = ("models", "demo")
 SCENARIO_LABELS = {"models": "models", "demo": "demo only"}
 
 
-# ---------------------------------------------------------------------------- reach test
-@dataclass(frozen=True)
-class ReachTest:
-    """Whether a goal can be reached.
-
-    Attributes:
-        reachable: a position-only IK solution exists (the pose one may still fail).
-        pose_ik: a full-pose IK solution (goal position + task orientation) exists.
-        position_ik: a position-only IK solution exists.
-        shoulder_distance: distance (m) from the goal to the nearest shoulder position.
-        max_reach: the arm's maximum reach from the shoulder (m).
-        reason: human-readable verdict for the tables.
-    """
-
-    reachable: bool
-    pose_ik: bool
-    position_ik: bool
-    shoulder_distance: float
-    max_reach: float
-    reason: str
-
-
-class Workspace:
-    """Reach test of goals for one robot.
-
-    The shoulder is the origin of link ``shoulder_link`` (joint 1's axis for the Sawyer);
-    it moves with joint 0, so a goal's distance is to the nearest of its positions over
-    joint 0's range. The maximum reach is the largest tool-to-shoulder distance over
-    ``n_samples`` uniform configurations.
-    """
-
-    def __init__(self, robot, shoulder_link: int = 1, n_samples: int = 100_000, n_seeds: int = 32, seed: int = 0) -> None:
-        self.robot, self.n_seeds, self.seed = robot, n_seeds, seed
-        gen = torch.Generator().manual_seed(seed)
-        frames = robot.fk(robot.sample_q(n_samples, gen), all_links=True)
-        self.max_reach = float((frames[:, -1, :3, 3] - frames[:, shoulder_link, :3, 3]).norm(dim=1).max())
-        sweep = robot.home.repeat(721, 1)
-        sweep[:, 0] = torch.linspace(float(robot.lower[0]), float(robot.upper[0]), 721, dtype=sweep.dtype)
-        self.shoulders = robot.fk(sweep, all_links=True)[:, shoulder_link, :3, 3].numpy()
-
-    def test(self, goal: Sequence[float], rotation: np.ndarray | None = None) -> ReachTest:
-        """Reach test of ``goal (3,)`` (m), with the tool orientation ``rotation (3, 3)`` if given."""
-        goal = np.asarray(goal, dtype=np.float64)
-        distance = float(np.linalg.norm(self.shoulders - goal, axis=1).min())
-        home = self.robot.home.numpy()
-        result = self.robot.ik(torch.from_numpy(goal[None]).expand(self.n_seeds, 3), q0=self._seeds(home), position_only=True, restarts=0)
-        position_ok = bool(result.success.any())
-        pose_ok = False
-        if rotation is not None:
-            pose = np.eye(4)
-            pose[:3, :3], pose[:3, 3] = rotation, goal
-            pose_ok = bool(solve_near(self.robot, pose[None], home, self.n_seeds, self.seed)[1][0])
-        if position_ok:
-            reason = "reachable" if pose_ok or rotation is None else "reachable (position only; no IK solution with the task orientation)"
-        elif distance > self.max_reach:
-            reason = f"unreachable: {distance:.3f} m from the shoulder > {self.max_reach:.3f} m maximum reach"
-        else:
-            reason = f"no IK solution ({distance:.3f} m from the shoulder, within the {self.max_reach:.3f} m reach)"
-        return ReachTest(position_ok, pose_ok, position_ok, distance, self.max_reach, reason)
-
-    def _seeds(self, home: np.ndarray) -> torch.Tensor:
-        gen = torch.Generator().manual_seed(self.seed)
-        return torch.cat([torch.from_numpy(home)[None], self.robot.sample_q(self.n_seeds - 1, gen)])
-
-
-# ---------------------------------------------------------------------------- arms
-class KinematicArm:
-    """Kinematic simulation of ``B`` arms: ``q <- clamp(q + dt qd)`` (rad, rad/s, s)."""
-
-    def __init__(self, robot, dt: float) -> None:
-        self.robot, self.dt = robot, float(dt)
-        self.q = torch.zeros(0, robot.n_dof, dtype=torch.float64)
-
-    def reset(self, q0: np.ndarray) -> np.ndarray:
-        """Start every arm at ``q0 (B, n)``; returns the joints ``(B, n)``."""
-        self.q = self.robot.clamp(torch.as_tensor(np.asarray(q0, dtype=np.float64)))
-        return self.q.numpy().copy()
-
-    def step(self, qd: np.ndarray) -> np.ndarray:
-        """Apply joint velocities ``(B, n)`` for one period; returns the new joints ``(B, n)``."""
-        self.q = self.robot.clamp(self.q + self.dt * torch.as_tensor(qd, dtype=torch.float64))
-        return self.q.numpy().copy()
-
-    def close(self) -> None:
-        """Nothing to release."""
-
-
-class PyBulletArm:
-    """``B`` PyBullet worlds with the robot's generated URDF (one :class:`ReachScene` each).
-
-    Velocity commands are integrated into a joint reference ``q_ref <- clamp(q_ref + dt qd)``
-    that the joints track by position control with ``qd`` as velocity feed-forward, for
-    ``dt`` seconds (``substeps`` physics steps) per step; the measured joints are returned.
-    """
-
-    def __init__(self, robot, dt: float, substeps: int = 10) -> None:
-        self.robot, self.dt, self.substeps = robot, float(dt), substeps
-        self.scenes: list[ReachScene] = []
-        self.reference = torch.zeros(0, robot.n_dof, dtype=torch.float64)
-
-    def reset(self, q0: np.ndarray) -> np.ndarray:
-        self.close()
-        self.reference = self.robot.clamp(torch.as_tensor(np.asarray(q0, dtype=np.float64)))
-        self.scenes = [ReachScene(self.robot, image_size=8, control_dt=self.dt, substeps=self.substeps) for _ in range(len(q0))]
-        for scene, q in zip(self.scenes, self.reference.numpy()):
-            scene.set_joints(q)
-        return self.joints()
-
-    def joints(self) -> np.ndarray:
-        return np.stack([scene.joint_state()[0] for scene in self.scenes])
-
-    def step(self, qd: np.ndarray) -> np.ndarray:
-        qd = np.asarray(qd, dtype=np.float64)
-        self.reference = self.robot.clamp(self.reference + self.dt * torch.from_numpy(qd))
-        for scene, target, v in zip(self.scenes, self.reference.numpy(), qd):
-            scene.step(target, v)
-        return self.joints()
-
-    def close(self) -> None:
-        for scene in self.scenes:
-            scene.close()
-        self.scenes = []
-
-
-ARMS = {"kinematic": KinematicArm, "pybullet": PyBulletArm}
-
-
-# ---------------------------------------------------------------------------- closed loop
-@dataclass(frozen=True)
-class ReachTrace:
-    """One closed-loop reach driven by the models.
-
-    Attributes:
-        t: ``(T,)`` times (s). q: ``(T, n)`` joints (rad).
-        x: ``(T, 3)`` true end-effector positions (robot FK, m).
-        x_model: ``(T, 3)`` forward-model estimates (m).
-        reached: the estimated error fell below the threshold before the step cap.
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    x: np.ndarray
-    x_model: np.ndarray
-    reached: bool
-
-    def final_error(self, goal: np.ndarray) -> float:
-        """True final distance (m) to ``goal``."""
-        return float(np.linalg.norm(self.x[-1] - goal))
-
-
-def closed_loop_reach(
-    forward: Callable[[Tensor], Tensor],
-    inverse: Callable[[Tensor], Tensor],
-    robot,
-    goals: np.ndarray,
-    q_start: np.ndarray,
-    arm,
-    max_steps: int = 300,
-    threshold: float = 0.02,
-) -> list[ReachTrace]:
-    """Drive ``B`` arms from ``q_start (n,)`` towards ``goals (B, 3)`` (m).
-
-    Every step: ``x_hat = forward(q)``; arms whose ``||x_hat - goal||`` is below
-    ``threshold`` (m) stop; the others get ``qd = inverse(x_hat - goal)`` clamped to the
-    robot's velocity limits. ``forward`` maps float32 joints ``(B, n)`` to positions
-    ``(B, 3)`` (the forward model), ``inverse`` errors ``(B, 3)`` to joint velocities
-    ``(B, n)`` (a task's inverse model); ``arm`` is a :class:`KinematicArm` or
-    :class:`PyBulletArm` (its ``dt`` is the control period).
-
-    Returns:
-        One :class:`ReachTrace` per goal, each ending at its stop (or at the cap).
-    """
-    goals = np.asarray(goals, dtype=np.float64)
-    limit = robot.velocity_limits.numpy()
-    q = arm.reset(np.repeat(np.asarray(q_start, dtype=np.float64)[None], len(goals), axis=0))
-    active = np.ones(len(goals), dtype=bool)
-    stop = np.full(len(goals), max_steps)
-    qs, estimates = [q], []
-    with torch.no_grad():
-        for step in range(max_steps + 1):
-            x_hat = forward(torch.from_numpy(q).float()).double().numpy()
-            estimates.append(x_hat)
-            arrived = active & (np.linalg.norm(x_hat - goals, axis=1) < threshold)
-            stop[arrived] = step
-            active &= ~arrived
-            if step == max_steps or not active.any():
-                break
-            qd = np.clip(inverse(torch.from_numpy(x_hat - goals).float()).double().numpy(), -limit, limit)
-            q = arm.step(np.where(active[:, None], qd, 0.0))
-            qs.append(q)
-    arm.close()
-    qs, estimates = np.stack(qs, axis=1), np.stack(estimates, axis=1)
-    truth = fk_positions(robot, qs)
-    return [
-        ReachTrace(t=np.arange(n + 1) * arm.dt, q=qs[b, : n + 1], x=truth[b, : n + 1], x_model=estimates[b, : n + 1], reached=not active[b])
-        for b, n in enumerate(stop)
-    ]
-
-
 def models_robot(models: SawyerModels):
     """The robot model the forward model was trained for."""
     return load_robot(models.forward_model.hparams.robot)
-
-
-# ---------------------------------------------------------------------------- DMP + PoWER
-def refine(
-    robot, t: np.ndarray, q: np.ndarray, goal: np.ndarray, n_basis: int = 20, w1: float = 0.9, seed: int = 0, **power_options
-) -> PowerResult:
-    """Fit a DMP (``n_basis`` per joint) to ``q (T, n)`` at times ``t (T,)`` and refine it
-    with PoWER (weights and goal) towards the end-effector position ``goal (3,)`` (m).
-
-    ``power_options`` go to :func:`lfd.rl.power` (``n_rollouts``, ``n_best``, ``max_iter``,
-    ``sigma``, ``sigma_goal``, ``tol``, ...); the robot's joint limits are enforced
-    (continuous joints unbounded).
-    """
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # joints that move and return are expected here
-        dmp = DMP(n_basis=n_basis).fit(t, q)
-    reward = TaskGoalReward(robot, goal, w1)
-    free = robot.continuous.numpy()
-    lower, upper = np.where(free, -np.inf, robot.lower.numpy()), np.where(free, np.inf, robot.upper.numpy())
-    return power(dmp, reward, lower=lower, upper=upper, seed=seed, **power_options)
-
-
-def replay_in_pybullet(robot, trajectory: np.ndarray, dt: float, substeps: int = 10, settle_steps: int = 25) -> np.ndarray:
-    """Track ``trajectory (T, n)`` (rad, one sample per ``dt`` s) in PyBullet with position
-    control and velocity feed-forward, hold the last sample for ``settle_steps`` periods,
-    and return the final tool position ``(3,)`` (m, robot world frame)."""
-    velocity = np.gradient(trajectory, dt, axis=0)
-    with ReachScene(robot, image_size=8, control_dt=dt, substeps=substeps) as scene:
-        scene.set_joints(trajectory[0])
-        for q, v in zip(trajectory[1:], velocity[1:]):
-            scene.step(q, v)
-        for _ in range(settle_steps):
-            scene.step(trajectory[-1])
-        return scene.ee_pose()[:3, 3]
 
 
 # ---------------------------------------------------------------------------- protocol
@@ -323,8 +79,9 @@ class SawyerProtocol:
     """The original evaluation protocol (``python evaluate.py eval=sawyer``).
 
     Args:
-        checkpoint: :class:`~lfd.models.inverse.SawyerModels` checkpoint; None = the newest
-            ``last.ckpt`` of that kind under ``<paths.output_root>/train/``.
+        checkpoint: :class:`~lfd.models.SawyerModels` checkpoint; None = the newest
+            ``last.ckpt`` of that kind under ``<paths.output_root>/train/``
+            (:meth:`resolve_checkpoints`).
         goals: goal positions (m).
         start_deg: start pose (deg).
         tasks: tasks to evaluate (None: every task in the checkpoint).
@@ -338,8 +95,11 @@ class SawyerProtocol:
         pybullet_replay: replay the refined trajectories (seed 0) in PyBullet.
         n_fk_test: size of the forward-model test set (drawn like the training run's, with
             seed ``fk_seed + 2``); 0 skips it.
-        fk_seed: the training data seed (default: the config's ``seed``).
+        fk_seed: the training data seed (``configs/eval/sawyer.yaml``: the config's ``seed``).
     """
+
+    #: The protocol draws its own goals and forward-model test set: ``evaluate.py`` passes no datamodule.
+    needs_datamodule = False
 
     def __init__(
         self,
@@ -356,7 +116,7 @@ class SawyerProtocol:
         n_seeds: int = 5,
         pybullet_replay: bool = True,
         n_fk_test: int = 100_000,
-        fk_seed: int | None = None,
+        fk_seed: int = 0,
     ) -> None:
         if simulator not in ARMS:
             raise ValueError(f"SawyerProtocol.simulator: expected one of {sorted(ARMS)}, got {simulator!r}")
@@ -378,28 +138,39 @@ class SawyerProtocol:
             "w1": 0.9,
             **dict(power or {}),
         }
-        self.n_fk_test, self.fk_seed = int(n_fk_test), fk_seed
+        self.n_fk_test, self.fk_seed = int(n_fk_test), int(fk_seed)
 
-    def resolve_checkpoint(self, output_root: str | Path) -> Path:
-        """The configured checkpoint, or the newest ``sawyer_models`` one under ``output_root``."""
-        if self.checkpoint is not None:
-            return Path(self.checkpoint)
+    def resolve_checkpoints(self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None) -> dict[str, Path]:
+        """``{"sawyer_models": path}``: the configured checkpoint (or ``given["sawyer_models"]``),
+        else the newest ``sawyer_models`` one under ``output_root``."""
+        path = self.checkpoint if self.checkpoint is not None else (given or {}).get(SawyerModels.kind)
+        if path is not None:
+            if not Path(path).is_file():
+                raise FileNotFoundError(f"eval.checkpoint={path}: no such Sawyer models checkpoint")
+            return {SawyerModels.kind: Path(path)}
         found = find_checkpoints(output_root, (SawyerModels.kind,)).get(SawyerModels.kind)
         if found is None:
             raise FileNotFoundError(
                 f"no Sawyer models checkpoint under {output_root}/train; run `python train.py experiment=sawyer_models` "
                 "first or pass eval.checkpoint=PATH"
             )
-        return found
+        return {SawyerModels.kind: found}
 
-    def run(self, cfg, out_dir: Path) -> dict[str, Any]:
-        """Run the protocol with the checkpoint and write the outputs to ``out_dir``; returns the metrics."""
+    def run(self, datamodule=None, checkpoints: Mapping[str, str | Path] | None = None, out_dir: str | Path = ".") -> dict[str, Any]:
+        """Run the protocol with the ``checkpoints["sawyer_models"]`` models and write the
+        outputs to ``out_dir``; returns the metrics.
+
+        ``datamodule`` is accepted (and ignored) so that ``evaluate.py`` calls every evaluator
+        alike (:attr:`needs_datamodule` is False: it passes None); the protocol draws its own
+        goals and forward-model test set (``n_fk_test``, ``fk_seed``).
+        """
+        if not checkpoints or SawyerModels.kind not in checkpoints:
+            raise ValueError(f"SawyerProtocol.run: checkpoints must hold a '{SawyerModels.kind}' path, got {checkpoints!r}")
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
-        ckpt = self.resolve_checkpoint(cfg.paths.output_root)
+        ckpt = Path(checkpoints[SawyerModels.kind])
         models = load_sawyer_models(ckpt)
-        seed = self.fk_seed if self.fk_seed is not None else int(cfg.get("seed", 0))
-        metrics = self.evaluate(models, seed)
+        metrics = self.evaluate(models, self.fk_seed)
         metrics["checkpoint"] = str(ckpt)
         self.write(out_dir, metrics)
         print(metrics["tables"])
@@ -447,10 +218,10 @@ class SawyerProtocol:
             goals_out.append(entry)
         return {
             "demo_source": demo.source,
-            "demo_final_rpy_deg": rpy_deg(rotation),
+            "demo_final_rpy_deg": np.degrees(matrix_to_rpy(rotation)).round(3).tolist(),
             "goals": goals_out,
             "_traces": traces,
-            "_demo_path": fk_positions(robot, demo.q),
+            "_demo_path": robot.fk_positions(demo.q).numpy(),
         }
 
     def reach_metrics(self, robot, trace: ReachTrace, goal: np.ndarray, rotation: np.ndarray) -> dict[str, Any]:
@@ -474,7 +245,7 @@ class SawyerProtocol:
             "initial_error_m": float(runs[0].history.error[0]),
             "mean_iterations": float(np.mean([r.iterations for r in runs])),
             "_error_curve": runs[0].history.error,
-            "_path": fk_positions(robot, runs[0].trajectory),
+            "_path": robot.fk_positions(runs[0].trajectory).numpy(),
         }
         if self.pybullet_replay:
             out["pybullet_final_error_m"] = float(np.linalg.norm(replay_in_pybullet(robot, runs[0].trajectory, float(t[1] - t[0])) - goal))
@@ -583,11 +354,6 @@ def original_table() -> str:
         lines.append(f"| {i + 1} | " + " | ".join(str(ORIGINAL_EPISODES[t][s][i]) for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |")
     lines.append("| total | " + " | ".join(str(sum(ORIGINAL_EPISODES[t][s])) for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |")
     return "## Original (SPEC 5), episodes to convergence\n\n" + "\n".join(lines)
-
-
-def rpy_deg(rotation: np.ndarray) -> list[float]:
-    """Roll, pitch, yaw (deg, extrinsic x-y-z) of a rotation matrix ``(3, 3)``."""
-    return Rotation.from_matrix(rotation).as_euler("xyz", degrees=True).round(3).tolist()
 
 
 def public(value: Any) -> Any:

@@ -1,4 +1,7 @@
-"""LightningModules: the visuomotor policies (CNN -> DMP, velocity baseline) and their parts.
+"""LightningModules: the visuomotor policies (CNN -> DMP, velocity baseline) and their parts,
+and the Sawyer forward + inverse models (:class:`SawyerModels`, :mod:`lfd.models.sawyer`).
+Shared training helpers (activations, optimiser, hyper-parameters) are in
+:mod:`lfd.models.training`.
 
 Example (closed loop from a checkpoint)::
 
@@ -19,6 +22,7 @@ import torch
 
 from lfd.models.cnn_dmp import CNNDMPPolicy
 from lfd.models.policy import VisuomotorPolicy
+from lfd.models.sawyer import SawyerModels, load_sawyer_models
 from lfd.models.velocity import VelocityPolicy
 from lfd.models.vision import KeypointEncoder, SpatialSoftmax, image_to_tensor
 
@@ -26,12 +30,14 @@ __all__ = [
     "POLICIES",
     "CNNDMPPolicy",
     "KeypointEncoder",
+    "SawyerModels",
     "SpatialSoftmax",
     "VelocityPolicy",
     "VisuomotorPolicy",
     "checkpoint_kind",
     "image_to_tensor",
     "load_policy",
+    "load_sawyer_models",
 ]
 
 #: Policy kind (``Policy.kind``, stored in the checkpoint's hyper-parameters) -> class.

@@ -19,7 +19,6 @@ forward kinematics: mean, median, 99th percentile and maximum of the Euclidean d
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from typing import Any
 
@@ -27,31 +26,20 @@ import lightning as L
 import torch
 from torch import Tensor, nn
 
+from lfd.models.training import make_activation, make_optimizer, save_own_hyperparameters
 from lfd.robots import load_robot
 
 __all__ = [
-    "ACTIVATIONS",
     "ForwardModel",
     "ResidualMLP",
     "error_summary",
     "format_error_table",
-    "make_activation",
-    "make_optimizer",
     "position_errors_mm",
     "report_test_errors",
-    "save_own_hyperparameters",
 ]
 
-ACTIVATIONS = {"silu": nn.SiLU, "gelu": nn.GELU, "relu": nn.ReLU, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid}
-SCHEDULERS = ("onecycle", "cosine", "none")
 #: Samples of the robot's workspace used to normalise the forward model's outputs.
 _OUTPUT_STATS_SAMPLES = 65_536
-
-
-def make_activation(name: str) -> nn.Module:
-    if name not in ACTIVATIONS:
-        raise ValueError(f"activation: expected one of {sorted(ACTIVATIONS)}, got {name!r}")
-    return ACTIVATIONS[name]()
 
 
 def position_errors_mm(predicted: Tensor, target: Tensor) -> Tensor:
@@ -82,31 +70,6 @@ def format_error_table(summary: dict[str, float], title: str = "forward model er
         "| mean | median | p99 | max |\n|---:|---:|---:|---:|\n"
         f"| {summary['mean']:.2f} | {summary['median']:.2f} | {summary['p99']:.2f} | {summary['max']:.2f} |"
     )
-
-
-def save_own_hyperparameters(module: L.LightningModule, init_locals: dict[str, Any]) -> None:
-    """``module.save_hyperparameters`` of exactly its own ``__init__`` arguments (pass
-    ``locals()``); without an explicit dict Lightning would also collect the arguments of
-    an enclosing module's ``__init__`` when the module is built inside another one."""
-    module.save_hyperparameters({k: v for k, v in init_locals.items() if k not in ("self", "__class__")})
-
-
-def make_optimizer(module: L.LightningModule, groups: list[dict[str, Any]], scheduler: str, pct_start: float = 0.15) -> dict[str, Any]:
-    """AdamW over parameter ``groups`` (each with ``params``, ``lr``, ``weight_decay``) and a
-    per-step schedule over the trainer's total steps: ``"onecycle"`` (peak at each group's
-    ``lr``), ``"cosine"`` (to 0) or ``"none"``."""
-    if scheduler not in SCHEDULERS:
-        raise ValueError(f"scheduler: expected one of {SCHEDULERS}, got {scheduler!r}")
-    opt = torch.optim.AdamW(groups)
-    if scheduler == "none":
-        return {"optimizer": opt}
-    steps = module.trainer.estimated_stepping_batches
-    total = max(1, int(steps)) if math.isfinite(steps) else 1
-    if scheduler == "cosine":
-        sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=total)
-    else:
-        sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=[g["lr"] for g in groups], total_steps=total + 1, pct_start=pct_start)
-    return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
 
 
 class _Block(nn.Module):

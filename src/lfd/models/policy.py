@@ -19,9 +19,11 @@ import numpy as np
 import torch
 from torch import nn
 
+from lfd.models.training import SCHEDULERS, make_optimizer
 from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_colour_channels
 
-SCHEDULERS = ("cosine", "onecycle", "none")
+#: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
+ONECYCLE_PCT_START = 0.3
 #: Hyper-parameters that must equal the dataset's (``GeneratorConfig``) ones.
 DATA_KEYS = ("image_size", "duration", "n_steps", "robot")
 
@@ -223,15 +225,8 @@ class VisuomotorPolicy(L.LightningModule):
 
     def configure_optimizers(self) -> dict[str, Any]:
         hp = self.hparams
-        opt = torch.optim.AdamW(self.parameters(), lr=hp.lr, weight_decay=hp.weight_decay)
-        if hp.scheduler == "none":
-            return {"optimizer": opt}
-        total = max(1, int(self.trainer.estimated_stepping_batches)) if math.isfinite(self.trainer.estimated_stepping_batches) else 1
-        if hp.scheduler == "cosine":
-            sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=total)
-        else:
-            sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=hp.lr, total_steps=total + 1)
-        return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
+        groups = [{"params": list(self.parameters()), "lr": hp.lr, "weight_decay": hp.weight_decay}]
+        return make_optimizer(self, groups, hp.scheduler, pct_start=ONECYCLE_PCT_START)
 
 
 def joint_figure(t: np.ndarray, predicted: np.ndarray, demonstrated: np.ndarray, title: str, ylabel: str = "rad"):

@@ -6,7 +6,8 @@ Main entry points:
   :class:`lfd.dmp.DMP`, with batched rollouts, importance sampling over the best
   rollouts seen so far, joint-limit penalties and a stopping rule.
 - :func:`adapt_to_goal`: adapt a learned DMP to a new goal in joint space (rad) or task
-  space (m, through the robot's IK/FK), then refine it with PoWER.
+  space (m, through the robot's IK/FK), then refine it with PoWER; :func:`refine` fits
+  a DMP to a joint trajectory and refines it towards a task-space goal.
 - Rewards (SPEC eq. 5.4): :class:`JointGoalReward`, :class:`TaskGoalReward`,
   :func:`returns_from_distances`; any ``reward(trajectories (B, T, D)) -> (B,)`` works.
 
@@ -25,7 +26,7 @@ Example::
     result.converged, result.goal, result.rollouts
 """
 
-from .adapt import adapt_to_goal, goal_configuration
+from .adapt import adapt_to_goal, goal_configuration, refine
 from .memory import keep_best
 from .power import PowerHistory, PowerResult, power
 from .rewards import JointGoalReward, TaskGoalReward, limit_violation, returns_from_distances
@@ -42,5 +43,6 @@ __all__ = [
     "keep_best",
     "limit_violation",
     "power",
+    "refine",
     "returns_from_distances",
 ]

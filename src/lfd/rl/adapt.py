@@ -6,7 +6,11 @@ the target (the full pose if one is given, position only if that fails or if onl
 position is given), seeded with the demonstrated final configuration so the solution stays
 close to the demonstration; the reward is eq. 5.4 on the end-effector position from FK.
 
-In both cases PoWER then refines the weights and the goal (a DMP rollout ends close to,
+:func:`refine` is the third use: fit a DMP to a joint trajectory that ends near a
+task-space goal (e.g. the closed-loop reach of learned models) and let PoWER bring its end
+effector to the goal.
+
+In all cases PoWER then refines the weights and the goal (a DMP rollout ends close to,
 but not exactly at, its goal, and an IK solution may miss an unreachable target), with
 the robot's joint limits as a penalty (see :func:`lfd.rl.power`): the return of a rollout
 whose largest violation is ``v`` rad is multiplied by ``exp(-limit_penalty * v)`` and a
@@ -15,13 +19,17 @@ policy outside the limits never counts as converged.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+
+from lfd.dmp import DMP
 
 from ._checks import as_finite_array, to_numpy
 from .power import PowerResult, power
 from .rewards import JointGoalReward, TaskGoalReward
 
-__all__ = ["adapt_to_goal", "goal_configuration"]
+__all__ = ["adapt_to_goal", "goal_configuration", "refine"]
 
 
 def _robot_limits(robot) -> tuple[np.ndarray, np.ndarray]:
@@ -116,3 +124,29 @@ def adapt_to_goal(
         joint_goal = goal_configuration(robot, target, dmp.goal_)
         reward = TaskGoalReward(robot, target if target.shape == (3,) else target[:3, 3], w1)
     return power(dmp, reward, goal=joint_goal, tol=tol, sigma=sigma, sigma_goal=sigma_goal, **power_options)
+
+
+def refine(robot, t, q, goal, n_basis: int = 20, w1: float = 0.9, seed: int = 0, **power_options) -> PowerResult:
+    """Fit a DMP (``n_basis`` per joint) to ``q (T, n)`` at times ``t (T,)`` and refine it
+    with PoWER (weights and goal) towards the end-effector position ``goal (3,)`` (m).
+
+    Args:
+        robot: :class:`lfd.robots.Robot`; its joint limits are enforced (continuous joints
+            unbounded) and its FK gives the eq. 5.4 reward (:class:`~lfd.rl.TaskGoalReward`).
+        t, q: the trajectory to start from, seconds and rad.
+        goal: ``(3,)`` tool position (m), world frame.
+        n_basis: DMP basis functions per joint.
+        w1: terminal weight of the reward.
+        seed: seed of PoWER's exploration.
+        **power_options: further :func:`lfd.rl.power` options (``n_rollouts``, ``n_best``,
+            ``max_iter``, ``sigma``, ``sigma_goal``, ``tol``, ...).
+
+    Returns:
+        :class:`lfd.rl.PowerResult` (``trajectory``, ``converged``, ``iterations``, ``history``).
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # joints that move and return are expected here
+        dmp = DMP(n_basis=n_basis).fit(np.asarray(t, dtype=np.float64), np.asarray(q, dtype=np.float64))
+    reward = TaskGoalReward(robot, goal, w1)
+    lower, upper = _robot_limits(robot)
+    return power(dmp, reward, lower=lower, upper=upper, seed=seed, **power_options)

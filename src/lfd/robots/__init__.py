@@ -1,4 +1,4 @@
-"""Robot models: descriptions, batched differentiable kinematics and dynamics, IK, URDF.
+"""Robot models: descriptions, batched differentiable kinematics and dynamics, IK, reach tests, URDF.
 
 Pure torch + NumPy (no simulator inside). A :class:`RobotSpec` is the immutable
 description (joint chain in URDF form, limits, inertials, base and tool); a
@@ -19,21 +19,28 @@ Example (runnable)::
     tau = robot.inverse_dynamics(q, torch.zeros_like(q), torch.zeros_like(q))  # gravity torques
     result = robot.ik(pose)                           # IKResult: q, success, pos/rot errors
     assert result.success.float().mean() >= 0.99
+    tips = robot.fk_positions(q.reshape(10, 10, 7))  # (10, 10, 3): any leading dims
     urdf_text = robot.to_urdf()                       # or robot.to_urdf("sawyer.urdf")
 """
 
 from .analytic import wam4_ik_closed_form
 from .catalogue import available_robots, load_robot
-from .ik import IKResult, rotation_log
+from .ik import IKResult, rotation_log, solve_ik, solve_near
 from .robot import Robot
-from .spec import RobotSpec
+from .spec import RobotSpec, make_transform
+from .workspace import ReachTest, Workspace
 
 __all__ = [
     "IKResult",
     "Robot",
+    "ReachTest",
     "RobotSpec",
+    "Workspace",
     "available_robots",
     "load_robot",
+    "make_transform",
     "rotation_log",
+    "solve_ik",
+    "solve_near",
     "wam4_ik_closed_form",
 ]

@@ -33,7 +33,7 @@ from ._checks import as_batch
 if TYPE_CHECKING:
     from .robot import Robot
 
-__all__ = ["IKResult", "rotation_log", "solve_ik"]
+__all__ = ["IKResult", "rotation_log", "solve_ik", "solve_near"]
 
 _LAMBDA_INIT = 1e-2
 _LAMBDA_MIN = 1e-9
@@ -44,7 +44,7 @@ _LAMBDA_UP = 10.0
 
 @dataclass(frozen=True)
 class IKResult:
-    """Result of :func:`solve_ik` for a batch of B targets.
+    """Result of :func:`solve_ik` (or :func:`solve_near`) for a batch of B targets.
 
     Attributes:
         q: (B, n) joint angles, rad, within the joint limits (best attempt per row).
@@ -258,4 +258,67 @@ def solve_ik(
         pos, rot_err = _split_errors(best_err)
     return IKResult(
         q=best_q, success=(pos <= tol_pos) & (rot_err <= tol_rot), pos_error=pos, rot_error=rot_err, attempts=attempts
+    )
+
+
+def solve_near(robot: Robot, poses, reference, n_seeds: int = 16, seed: int = 0) -> IKResult:
+    """Full-pose IK of each target, choosing among several seeds the solution nearest ``reference``.
+
+    Seeds per target: ``reference`` itself, half of the rest near it (Gaussian, 0.3 rad) and
+    half uniform within the joint limits; each seed gets one :func:`solve_ik` attempt (no
+    restarts). Picking the successful solution closest to the reference keeps a family of
+    targets on one IK branch.
+
+    Args:
+        robot: the robot.
+        poses: ``(G, 4, 4)`` target tool poses (m), world frame.
+        reference: ``(n,)`` joint vector (rad) the solutions should stay close to.
+        n_seeds: IK attempts per target (>= 1).
+        seed: seed of the random seeds (results are deterministic).
+
+    Returns:
+        :class:`IKResult` of ``G`` rows (float64): per target the successful solution nearest
+        ``reference``, or the best attempt where none succeeded (``success`` False);
+        ``attempts`` is ``n_seeds``.
+
+    Example::
+
+        >>> import numpy as np
+        >>> from lfd.robots import load_robot, solve_near
+        >>> robot = load_robot("sawyer")
+        >>> home = robot.home.numpy()
+        >>> result = solve_near(robot, robot.fk(home[None]).numpy(), home, n_seeds=4)
+        >>> bool(result.success[0]), tuple(result.q.shape)
+        (True, (1, 7))
+    """
+    if n_seeds < 1:
+        raise ValueError(f"solve_near: n_seeds must be >= 1, got {n_seeds}")
+    poses = torch.as_tensor(np.asarray(poses, dtype=np.float64))
+    ref = torch.as_tensor(np.asarray(reference, dtype=np.float64))
+    n = robot.n_dof
+    if poses.ndim != 3 or poses.shape[1:] != (4, 4):
+        raise ValueError(f"solve_near: poses must have shape (G, 4, 4), got {tuple(poses.shape)}")
+    if ref.shape != (n,):
+        raise ValueError(f"solve_near: reference must have shape ({n},) for robot {robot.name!r}, got {tuple(ref.shape)}")
+    n_targets = poses.shape[0]
+    gen = torch.Generator().manual_seed(seed)
+    n_near = (n_seeds - 1) // 2
+    near = ref + 0.3 * torch.randn(n_targets, n_near, n, generator=gen, dtype=torch.float64)
+    uniform = robot.sample_q(n_targets * (n_seeds - 1 - n_near), gen).reshape(n_targets, -1, n)
+    seeds = torch.cat([ref.expand(n_targets, 1, n), robot.clamp(near.reshape(-1, n)).reshape(near.shape), uniform], 1)
+    targets = poses[:, None].expand(n_targets, n_seeds, 4, 4).reshape(-1, 4, 4)
+    result = solve_ik(robot, targets, seeds.reshape(-1, n), restarts=0)
+    q = result.q.reshape(n_targets, n_seeds, n)
+    distance = (q - ref).norm(dim=-1)
+    ok = result.success.reshape(n_targets, n_seeds)
+    pos_error = result.pos_error.reshape(n_targets, n_seeds)
+    score = torch.where(ok, distance, distance + 1e3 + pos_error * 1e3)
+    best = score.argmin(dim=1)
+    rows = torch.arange(n_targets)
+    return IKResult(
+        q=q[rows, best],
+        success=ok[rows, best],
+        pos_error=pos_error[rows, best],
+        rot_error=result.rot_error.reshape(n_targets, n_seeds)[rows, best],
+        attempts=result.attempts.reshape(n_targets, n_seeds).sum(dim=1),
     )

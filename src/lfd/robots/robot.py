@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 import tempfile
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -181,32 +182,34 @@ class Robot:
     def joint_names(self) -> tuple[str, ...]:
         return self.spec.joint_names
 
-    @property
+    # Limits and the home pose are built once per robot (float64, CPU) and shared by every
+    # caller: treat them as read-only (``.clone()`` before modifying one in place).
+    @cached_property
     def lower(self) -> Tensor:
         """(n,) float64 lower position limits, rad (-pi for continuous joints)."""
         return torch.tensor(self.spec.lower)
 
-    @property
+    @cached_property
     def upper(self) -> Tensor:
         """(n,) float64 upper position limits, rad (pi for continuous joints)."""
         return torch.tensor(self.spec.upper)
 
-    @property
+    @cached_property
     def continuous(self) -> Tensor:
         """(n,) bool, joints without position limits."""
         return torch.tensor(self.spec.continuous)
 
-    @property
+    @cached_property
     def home(self) -> Tensor:
         """(n,) float64 named home pose, rad."""
         return torch.tensor(self.spec.home)
 
-    @property
+    @cached_property
     def velocity_limits(self) -> Tensor:
         """(n,) float64, rad/s."""
         return torch.tensor(self.spec.velocity_limits)
 
-    @property
+    @cached_property
     def effort_limits(self) -> Tensor:
         """(n,) float64, N m."""
         return torch.tensor(self.spec.effort_limits)
@@ -277,6 +280,24 @@ class Robot:
             Homogeneous transforms (m), differentiable with respect to ``q``.
         """
         return _blockwise(self._fk_all_links if all_links else self._fk_tool, self._batch(q))
+
+    def fk_positions(self, q) -> Tensor:
+        """Tool positions ``(..., 3)`` (m, world frame) of joint vectors ``q (..., n)`` (rad).
+
+        Any number of leading dimensions (e.g. ``(B, T, n)`` trajectories), one FK call
+        over all of them; NumPy input gives float64 tensors like :meth:`fk`.
+
+        Example::
+
+            >>> from lfd.robots import load_robot
+            >>> robot = load_robot("sawyer")
+            >>> robot.fk_positions(robot.home.expand(2, 5, 7)).shape
+            torch.Size([2, 5, 3])
+        """
+        q = q if isinstance(q, Tensor) else torch.from_numpy(np.asarray(q, dtype=np.float64))
+        if q.ndim == 0 or q.shape[-1] != self.n_dof:
+            raise ValueError(f"q must have shape (..., {self.n_dof}) for robot {self.name!r}, got {tuple(q.shape)}")
+        return self.fk(q.reshape(-1, self.n_dof))[:, :3, 3].reshape(*q.shape[:-1], 3)
 
     def _fk_tool(self, q: Tensor) -> Tensor:
         return _to_homogeneous(self._chain(q, keep_frames=False)[1])
@@ -389,32 +410,11 @@ class Robot:
         return q.to(device=device, dtype=dtype)
 
     # ------------------------------------------------------------------ IK
-    def ik(
-        self,
-        target,
-        q0=None,
-        *,
-        position_only: bool = False,
-        max_iters: int = 30,
-        tol_pos: float = 1e-4,
-        tol_rot: float = 1e-3,
-        restarts: int = 32,
-        restart_batch: int = 8,
-        seed: int = 0,
-    ) -> IKResult:
-        """Batched inverse kinematics (Levenberg-Marquardt); see :func:`lfd.robots.ik.solve_ik`."""
-        return solve_ik(
-            self,
-            target,
-            q0,
-            position_only=position_only,
-            max_iters=max_iters,
-            tol_pos=tol_pos,
-            tol_rot=tol_rot,
-            restarts=restarts,
-            restart_batch=restart_batch,
-            seed=seed,
-        )
+    def ik(self, target, q0=None, **options) -> IKResult:
+        """Batched inverse kinematics (Levenberg-Marquardt): :func:`lfd.robots.ik.solve_ik`
+        with this robot; ``options`` (``position_only``, ``max_iters``, ``tol_pos``,
+        ``tol_rot``, ``restarts``, ``restart_batch``, ``seed``) are passed on."""
+        return solve_ik(self, target, q0, **options)
 
     # ------------------------------------------------------------------ URDF
     def to_urdf(self, path: str | os.PathLike | None = None) -> str:

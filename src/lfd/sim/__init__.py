@@ -1,4 +1,8 @@
-"""PyBullet reaching scenes, objects, cameras and the scripted expert.
+"""PyBullet reaching scenes, objects, cameras, the scripted expert and simulated arms.
+
+Names are loaded on first use (PEP 562), so the modules without PyBullet
+(:mod:`lfd.sim.objects`, :mod:`lfd.sim.approach`, :mod:`lfd.sim.trajectory`) import
+without a simulator.
 
 Frames and units: every pose is in the robot base (PR2 ``torso_lift_link``) frame, in
 metres and radians; the table top lies 0.33 m below it (:data:`TABLE_Z`).
@@ -17,38 +21,29 @@ Example (runnable)::
     demo.frames.shape, demo.joints.shape, demo.plan.target_point  # (100, 64, 64, 3), (100, 7), (3,)
 """
 
-from .approach import SHOULDER_XY, TABLE_Z, ApproachPlan, box_grasp_yaw, plan_approach, side_grasp_height
-from .camera import Camera, look_at, perspective, project_points
-from .expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert, run_demonstration
-from .objects import SHAPE_DIMS, SHAPES, ObjectSpec, Placement, PlacementRanges, sample_object, sample_objects
-from .scene import ReachScene
-from .trajectory import quintic_coefficients, via_quintic, via_velocities
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "DISCARD_REASONS",
-    "SHAPES",
-    "SHAPE_DIMS",
-    "SHOULDER_XY",
-    "TABLE_Z",
-    "ApproachPlan",
-    "Camera",
-    "DemoDiscarded",
-    "Demonstration",
-    "ObjectSpec",
-    "Placement",
-    "PlacementRanges",
-    "ReachScene",
-    "ScriptedExpert",
-    "box_grasp_yaw",
-    "look_at",
-    "perspective",
-    "plan_approach",
-    "project_points",
-    "quintic_coefficients",
-    "run_demonstration",
-    "sample_object",
-    "sample_objects",
-    "side_grasp_height",
-    "via_quintic",
-    "via_velocities",
-]
+from lfd._lazy import exports, lazy_getattr
+
+_EXPORTS = exports(
+    {
+        "approach": ["SHOULDER_XY", "TABLE_Z", "ApproachPlan", "box_grasp_yaw", "plan_approach", "side_grasp_height"],
+        "arms": ["ARMS", "KinematicArm", "PyBulletArm", "replay_in_pybullet"],
+        "camera": ["Camera", "look_at", "perspective", "project_points"],
+        "expert": ["DISCARD_REASONS", "DemoDiscarded", "Demonstration", "ScriptedExpert", "run_demonstration"],
+        "objects": ["SHAPE_DIMS", "SHAPES", "ObjectSpec", "Placement", "PlacementRanges", "sample_object", "sample_objects"],
+        "scene": ["ReachScene"],
+        "trajectory": ["follow_paths", "quintic_coefficients", "smoothstep", "via_quintic", "via_velocities", "warp_to_goals"],
+    }
+)
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_getattr(__name__, _EXPORTS)
+
+if TYPE_CHECKING:
+    from .approach import SHOULDER_XY, TABLE_Z, ApproachPlan, box_grasp_yaw, plan_approach, side_grasp_height
+    from .arms import ARMS, KinematicArm, PyBulletArm, replay_in_pybullet
+    from .camera import Camera, look_at, perspective, project_points
+    from .expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert, run_demonstration
+    from .objects import SHAPE_DIMS, SHAPES, ObjectSpec, Placement, PlacementRanges, sample_object, sample_objects
+    from .scene import ReachScene
+    from .trajectory import follow_paths, quintic_coefficients, smoothstep, via_quintic, via_velocities, warp_to_goals

@@ -1,12 +1,17 @@
-"""Smooth joint-space trajectories: quintic segments through via points.
+"""Smooth joint-space trajectories: quintic segments through via points, polynomial
+warps of a demonstration to new goals, and paths followed with exponential progress.
 
-Pure numpy, batched over degrees of freedom. Units: seconds and radians (or whatever
-unit the positions are in).
+Pure numpy (no PyBullet: importable without a simulator), batched over paths and degrees
+of freedom. Units: seconds and radians (or whatever unit the positions are in).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+
+__all__ = ["follow_paths", "quintic_coefficients", "smoothstep", "via_quintic", "via_velocities", "warp_to_goals"]
 
 
 def quintic_coefficients(
@@ -73,3 +78,58 @@ def via_quintic(t: np.ndarray, times: np.ndarray, points: np.ndarray) -> tuple[n
         local = t[mask] - times[k]
         q[mask], qd[mask], qdd[mask] = (_eval_poly(coeffs, local, order) for order in range(3))
     return q, qd, qdd
+
+
+def smoothstep(p: np.ndarray, order: int) -> np.ndarray:
+    """Rest-to-rest polynomial blend from 0 to 1 on ``p`` in [0, 1]: order 3
+    (``3p^2 - 2p^3``) or 5 (``10p^3 - 15p^4 + 6p^5``)."""
+    if order == 3:
+        return p * p * (3 - 2 * p)
+    if order == 5:
+        return p**3 * (10 - 15 * p + 6 * p * p)
+    raise ValueError(f"smoothstep: order must be 3 or 5, got {order}")
+
+
+def warp_to_goals(demo_q: np.ndarray, goal_q: np.ndarray, orders: Sequence[int]) -> np.ndarray:
+    """Paths ``(G, T, n)``: the demonstration ``demo_q (T, n)`` bent to end at each
+    ``goal_q (G, n)`` by a third- or fifth-order polynomial blend of the offset,
+    ``q_demo(p) + s(p) (q_goal - q_demo(1))``; ``orders (G,)`` picks 3 or 5 per path. The
+    start and the demonstrated shape are kept; the path ends exactly at its goal."""
+    p = np.linspace(0.0, 1.0, demo_q.shape[0])
+    blend = np.stack([smoothstep(p, int(o)) for o in orders])  # (G, T)
+    return demo_q[None] + blend[:, :, None] * (goal_q - demo_q[-1])[:, None, :]
+
+
+def follow_paths(paths: np.ndarray, time_constant: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Follow each path with exponential progress: ``sigma(t) = 1 - exp(-t / time_constant)``
+    of its joint-space arc length, so the velocity is the tangent times ``(1 - sigma) / time_constant``.
+
+    Args:
+        paths: ``(G, P, n)`` joint paths (rad), ``P >= 2`` points each, not of zero length.
+        time_constant: seconds for the remaining path to shrink by ``e``.
+        dt: sample spacing (s); ``n_steps`` samples from ``t = 0``.
+
+    Returns:
+        ``t (N,)`` (s), positions ``q (G, N, n)`` (rad) and velocities ``qd (G, N, n)`` (rad/s).
+    """
+    steps = np.linalg.norm(np.diff(paths, axis=1), axis=-1)  # (G, P-1)
+    length = steps.sum(axis=1)
+    if np.any(length <= 1e-9):
+        raise ValueError("follow_paths: a path has zero length (its goal is its start)")
+    sigma_path = np.concatenate([np.zeros((len(paths), 1)), np.cumsum(steps, axis=1) / length[:, None]], axis=1)
+    t = np.arange(n_steps) * dt
+    sigma = 1.0 - np.exp(-t / time_constant)  # (N,)
+    # Batched segment lookup: offset row g by 2g so one sorted array holds every path.
+    offsets = 2.0 * np.arange(len(paths))[:, None]
+    flat = (sigma_path + offsets).ravel()
+    idx = np.searchsorted(flat, (sigma[None] + offsets).ravel(), side="right").reshape(len(paths), -1) - 1
+    idx = np.clip(idx - np.arange(len(paths))[:, None] * paths.shape[1], 0, paths.shape[1] - 2)
+    rows = np.arange(len(paths))[:, None]
+    s0, s1 = sigma_path[rows, idx], sigma_path[rows, idx + 1]
+    q0, q1 = paths[rows, idx], paths[rows, idx + 1]
+    width = np.maximum(s1 - s0, 1e-12)
+    frac = ((sigma[None] - s0) / width)[..., None]
+    q = q0 + frac * (q1 - q0)
+    tangent = (q1 - q0) / width[..., None]
+    qd = tangent * ((1.0 - sigma) / time_constant)[None, :, None]
+    return t, q, qd
