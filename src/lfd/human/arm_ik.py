@@ -205,6 +205,7 @@ def arm_ik(
         q[:, 0], q[:, 1], q[:, 2] = q1, q2, solve(q1, q2)
     if elbow_singular.any():
         q[:, 2] = _interpolate_over(q[:, 2], elbow_singular)
+    branch = np.where(np.isfinite(q[:, 1]), np.cos(q[:, 1]) < 0, branch).astype(np.int8)  # after the interpolation
     clamped = np.zeros(len(q), bool)
     if clamp:
         limited = np.clip(q, LIMITS[0], LIMITS[1])

@@ -25,18 +25,23 @@ FITS = ("spline", "polynomial")
 
 
 def _cv_order(x: np.ndarray, y: np.ndarray, max_order: int, folds: int) -> np.ndarray:
-    """Per-column polynomial order (in x in [-1, 1]) with the smallest K-fold CV error."""
+    """Per-column polynomial order (in x in [-1, 1]) by K-fold CV with the one-standard-error
+    rule: the lowest order whose mean held-out error is within one standard error of the best."""
     n = len(x)
     top = int(max(1, min(max_order, n // 2 - 1)))
     fold = np.arange(n) % folds
-    errors = np.zeros((top + 1, y.shape[1]))
+    errors = np.zeros((folds, top + 1, y.shape[1]))
     full = C.chebvander(x, top)
     for k in range(folds):
         train, test = fold != k, fold == k
         for order in range(top + 1):
             coef, *_ = np.linalg.lstsq(full[train, : order + 1], y[train], rcond=None)
-            errors[order] += ((full[test, : order + 1] @ coef - y[test]) ** 2).sum(0)
-    return errors.argmin(0)
+            errors[k, order] = ((full[test, : order + 1] @ coef - y[test]) ** 2).mean(0)
+    mean, se = errors.mean(0), errors.std(0, ddof=1) / np.sqrt(folds)
+    best = mean.argmin(0)
+    cols = np.arange(y.shape[1])
+    threshold = mean[best, cols] + se[best, cols]
+    return (mean <= threshold).argmax(0)
 
 
 def _poly_window(t: np.ndarray, y: np.ndarray, max_order: int, folds: int) -> tuple[np.ndarray, ...]:
