@@ -29,8 +29,8 @@ def test_fk_matches_catalogue_robot(robot):
 def test_round_trip_exact_on_random_in_limit_poses(robot):
     q = robot.sample_q(20000, torch.Generator().manual_seed(2)).numpy()
     elbow, wrist = arm_fk(q, L1, L2)
-    # independent samples: no continuity to keep, so no hysteresis
-    res = arm_ik(np.zeros_like(elbow), elbow, wrist, hysteresis_deg=0.0)
+    # independent samples: no continuity to keep
+    res = arm_ik(np.zeros_like(elbow), elbow, wrist, continuity=0.0)
     regular = ~res.elbow_singular & ~res.shoulder_singular
     assert regular.mean() > 0.8
     np.testing.assert_allclose(res.q[regular], q[regular], atol=1e-9)
@@ -66,7 +66,7 @@ def test_shoulder_terms_signs():
 def test_left_arm_is_the_mirror_image(robot):
     q = robot.sample_q(300, torch.Generator().manual_seed(3)).numpy()
     elbow, wrist = arm_fk(q, L1, L2)
-    left = arm_ik(np.zeros_like(elbow), mirror(elbow, "left"), mirror(wrist, "left"), side="left", hysteresis_deg=0)
+    left = arm_ik(np.zeros_like(elbow), mirror(elbow, "left"), mirror(wrist, "left"), side="left", continuity=0)
     ok = ~left.elbow_singular & ~left.shoulder_singular
     np.testing.assert_allclose(left.q[ok], q[ok], atol=1e-9)
     # a left arm raised sideways moves towards +y and has positive abduction

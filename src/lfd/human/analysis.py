@@ -173,11 +173,12 @@ class ArmAnalysis:
         }
         return _atomic_write(path, json.dumps(clean(doc), indent=1) + "\n")
 
-    def plot(self, out_dir: str | os.PathLike, gif: bool = True) -> list[Path]:
-        """Figures like the thesis' 3.6-3.9 (positions, angles, velocities, accelerations, torques) and a GIF."""
+    def plot(self, out_dir: str | os.PathLike, gif: bool = True, gif_frames: int = 150) -> list[Path]:
+        """Figures like the thesis' 3.6-3.9 (positions, angles, velocities, accelerations, torques) and a
+        stick-figure GIF of at most ``gif_frames`` frames (see :mod:`lfd.human.plots`)."""
         from .plots import plot_analysis
 
-        return plot_analysis(self, out_dir, gif=gif)
+        return plot_analysis(self, out_dir, gif=gif, max_gif_frames=gif_frames)
 
     def save(self, out_dir: str | os.PathLike, stem: str = "arm", plots: bool = True, gif: bool = True) -> list[Path]:
         """All outputs (CSV, MOT, JSON, and figures) into ``out_dir``; returns the paths."""

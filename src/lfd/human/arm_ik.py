@@ -27,9 +27,11 @@ Singular cases: the straight arm (``sin q4 ~ 0``) leaves ``q3`` undefined, and t
 pointing along the x axis (``cos q2 ~ 0``) leaves ``q1`` undefined (gimbal lock). Those
 frames are flagged; the undefined angle is interpolated in time from the well-defined
 frames around it (held at the ends), then the others are recomputed from it so the
-elbow and wrist stay exact. The branch is chosen per frame to respect the joint limits,
-with hysteresis so it never flips back and forth (continuity); angles still outside the
-limits are clamped and flagged.
+elbow and wrist stay exact. The branch sequence minimises the limit violation plus the
+frame-to-frame angle change (a two-state Viterbi recursion), so it switches only where the
+branches meet or where the limits demand it, never back and forth on noise; angles still
+outside the limits (poses the model cannot reach, e.g. the arm raised sideways above the
+shoulder) are clamped and flagged.
 
 The left arm is solved as the mirror image (``y -> -y`` in the trunk frame) of a right
 arm, so its angles carry the same anatomical meaning (positive abduction raises the arm
@@ -119,20 +121,46 @@ def _violation(q: np.ndarray, ignore: np.ndarray | None = None) -> np.ndarray:
     return v.sum(-1)
 
 
-def _choose_branch(cost_a: np.ndarray, cost_b: np.ndarray, hysteresis: float) -> np.ndarray:
-    """Branch per frame: the one with the smaller limit violation, switching only when the
-    other is better by more than ``hysteresis`` rad (a two-state machine, sequential in time)."""
-    branch = np.zeros(len(cost_a), np.int8)
-    current = 0 if not len(cost_a) or cost_a[0] <= cost_b[0] else 1
-    for t, (a, b) in enumerate(zip(cost_a.tolist(), cost_b.tolist())):
-        if a != a or b != b:  # NaN frame: keep the state
-            branch[t] = current
-            continue
-        if current == 0 and b + hysteresis < a:
-            current = 1
-        elif current == 1 and a + hysteresis < b:
-            current = 0
-        branch[t] = current
+def _angle_step(a: np.ndarray, b: np.ndarray, ignore: np.ndarray) -> np.ndarray:
+    """Sum over joints of the wrapped angle change from ``a`` (frame t-1) to ``b`` (frame t), (T-1,)."""
+    d = np.abs(_wrap(b - a))
+    return np.where(ignore | ~np.isfinite(d), 0.0, d).sum(-1)
+
+
+def _choose_branch(qa: np.ndarray, qb: np.ndarray, cost_a: np.ndarray, cost_b: np.ndarray,
+                   ignore: np.ndarray, weight: float) -> np.ndarray:  # fmt: skip
+    """Branch per frame minimising ``sum_t violation(q_t) + weight * sum_t |q_t - q_{t-1}|`` (Viterbi).
+
+    Two states (branch A, B); the transition costs are the angle changes between consecutive
+    frames on either branch, so a switch is taken only where it is cheap (where the branches
+    meet, near the gimbal lock) or where staying would violate the limits by more than the jump.
+    The recursion over time is sequential (a scalar loop); everything else is vectorised.
+    """
+    n = len(qa)
+    if n == 0:
+        return np.zeros(0, np.int8)
+    skip = ignore[1:] | ignore[:-1]
+    trans = weight * np.stack([
+        np.stack([_angle_step(qa[:-1], qa[1:], skip), _angle_step(qa[:-1], qb[1:], skip)], -1),
+        np.stack([_angle_step(qb[:-1], qa[1:], skip), _angle_step(qb[:-1], qb[1:], skip)], -1),
+    ], 1)  # (T-1, from, to)  # fmt: skip
+    unary = np.nan_to_num(np.stack([cost_a, cost_b], -1), nan=0.0)
+    back = np.zeros((n, 2), np.int8)
+    total = unary[0].copy()
+    trans_list, unary_list = trans.tolist(), unary.tolist()
+    ca, cb = float(total[0]), float(total[1])
+    for t in range(1, n):
+        (aa, ab), (ba, bb) = trans_list[t - 1]
+        ua, ub = unary_list[t]
+        from_a_to_a, from_b_to_a = ca + aa, cb + ba
+        from_a_to_b, from_b_to_b = ca + ab, cb + bb
+        back[t, 0] = 0 if from_a_to_a <= from_b_to_a else 1
+        back[t, 1] = 0 if from_a_to_b <= from_b_to_b else 1
+        ca, cb = min(from_a_to_a, from_b_to_a) + ua, min(from_a_to_b, from_b_to_b) + ub
+    branch = np.zeros(n, np.int8)
+    branch[-1] = 0 if ca <= cb else 1
+    for t in range(n - 1, 0, -1):
+        branch[t - 1] = back[t, branch[t]]
     return branch
 
 
@@ -143,7 +171,7 @@ def arm_ik(
     side: str = "right",
     *,
     singular_deg: float = 10.0,
-    hysteresis_deg: float = 10.0,
+    continuity: float = 1.0,
     clamp: bool = True,
 ) -> ArmIKResult:
     """Joint angles of one arm from shoulder, elbow and wrist positions in the trunk frame.
@@ -153,7 +181,9 @@ def arm_ik(
         side: ``"right"`` or ``"left"`` (solved as the mirror image, see module docstring).
         singular_deg: a frame is singular when the elbow is within this angle of straight
             (rotation undefined) or the upper arm within it of the x axis (abduction undefined).
-        hysteresis_deg: limit-violation margin (deg) before the solution switches branch.
+        continuity: weight of the frame-to-frame angle change against the limit violation
+            (both in rad) when the branch sequence is chosen; 0 picks the least-violating
+            branch in every frame independently (for unordered samples).
         clamp: clamp to the joint limits (flagged in ``clamped``).
 
     Returns:
@@ -196,7 +226,9 @@ def arm_ik(
     ignore = np.zeros((len(u), 4), bool)
     ignore[:, 2] = elbow_singular
     ignore[:, 0] = shoulder_singular
-    branch = _choose_branch(_violation(qa, ignore), _violation(qb, ignore), np.deg2rad(hysteresis_deg))
+    if not (np.isfinite(continuity) and continuity >= 0):
+        raise ValueError(f"continuity must be a non-negative weight, got {continuity!r}")
+    branch = _choose_branch(qa, qb, _violation(qa, ignore), _violation(qb, ignore), ignore, continuity)
     q = np.where(branch[:, None] == 1, qb, qa)
 
     if shoulder_singular.any():
