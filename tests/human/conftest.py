@@ -17,5 +17,5 @@ def fixtures() -> Path:
 REAL_FILES = {
     "kinect_csv": "kimore_ex1_excerpt.csv.gz",
     "ntu": "ntu_S001C001P001R001A001_excerpt.skeleton.gz",
-    "uiprmd": "ui_prmd/Kinect/Positions/m10_s05_e01_positions.txt.gz",
+    "uiprmd": "ui_prmd/Kinect/Positions/m10_s05_e02_positions.txt.gz",
 }
