@@ -180,12 +180,13 @@ class ArmAnalysis:
 
         return plot_analysis(self, out_dir, gif=gif, max_gif_frames=gif_frames)
 
-    def save(self, out_dir: str | os.PathLike, stem: str = "arm", plots: bool = True, gif: bool = True) -> list[Path]:
+    def save(self, out_dir: str | os.PathLike, stem: str = "arm", plots: bool = True, gif: bool = True,
+             gif_frames: int = 150) -> list[Path]:  # fmt: skip
         """All outputs (CSV, MOT, JSON, and figures) into ``out_dir``; returns the paths."""
         out = Path(out_dir)
         paths = [self.to_csv(out / f"{stem}.csv"), self.to_mot(out / f"{stem}.mot"), self.to_json(out / f"{stem}.json")]
         if plots:
-            paths += self.plot(out, gif=gif)
+            paths += self.plot(out, gif=gif, gif_frames=gif_frames)
         return paths
 
 

@@ -112,7 +112,8 @@ def stick_figure_gif(result, path: str | os.PathLike, max_frames: int = 150, fps
         ax.set_ylabel("y left")
         ax.set_zlabel("z up")
         ax.set_title(f"t = {result.t[f]:.2f} s", fontsize=9)
-        ax.legend(loc="upper left", fontsize=7)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper left", fontsize=7)
         fig.canvas.draw()
         images.append(Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3]))
     plt.close(fig)
