@@ -44,18 +44,29 @@ Example::
     (1000, 200, 2)
 """
 
+from .coupling import JointLimits, ObstacleAvoidance
 from .discrete import DMP, FIT_METHODS
+from .fitting import DEFAULT_RIDGE
+from .formulation import DEFAULT_FORMULATION, FORMULATIONS
 from .functional import DiscreteGains, Gains, clear_caches, rollout_batch
 from .layer import DMPLayer
 from .rhythmic import RhythmicDMP
+from .stepping import DMPRunner, DMPState
 from .transform import RolloutOperator
 
 __all__ = [
+    "DEFAULT_FORMULATION",
+    "DEFAULT_RIDGE",
     "DMP",
     "FIT_METHODS",
+    "FORMULATIONS",
     "DMPLayer",
+    "DMPRunner",
+    "DMPState",
     "DiscreteGains",
     "Gains",
+    "JointLimits",
+    "ObstacleAvoidance",
     "RhythmicDMP",
     "RolloutOperator",
     "clear_caches",

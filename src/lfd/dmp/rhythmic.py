@@ -14,7 +14,7 @@ from .canonical import rhythmic_activations, rhythmic_features
 from .discrete import check_method
 from .fitting import DEFAULT_RIDGE, TrajectoryFit, check_ridge, demo_derivatives, forcing_target, lwr_weights
 from .functional import Gains, evaluate
-from .transform import RolloutOperator, build_operator
+from .transform import RolloutOperator, build_refined_operator
 
 __all__ = ["RhythmicDMP", "rhythmic_operator"]
 
@@ -29,8 +29,11 @@ def rhythmic_operator(
     """
     tau = torch.as_tensor(tau, dtype=torch.float64)
     phi = torch.as_tensor(t - t[0], dtype=torch.float64) / tau[..., None]
-    features = rhythmic_features(phi, n_basis, gains.overlap)
-    return build_operator(phi, features, tau, gains.alpha_z, gains.beta_z).to(dtype, device)
+
+    def features_of(phase):
+        return rhythmic_features(phase, n_basis, gains.overlap)
+
+    return build_refined_operator(phi, features_of, tau, gains.alpha_z, gains.beta_z).to(dtype, device)
 
 
 class RhythmicDMP(Primitive):
