@@ -20,7 +20,7 @@ def test_runner_agrees_with_the_closed_form_rollout(formulation):
     rng = np.random.default_rng(22)
     t, y = smooth_demo(rng, 60, 3, duration=1.2)
     dmp = DMP(12, formulation=formulation).fit(t, y)
-    runner = DMPRunner(dmp, substeps=transform.substeps(len(t)))
+    runner = DMPRunner(dmp, substeps=transform.substeps((t[1] - t[0]) / dmp.tau_))
     states = [runner.state] + [runner.step(dt) for dt in np.diff(t)]
     positions = np.array([s.y for s in states])
     velocities = np.array([s.yd for s in states])
@@ -29,7 +29,7 @@ def test_runner_agrees_with_the_closed_form_rollout(formulation):
     np.testing.assert_allclose(velocities, reference_velocity, rtol=0, atol=1e-6 * np.abs(reference_velocity).max())
     assert states[-1].t == pytest.approx(t[-1] - t[0])
     # DMP.step is the same pure function; one sub-step per step matches a grid that needs none
-    fine = np.linspace(0, dmp.tau_, transform.MIN_SAMPLES)
+    fine = np.linspace(0, dmp.tau_, transform.MIN_STEPS_PER_TAU + 1)
     state = DMPState(dmp.y0_, np.zeros(3))
     for dt in np.diff(fine)[:50]:
         state = dmp.step(state, dt)
@@ -39,8 +39,8 @@ def test_runner_agrees_with_the_closed_form_rollout(formulation):
 def test_runner_follows_a_goal_that_moves_mid_motion(fitted):
     t, y, dmp = fitted
     new_goal = dmp.goal_ + np.array([0.4, -0.3, 0.2])
-    runner = DMPRunner(dmp, substeps=transform.substeps(301))
     dt = dmp.tau_ / 100
+    runner = DMPRunner(dmp, substeps=transform.substeps(dt / dmp.tau_))
     path = [runner.step(dt, goal=new_goal if k >= 50 else None).y for k in range(300)]
     path = np.array(path)
     reference = dmp.rollout(t=np.arange(0, 301) * dt)[1:]
@@ -97,7 +97,7 @@ def test_coupling_in_batched_rollout_and_runner_agree_and_obstacles_can_move():
     batch = rollout_batch(dmp.y0_, dmp.goal_, weights, t, coupling=[term])
     assert batch.shape == (4, 200, 2)
     np.testing.assert_allclose(batch[2], dmp.rollout(weights=weights[2], coupling=[term]), atol=1e-12)
-    runner = DMPRunner(dmp, weights=weights, coupling=[term], substeps=transform.substeps(len(t)))
+    runner = DMPRunner(dmp, weights=weights, coupling=[term], substeps=transform.substeps(t[1] / dmp.tau_))
     stepped = np.stack([runner.state.y] + [runner.step(dt).y for dt in np.diff(t)], axis=1)
     np.testing.assert_allclose(stepped, batch, atol=1e-12)
     # an obstacle that appears mid-motion on the path: the runner moves around it

@@ -75,7 +75,7 @@ def test_rollout_converges_to_the_continuous_solution(uniform, formulation, monk
         reference = _reference_rollout(t, y0, goal, weights, tau, n_basis, formulation)
         refined.append(np.abs(ours - reference).max())
         with monkeypatch.context() as patch:  # the raw first-order hold on the grid itself
-            patch.setattr(transform, "MIN_SAMPLES", 1)
+            patch.setattr(transform, "MIN_STEPS_PER_TAU", 1)
             clear_caches()
             raw = DMP(n_basis, formulation=formulation).rollout(t=t, y0=y0, goal=goal, tau=tau, weights=weights)
         clear_caches()
@@ -85,7 +85,7 @@ def test_rollout_converges_to_the_continuous_solution(uniform, formulation, monk
     size = max(np.abs(goal - y0).max(), np.abs(reference - y0).max())
     assert errors[2] < 2e-4 * size
     assert errors[2] < errors[1] / 6
-    # built on a refined grid (>= transform.MIN_SAMPLES samples), every sampling is as
+    # built on a refined grid (>= transform.MIN_STEPS_PER_TAU steps per tau), every sampling is as
     # close to the continuous solution as a 1000-sample grid, even 30 samples
     assert max(refined) < 3e-5 * size, refined
     assert refined[0] < errors[0] / 50

@@ -256,7 +256,7 @@ class DMP(Primitive):
         positions, velocities = integrate(
             times - times[0], y0=values["y0"], goal=values["goal"], weights=values["weights"], tau=tau,
             yd0=values.get("yd0"), n_basis=self.n_basis, gains=self.gains, formulation=self.formulation,
-            coupling=coupling, substeps=transform.substeps(times.shape[0]),
+            coupling=coupling, substeps=transform.grid_substeps(torch.from_numpy(times / tau)),
         )
         if not return_derivatives:
             return positions
@@ -274,8 +274,8 @@ class DMP(Primitive):
             goal: current goal ``(D,)``/``(B, D)`` (may differ from step to step; default ``goal_``).
             y0: start of the movement (default ``y0_``); tau, weights: default the learned ones.
             coupling: coupling terms evaluated at the start of each sub-step.
-            substeps: equal sub-steps (the closed-form rollout on a grid of ``T`` samples uses
-                ``lfd.dmp.transform.substeps(T)``).
+            substeps: equal sub-steps (the closed-form rollout on a grid with step ``dt``
+                seconds uses ``lfd.dmp.transform.substeps(dt / tau)``).
 
         Returns:
             The new :class:`lfd.dmp.DMPState`. :class:`lfd.dmp.DMPRunner` keeps the state for you.

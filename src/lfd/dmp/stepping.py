@@ -3,10 +3,10 @@
 One step advances the transformation system over ``dt`` seconds with the same exact
 discretisation as the closed-form rollout (:mod:`lfd.dmp.transform`): the spring-damper in
 closed form, the forcing input held piecewise-linearly over each of ``substeps`` equal
-sub-steps. Coupling terms (:mod:`lfd.dmp.coupling`) are evaluated at the start of each
+sub-steps (:func:`lfd.dmp.transform.substeps`). Coupling terms (:mod:`lfd.dmp.coupling`) are evaluated at the start of each
 sub-step and held there; a term with a ``project`` method (joint limits) then constrains
 the state after the sub-step. With no coupling and a fixed goal, stepping through a grid with
-``substeps = transform.substeps(len(t))`` reproduces :meth:`lfd.dmp.DMP.rollout` on that
+``substeps = transform.substeps(dt / tau)`` reproduces :meth:`lfd.dmp.DMP.rollout` on that
 grid to rounding (tested to 1e-6).
 
 The goal may change between steps: the spring pulls towards the new goal at once, and in
@@ -164,15 +164,15 @@ class DMPRunner:
         yd0: start velocity in units/s (default the learned ``yd0_``, at rest).
         coupling: coupling terms, see :mod:`lfd.dmp.coupling`.
         substeps: equal sub-steps per :meth:`step`; with
-            ``lfd.dmp.transform.substeps(len(t))`` stepping through ``t`` reproduces
-            ``dmp.rollout(t=t)``.
+            ``lfd.dmp.transform.substeps(dt / tau)`` stepping through a grid of step ``dt``
+            seconds reproduces ``dmp.rollout(t=t)``.
 
     Example:
         >>> import numpy as np
         >>> from lfd.dmp import DMP, DMPRunner
         >>> t = np.linspace(0.0, 1.0, 101)
         >>> dmp = DMP(n_basis=10).fit(t, np.stack([np.sin(t), t**2], -1))
-        >>> runner = DMPRunner(dmp, substeps=10)
+        >>> runner = DMPRunner(dmp, substeps=transform.substeps(0.01))
         >>> for k in range(100):
         ...     state = runner.step(0.01, goal=[1.0, 1.5] if k >= 50 else None)  # new goal mid-motion
         >>> state.y.shape
