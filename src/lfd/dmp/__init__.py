@@ -44,6 +44,7 @@ Example::
     (1000, 200, 2)
 """
 
+from .cartesian import CartesianDMP
 from .coupling import JointLimits, ObstacleAvoidance
 from .discrete import DMP, FIT_METHODS
 from .fitting import DEFAULT_RIDGE
@@ -55,6 +56,7 @@ from .stepping import DMPRunner, DMPState
 from .transform import RolloutOperator
 
 __all__ = [
+    "CartesianDMP",
     "DEFAULT_FORMULATION",
     "DEFAULT_RIDGE",
     "DMP",
