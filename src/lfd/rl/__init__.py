@@ -26,21 +26,37 @@ Example::
 """
 
 from .adapt import adapt_to_goal, goal_configuration
+from .cmaes import cmaes
 from .memory import keep_best
-from .power import PowerHistory, PowerResult, power
-from .rewards import JointGoalReward, TaskGoalReward, limit_violation, returns_from_distances
+from .pibb import pibb
+from .power import POWER_VARIANTS, power
+from .problem import PowerHistory, PowerResult, SearchProblem
+from .rewards import (
+    JointGoalReward,
+    ObstacleReward,
+    TaskGoalReward,
+    ViaPointReward,
+    limit_violation,
+    returns_from_distances,
+)
 from .rollout import DMPRollout
 
 __all__ = [
     "DMPRollout",
     "JointGoalReward",
+    "ObstacleReward",
+    "POWER_VARIANTS",
     "PowerHistory",
     "PowerResult",
+    "SearchProblem",
     "TaskGoalReward",
+    "ViaPointReward",
     "adapt_to_goal",
+    "cmaes",
     "goal_configuration",
     "keep_best",
     "limit_violation",
+    "pibb",
     "power",
     "returns_from_distances",
 ]
