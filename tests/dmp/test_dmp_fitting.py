@@ -20,7 +20,7 @@ def coarse_cases():
         _, fine_y = smooth_demo(np.random.default_rng(seed), t=fine_t, n_dims=7)
         _, coarse_y = smooth_demo(np.random.default_rng(seed), t=coarse_t, n_dims=7)
         cases.append((f"synthetic {n}", coarse_t, coarse_y, fine_t, fine_y))
-    for name in ("Worm", "Leaf_1", "heee"):  # held out from choosing the default (benchmarks/dmp_ridge.py)
+    for name in ("WShape", "Leaf_1", "Spoon"):  # held out from choosing the default (benchmarks/dmp_ridge.py)
         t, y = lasa_demo(name)
         index = np.round(np.linspace(0, len(t) - 1, 40)).astype(int)
         cases.append((f"LASA {name} 40", t[index], y[index], t, y))
