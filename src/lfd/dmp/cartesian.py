@@ -70,7 +70,9 @@ def _check_pose(name: str, value, ndims=(1, 2)) -> np.ndarray:
         raise ValueError(f"{name} must end with 7 values [x, y, z, qw, qx, qy, qz], got shape {pose.shape}")
     norms = np.linalg.norm(pose[..., 3:], axis=-1)
     if np.any(np.abs(norms - 1.0) > 1e-3):
-        raise ValueError(f"{name} quaternions must have unit norm (|q| = 1 within 1e-3), got norms up to {norms.max():.4g}")
+        raise ValueError(
+            f"{name} quaternions must have unit norm (|q| = 1 within 1e-3), got norms up to {norms.max():.4g}"
+        )
     return np.concatenate([pose[..., :3], quat.normalise(pose[..., 3:])], axis=-1)
 
 
@@ -144,7 +146,9 @@ class CartesianDMP:
         times = check.time_grid(t, min_samples=3)
         pose = _check_pose("pose", pose, (2, 3))
         if pose.shape[-2] != times.shape[0]:
-            raise ValueError(f"pose must have shape (T, 7) or (B, T, 7) with T = len(t) = {times.shape[0]}, got {pose.shape}")
+            raise ValueError(
+                f"pose must have shape (T, 7) or (B, T, 7) with T = len(t) = {times.shape[0]}, got {pose.shape}"
+            )
         q = quat.continuous(pose[..., 3:])
         self.position_.fit(times, pose[..., :3])
         tau = float(times[-1] - times[0])
@@ -210,7 +214,9 @@ class CartesianDMP:
         tau = check.positive_float("tau", float(self.tau_ if tau is None else tau))
         weights = check.finite_array("weights", self.weights_ if weights is None else weights, (2, 3))
         if weights.shape[-2:] != (6, self.n_basis):
-            raise ValueError(f"weights must have shape (6, {self.n_basis}) or (B, 6, {self.n_basis}), got {weights.shape}")
+            raise ValueError(
+                f"weights must have shape (6, {self.n_basis}) or (B, 6, {self.n_basis}), got {weights.shape}"
+            )
         times = np.linspace(0.0, tau, self.n_steps_) if t is None else check.time_grid(t, min_samples=1)
         batch = np.broadcast_shapes(start.shape[:-1], goal.shape[:-1], weights.shape[:-2])
         position = np.asarray(
@@ -238,7 +244,8 @@ class CartesianDMP:
         goal = np.broadcast_to(goal, (*batch, 4))
         a, b = self.gains.alpha_z, self.gains.beta_z
         e0 = quat.log(quat.multiply(goal, quat.conjugate(q)))
-        v = scale_weights(np.broadcast_to(weights, (*batch, 3, self.n_basis)), np.zeros_like(e0), e0, self.formulation, a * b)
+        weights = np.broadcast_to(weights, (*batch, 3, self.n_basis))
+        v = scale_weights(weights, np.zeros_like(e0), e0, self.formulation, a * b)
         eta = np.zeros((*batch, 3))
         out = [q.copy()]
         for t0, t1 in zip(times[:-1], times[1:]):

@@ -48,7 +48,9 @@ class ObstacleAvoidance:
         points: ``(N, D)`` obstacle positions (or ``(B, N, D)``, one set per batch row), in the
             DMP's units; may be reassigned between steps (moving obstacles).
         kind: ``"park"`` or ``"hoffmann"``.
-        gain: ``lam`` (units^2/s, Park) or ``gamma`` (1/s, Hoffmann).
+        gain: ``lam`` (units^2/s, Park; default 1, for metre-scale motions over about a
+            second: scale it with the square of the motion's size, e.g. 0.05 for 10 cm) or
+            ``gamma`` (1/s, Hoffmann; default 1000).
         beta: exponent (Park, default 2) or angular decay (Hoffmann, default ``20 / pi``).
         dims: indices of the DoF the obstacles live in (default all), e.g. ``[0, 1, 2]`` for
             the position of a ``[x, y, z, ...]`` DMP.

@@ -333,4 +333,6 @@ def rollout_batch(
 
         dmp = DMP(np.shape(weights)[-1], gains.alpha_z, gains.beta_z, gains.alpha_s, gains.overlap, formulation)
         return dmp.rollout(times, y0, goal, tau, weights, return_derivatives, yd0=yd0, coupling=coupling)
-    return rollout_with_gains(y0, goal, weights, times, tau, gains, return_derivatives, formulation=formulation, yd0=yd0)
+    return rollout_with_gains(
+        y0, goal, weights, times, tau, gains, return_derivatives, formulation=formulation, yd0=yd0
+    )

@@ -187,10 +187,15 @@ class RhythmicDMP(Primitive):
             raise ValueError(f"goal must have shape ({n_dims},) or (B, {n_dims}), got {tuple(goal.shape)}")
         if y0 is None:
             offset = self._fitted("y0", None) - self.goal_
-            y0 = goal + r * (torch.as_tensor(offset, dtype=goal.dtype, device=goal.device) if isinstance(goal, torch.Tensor) else offset)
+            if isinstance(goal, torch.Tensor):
+                offset = torch.as_tensor(offset, dtype=goal.dtype, device=goal.device)
+            y0 = goal + r * offset
         if yd0 is None:
             demo = r * self._fitted("yd0", None) * self.tau_
-            yd0 = (torch.as_tensor(demo, dtype=tau.dtype, device=tau.device) / tau[..., None]) if tensor_tau else demo / tau
+            if tensor_tau:
+                yd0 = torch.as_tensor(demo, dtype=tau.dtype, device=tau.device) / tau[..., None]
+            else:
+                yd0 = demo / tau
         if t is None:
             if tensor_tau and tau.ndim > 0:
                 raise ValueError("t is required when tau has one value per sample")

@@ -3,9 +3,10 @@
 One step advances the transformation system over ``dt`` seconds with the same exact
 discretisation as the closed-form rollout (:mod:`lfd.dmp.transform`): the spring-damper in
 closed form, the forcing input held piecewise-linearly over each of ``substeps`` equal
-sub-steps (:func:`lfd.dmp.transform.substeps`). Coupling terms (:mod:`lfd.dmp.coupling`) are evaluated at the start of each
-sub-step and held there; a term with a ``project`` method (joint limits) then constrains
-the state after the sub-step. With no coupling and a fixed goal, stepping through a grid with
+sub-steps (:func:`lfd.dmp.transform.substeps`). Coupling terms (:mod:`lfd.dmp.coupling`)
+are evaluated at the start of each sub-step and held there; a term with a ``project``
+method (joint limits) then constrains the state after the sub-step. With no coupling and a
+fixed goal, stepping through a grid with
 ``substeps = transform.substeps(dt / tau)`` reproduces :meth:`lfd.dmp.DMP.rollout` on that
 grid to rounding (tested to 1e-6).
 

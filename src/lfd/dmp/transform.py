@@ -339,7 +339,8 @@ def build_refined_operator(
             parts = {}
             for value in sorted(set(factors)):
                 rows = torch.tensor([i for i, f in enumerate(factors) if f == value], device=theta.device)
-                parts[value] = (rows, build_refined_operator(theta[rows], features_of, tau[rows], alpha_z, beta_z, value))
+                part = build_refined_operator(theta[rows], features_of, tau[rows], alpha_z, beta_z, value)
+                parts[value] = (rows, part)
             order = torch.argsort(torch.cat([rows for rows, _ in parts.values()]))
 
             def gather(name: str) -> Tensor:
