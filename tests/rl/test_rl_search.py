@@ -233,3 +233,22 @@ def test_pyrdmp_published_stopping_test_stops_at_once_on_a_via_task(planar_dmp):
         power(planar_dmp, reward, variant="pyrdmp", stop="never")
     with pytest.raises(ValueError, match="variant"):
         power(planar_dmp, reward, variant="kober")
+
+
+def test_bad_arguments_of_the_searches_are_rejected_with_their_name(line_dmp):
+    from lfd.rl import JointGoalReward
+
+    reward = JointGoalReward([1.0])
+    cases = [
+        (power, dict(variance_bounds=(2.0, 3.0)), "variance_bounds"),
+        (power, dict(variance_bounds=0.5), "variance_bounds"),
+        (pibb, dict(eliteness=0.0), "eliteness"),
+        (pibb, dict(n_rollouts=0), "n_rollouts"),
+        (cmaes, dict(sigma0=0.0), "sigma0"),
+        (cmaes, dict(popsize=1), "popsize"),
+        (cmaes, dict(tol=0.01, error=None, reward=lambda y: np.ones(len(y))), "tol"),
+    ]
+    for search, kwargs, name in cases:
+        kwargs = dict(kwargs)
+        with pytest.raises(ValueError, match=name):
+            search(line_dmp, kwargs.pop("reward", reward), **kwargs)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._checks import check_float
-from .problem import PowerResult, Recorder, SearchProblem, check_common
+from .problem import PowerResult, Recorder, SearchProblem, check_common, check_variance_bounds
 
 __all__ = ["pibb"]
 
@@ -65,9 +65,7 @@ def pibb(
     sigma = check_float(sigma, "sigma", low=0.0)
     sigma_goal = check_float(sigma_goal, "sigma_goal", low=0.0)
     eliteness = check_float(eliteness, "eliteness", low=0.0, strict_low=True)
-    low, high = (check_float(v, "variance_bounds", low=0.0) for v in variance_bounds)
-    if not 0.0 < low <= 1.0 <= high:
-        raise ValueError(f"variance_bounds must satisfy 0 < low <= 1 <= high, got {variance_bounds}")
+    low, high = check_variance_bounds(variance_bounds)
     problem = SearchProblem(dmp, reward, weights=weights, goal=goal, y0=y0, t=t, explore_goal=sigma_goal > 0.0,
                             error=error, tol=tol, lower=lower, upper=upper, limit_penalty=limit_penalty)  # fmt: skip
     rng = np.random.default_rng(seed)

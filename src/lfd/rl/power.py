@@ -61,7 +61,7 @@ import torch
 
 from ._checks import check_float, check_int
 from .memory import keep_best
-from .problem import PowerHistory, PowerResult, Recorder, SearchProblem, check_common
+from .problem import PowerHistory, PowerResult, Recorder, SearchProblem, check_common, check_variance_bounds
 
 __all__ = ["POWER_VARIANTS", "PowerHistory", "PowerResult", "power"]
 
@@ -219,9 +219,7 @@ def power(
     sigma_decay = check_float(sigma_decay, "sigma_decay", low=0.0, high=1.0, strict_low=True)
     if adapt_variance is None:
         adapt_variance = variant != "pyrdmp"
-    low, high = (check_float(v, "variance_bounds", low=0.0) for v in variance_bounds)
-    if not 0.0 < low <= 1.0 <= high:
-        raise ValueError(f"variance_bounds must satisfy 0 < low <= 1 <= high, got {variance_bounds}")
+    low, high = check_variance_bounds(variance_bounds)
     stop = ("published" if variant == "pyrdmp" else "tol") if stop is None else stop
     if stop not in ("tol", "published"):
         raise ValueError(f"stop must be 'tol' or 'published', got {stop!r}")

@@ -288,3 +288,14 @@ class Recorder:
 def check_common(n_rollouts, max_iter) -> tuple[int, int]:
     """Validated ``n_rollouts >= 1`` and ``max_iter >= 0``."""
     return check_int(n_rollouts, "n_rollouts", minimum=1), check_int(max_iter, "max_iter", minimum=0)
+
+
+def check_variance_bounds(bounds) -> tuple[float, float]:
+    """Validated ``(low, high)`` relative variance bounds with ``0 < low <= 1 <= high``."""
+    try:
+        low, high = (check_float(v, "variance_bounds", low=0.0) for v in bounds)
+    except TypeError as exc:
+        raise ValueError(f"variance_bounds must be a pair (low, high), got {bounds!r}") from exc
+    if not 0.0 < low <= 1.0 <= high:
+        raise ValueError(f"variance_bounds must satisfy 0 < low <= 1 <= high, got {bounds}")
+    return low, high
