@@ -207,7 +207,9 @@ def power(
 
     Example::
 
-        result = power(dmp, ViaPointReward(dmp.t_mid, point), tol=0.01, seed=0)
+        t = np.linspace(0.0, dmp.tau_, dmp.n_steps_)
+        point = dmp.rollout()[len(t) // 2] + 0.1           # (D,) rad off the motion at mid-time
+        result = power(dmp, ViaPointReward(t, t[len(t) // 2], point, goal=dmp.goal_), tol=0.01, seed=0)
         result.converged, result.rollouts
     """
     if variant not in POWER_VARIANTS:
