@@ -12,9 +12,9 @@ from . import _validation as check
 from ._base import Primitive
 from .canonical import rhythmic_activations, rhythmic_features
 from .discrete import check_method
-from .fitting import TrajectoryFit, demo_derivatives, forcing_target, lwr_weights
+from .fitting import DEFAULT_RIDGE, TrajectoryFit, check_ridge, demo_derivatives, forcing_target, lwr_weights
 from .functional import Gains, evaluate
-from .transform import RolloutOperator, build_operator
+from .transform import RolloutOperator, build_refined_operator
 
 __all__ = ["RhythmicDMP", "rhythmic_operator"]
 
@@ -29,8 +29,11 @@ def rhythmic_operator(
     """
     tau = torch.as_tensor(tau, dtype=torch.float64)
     phi = torch.as_tensor(t - t[0], dtype=torch.float64) / tau[..., None]
-    features = rhythmic_features(phi, n_basis, gains.overlap)
-    return build_operator(phi, features, tau, gains.alpha_z, gains.beta_z).to(dtype, device)
+
+    def features_of(phase):
+        return rhythmic_features(phase, n_basis, gains.overlap)
+
+    return build_refined_operator(phi, features_of, tau, gains.alpha_z, gains.beta_z).to(dtype, device)
 
 
 class RhythmicDMP(Primitive):
@@ -46,6 +49,7 @@ class RhythmicDMP(Primitive):
         alpha_z: damping gain (default 25).
         beta_z: spring gain (default ``alpha_z / 4``).
         overlap: activation of a basis at its neighbour's centre, in ``(0, 1)`` (sets ``h``).
+        ridge: relative Tikhonov strength of the ``"trajectory"`` fit, as in :class:`lfd.dmp.DMP`.
 
     Attributes (after :meth:`fit`; one demonstration / a batch of ``B``):
         weights_: ``(D, K)`` / ``(B, D, K)`` forcing weights (for ``r = 1``).
@@ -60,9 +64,19 @@ class RhythmicDMP(Primitive):
     _VECTORS = ("y0", "yd0", "goal")
     _SCALARS: ClassVar[dict] = {**Primitive._SCALARS, "duration": check.positive_float}
 
-    def __init__(self, n_basis: int = 20, alpha_z: float = 25.0, beta_z: float | None = None, overlap: float = 0.8):
+    _MISSING_PARAMS: ClassVar[dict] = {"ridge": 0.0}  # files saved before ridge existed: pinv fit
+
+    def __init__(
+        self,
+        n_basis: int = 20,
+        alpha_z: float = 25.0,
+        beta_z: float | None = None,
+        overlap: float = 0.8,
+        ridge: float = DEFAULT_RIDGE,
+    ):
         self.n_basis = check.positive_int("n_basis", n_basis)
         self.gains = Gains.resolve(alpha_z, beta_z, overlap)
+        self.ridge = check_ridge(ridge)
 
     alpha_z = property(lambda self: self.gains.alpha_z, doc="Damping gain of the transformation system.")
     beta_z = property(lambda self: self.gains.beta_z, doc="Spring gain of the transformation system.")
@@ -74,7 +88,13 @@ class RhythmicDMP(Primitive):
         return 2.0 * math.pi * self._fitted("tau", None)
 
     def _params(self) -> dict:
-        return {"n_basis": self.n_basis, "alpha_z": self.alpha_z, "beta_z": self.beta_z, "overlap": self.overlap}
+        return {
+            "n_basis": self.n_basis,
+            "alpha_z": self.alpha_z,
+            "beta_z": self.beta_z,
+            "overlap": self.overlap,
+            "ridge": self.ridge,
+        }
 
     def fit(self, t, y, period: float | None = None, method: str = "trajectory") -> RhythmicDMP:
         """Learn the periodic forcing term from a demonstration.
@@ -98,7 +118,7 @@ class RhythmicDMP(Primitive):
         goal = np.trapezoid(y, t, axis=-2) / duration
         dy, ddy = demo_derivatives(t, y)
         if method == "trajectory":
-            solver = TrajectoryFit.from_operator(rhythmic_operator(t, tau, self.n_basis, self.gains))
+            solver = TrajectoryFit.from_operator(rhythmic_operator(t, tau, self.n_basis, self.gains), self.ridge)
             self.weights_ = solver.weights(y, goal, tau * dy[..., 0, :])
         else:
             target = forcing_target(y, dy, ddy, goal, tau, self.alpha_z, self.beta_z)
@@ -116,54 +136,76 @@ class RhythmicDMP(Primitive):
         goal=None,
         tau=None,
         weights=None,
-        r: float = 1.0,
-        yd0=None,
         return_derivatives: bool = False,
+        yd0=None,
+        r: float = 1.0,
     ):
-        """Generate a periodic trajectory.
+        """Generate a periodic trajectory; the same keywords as :meth:`lfd.dmp.DMP.rollout`, plus ``r``.
 
         Defaults reproduce the demonstration, transformed: the start state is the
         demonstrated one mapped to the new anchor, amplitude and tempo,
         ``y0 = goal + r (y0_ - goal_)`` and ``yd0 = r yd0_ tau_ / tau``. Since the system is
         linear, ``rollout(r=a)`` is then exactly ``goal + a (rollout() - goal)``.
 
+        Backend as :func:`lfd.dmp.rollout_batch`: numpy in, float64 numpy out (validated);
+        if any of ``y0, goal, weights, tau, yd0`` is a ``torch.Tensor`` the result is a tensor,
+        differentiable w.r.t. them (``tau`` as a tensor ``()`` or ``(B,)``).
+
         Args:
             t: ``(T,)`` output times in seconds (strictly increasing, start at ``t[0]``);
                 default ``n_steps_`` samples over ``duration_ * tau / tau_``.
             y0, yd0: ``(D,)`` or ``(B, D)`` start position (units) and velocity (units/s).
             goal: ``(D,)`` or ``(B, D)`` anchor.
-            tau: ``period / (2 pi)`` in seconds.
+            tau: ``period / (2 pi)`` in seconds: a float, or a tensor ``()``/``(B,)``.
             weights: ``(D, K)`` or ``(B, D, K)``.
-            r: amplitude of the forcing term (finite, may be 0 or negative).
             return_derivatives: also return velocity (units/s) and acceleration (units/s^2).
+            r: amplitude of the forcing term (finite, may be 0 or negative).
 
         Returns:
-            Positions ``(T, D)`` or ``(B, T, D)``, numpy float64 (or the derivative triple).
+            Positions ``(T, D)`` or ``(B, T, D)`` (or the derivative triple).
+
+        Raises:
+            ValueError: shape mismatch, NaN/inf, ``tau <= 0``, bad ``t``, non-finite ``r``, or
+                a missing value on an unfitted DMP.
         """
-        if not np.isfinite(r):
+        if isinstance(r, bool) or not isinstance(r, (int, float, np.floating, np.integer)) or not np.isfinite(r):
             raise ValueError(f"r must be a finite number, got {r!r}")
         weights = self._fitted("weights", weights)
-        if np.shape(weights)[-1:] != (self.n_basis,) or np.ndim(weights) not in (2, 3):
+        if tuple(np.shape(weights))[-1:] != (self.n_basis,) or len(np.shape(weights)) not in (2, 3):
             raise ValueError(
                 f"weights must have shape (D, K = {self.n_basis}) or (B, D, K), got {tuple(np.shape(weights))}"
             )
         n_dims = np.shape(weights)[-2]
-        tau = check.positive_float("tau", self._fitted("tau", tau))
-        goal = check.finite_array("goal", self._fitted("goal", goal), (1, 2))
-        if goal.shape[-1] != n_dims:
-            raise ValueError(f"goal must have shape ({n_dims},) or (B, {n_dims}), got {goal.shape}")
+        tau = self._fitted("tau", tau)
+        tensor_tau = isinstance(tau, torch.Tensor)
+        if not tensor_tau:
+            tau = check.positive_float("tau", tau)
+        goal = self._fitted("goal", goal)
+        if not isinstance(goal, torch.Tensor):
+            goal = check.finite_array("goal", goal, (1, 2))
+        if tuple(goal.shape)[-1:] != (n_dims,) or goal.ndim not in (1, 2):
+            raise ValueError(f"goal must have shape ({n_dims},) or (B, {n_dims}), got {tuple(goal.shape)}")
         if y0 is None:
-            y0 = goal + r * (self._fitted("y0", None) - self.goal_)
+            offset = self._fitted("y0", None) - self.goal_
+            if isinstance(goal, torch.Tensor):
+                offset = torch.as_tensor(offset, dtype=goal.dtype, device=goal.device)
+            y0 = goal + r * offset
         if yd0 is None:
-            yd0 = r * self._fitted("yd0", None) * self.tau_ / tau
+            demo = r * self._fitted("yd0", None) * self.tau_
+            if tensor_tau:
+                yd0 = torch.as_tensor(demo, dtype=tau.dtype, device=tau.device) / tau[..., None]
+            else:
+                yd0 = demo / tau
         if t is None:
-            t = np.linspace(0.0, self._fitted("duration", None) * tau / self.tau_, self.n_steps_)
-        times = check.time_grid(t, min_samples=1)
+            if tensor_tau and tau.ndim > 0:
+                raise ValueError("t is required when tau has one value per sample")
+            t = np.linspace(0.0, self._fitted("duration", None) * float(tau) / self.tau_, self.n_steps_)
+        times = check.time_grid(t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1)
 
         def make_operator(grid, tau_value, n_basis, dtype, device):
             return rhythmic_operator(grid, tau_value, n_basis, self.gains, dtype, device)
 
-        def amplitude(start, anchor):
-            return anchor.new_full(anchor.shape, float(r))
+        def scale(w, start, anchor):
+            return w * float(r)
 
-        return evaluate(y0, goal, weights, times, tau, make_operator, amplitude, yd0, return_derivatives)
+        return evaluate(y0, goal, weights, times, tau, make_operator, scale, yd0, return_derivatives)
