@@ -132,7 +132,7 @@ def _episode_arrays(session, rec, dmp: DMP) -> dict:
     frames = np.array([session.kin.frames(x)[-1] for x in q])
     goal = session.scene.goal
     target = goal.center if goal is not None else rec.tool[-1]
-    radius = goal.radius if goal is not None else 0.0
+    radius = goal.radius if goal is not None else 0.01
     return {
         "index": np.array(0),
         "object_index": np.array(0),
@@ -142,7 +142,7 @@ def _episode_arrays(session, rec, dmp: DMP) -> dict:
         "object_shape": np.array("sphere"),
         "object_dims": np.array([radius]),
         "object_rgba": np.array([0.2, 0.8, 0.2, 0.4]),
-        "object_mass": np.array(0.0),
+        "object_mass": np.array(0.1),  # nominal: the goal region is a marker, not a body
         "placement": np.array([target[0], target[1], 0.0]),
         "approach_mode": np.array("teach"),
         "target_point": np.asarray(target, dtype=float),
