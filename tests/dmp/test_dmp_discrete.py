@@ -1,5 +1,6 @@
 """Discrete DMP: fitting, reproduction, generalisation (goal, duration), zero motion, errors."""
 
+import json
 import warnings
 
 import numpy as np
@@ -72,10 +73,10 @@ def test_temporal_scaling_stretches_the_same_path():
     np.testing.assert_allclose(acceleration, acceleration_ref / 4, atol=1e-9)
 
 
-def test_new_goal_scales_the_motion_with_the_displacement():
+def test_new_goal_scales_the_motion_with_the_displacement_ijspeert():
     rng = np.random.default_rng(4)
     t, y = smooth_demo(rng, 120, 3)
-    dmp = DMP().fit(t, y)
+    dmp = DMP(formulation="ijspeert").fit(t, y)
     base = dmp.rollout(t=t)
     new_goal = dmp.goal_ + np.array([0.7, -1.3, 2.0])
     moved = dmp.rollout(t=t, goal=new_goal)
@@ -85,6 +86,26 @@ def test_new_goal_scales_the_motion_with_the_displacement():
     assert np.abs(dmp.rollout(t=np.linspace(0, 3 * dmp.tau_, 300), goal=new_goal)[-1] - new_goal).max() < 1e-4 * scale(
         y
     )
+
+
+def test_new_goal_adds_a_smooth_offset_pastor():
+    # Pastor et al. 2009: y' - y is the goal offset times a smooth 0 -> 1 transient, the same
+    # for every weight vector (the forcing term does not depend on the goal); the path keeps
+    # its demonstrated shape and ends at the new goal.
+    rng = np.random.default_rng(4)
+    t, y = smooth_demo(rng, 120, 3)
+    dmp = DMP().fit(t, y)
+    assert dmp.formulation == "pastor"
+    offset = np.array([0.7, -1.3, 2.0])
+    long_t = np.linspace(0, 3 * dmp.tau_, 300)
+    for weights in (dmp.weights_, dmp.weights_ + rng.normal(size=dmp.weights_.shape)):
+        shift = dmp.rollout(t=long_t, goal=dmp.goal_ + offset, weights=weights) - dmp.rollout(t=long_t, weights=weights)
+        transient = shift / offset
+        np.testing.assert_allclose(transient, transient[:, :1].repeat(3, axis=1), atol=1e-10)  # same for every DoF
+        assert np.all(np.diff(transient[:, 0]) >= -1e-12)  # monotone 0 -> 1
+        assert abs(transient[0, 0]) < 1e-12 and transient[-1, 0] == pytest.approx(1.0, abs=1e-4)
+        velocity = np.gradient(transient[:, 0], long_t)
+        assert abs(velocity[1]) < 0.05 * velocity.max()  # no jump at the start
 
 
 def test_batched_fit_equals_per_sample_fit():
@@ -123,17 +144,47 @@ def test_stationary_demonstration_gives_finite_weights_and_stays_put():
     np.testing.assert_allclose(dmp.rollout(), y, atol=1e-12)
 
 
-def test_dof_returning_to_its_start_warns_and_rests():
+def test_dof_returning_to_its_start_warns_and_rests_ijspeert():
     t = np.linspace(0, 1, 100)
     y = np.stack([np.sin(np.pi * t), t], axis=-1)  # DoF 0 moves and comes back, DoF 1 moves
     with pytest.warns(RuntimeWarning, match="ends at its start"):
-        dmp = DMP().fit(t, y)
+        dmp = DMP(formulation="ijspeert").fit(t, y)
     assert np.all(np.isfinite(dmp.weights_)) and np.all(dmp.weights_[0] == 0)
     out = dmp.rollout()
     np.testing.assert_allclose(out[:, 0], y[0, 0], atol=1e-12)
     assert rmse(out[:, 1:], y[:, 1:]) < 1e-3
     straight = dmp.rollout(goal=[2.0, 1.0])[:, 0]  # zero weights: the spring alone, monotone to the goal
     assert np.all(np.diff(straight) >= 0) and straight[-1] == pytest.approx(2.0, abs=1e-3)
+
+
+def test_dof_returning_to_its_start_is_reproduced_pastor():
+    t = np.linspace(0, 1, 100)
+    y = np.stack([np.sin(np.pi * t), t, 0.3 * np.sin(2 * np.pi * t)], axis=-1)  # DoFs 0 and 2 return
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dmp = DMP().fit(t, y)
+    out = dmp.rollout()
+    for d in range(3):  # every DoF as well as the moving one (relative to its own range)
+        assert rmse(out[:, d : d + 1], y[:, d : d + 1]) < 2e-3 * np.ptp(y[:, d])
+    lifted = dmp.rollout(goal=[0.0, 2.0, 0.0])  # other DoF moved: the returning ones keep their shape
+    np.testing.assert_allclose(lifted[:, [0, 2]], out[:, [0, 2]], atol=1e-12)
+
+
+def test_files_saved_before_the_formulation_argument_load_as_ijspeert(tmp_path):
+    rng = np.random.default_rng(9)
+    t, y = smooth_demo(rng, 60, 3)
+    old = DMP(8, formulation="ijspeert").fit(t, y)
+    path = tmp_path / "old.dmp.json"
+    old.save(path)
+    payload = json.loads(path.read_text())
+    del payload["params"]["formulation"]  # what version-1 files written before the argument hold
+    path.write_text(json.dumps(payload))
+    loaded = DMP.load(path)
+    assert loaded.formulation == "ijspeert"
+    np.testing.assert_array_equal(loaded.rollout(), old.rollout())
+    new = DMP(8).fit(t, y)
+    new.save(path)
+    assert DMP.load(path).formulation == "pastor" and json.loads(path.read_text())["params"]["formulation"] == "pastor"
 
 
 def test_derivatives_agree_with_finite_differences():
@@ -235,6 +286,7 @@ def test_rollout_and_constructor_reject_bad_arguments():
         (dict(beta_z=0.0), "beta_z"),
         (dict(alpha_s=np.inf), "alpha_s"),
         (dict(overlap=1.0), "overlap"),
+        (dict(formulation="hoffmann"), "formulation"),
     ]:
         with pytest.raises(ValueError, match=message):
             DMP(**kwargs)

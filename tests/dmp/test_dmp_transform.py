@@ -28,7 +28,7 @@ def test_zero_weights_follow_the_critically_damped_closed_form():
     tau, y0, goal = 1.7, np.array([0.3, -2.0]), np.array([1.5, 4.0])
     t = np.sort(np.random.default_rng(0).uniform(0, 2 * tau, 300))  # non-uniform, past tau
     t = np.concatenate([[0.0], t])
-    y, yd, ydd = DMP(n_basis=5).rollout(
+    y, yd, ydd = DMP(n_basis=5, formulation="ijspeert").rollout(
         t=t, y0=y0, goal=goal, tau=tau, weights=np.zeros((2, 5)), return_derivatives=True
     )
     w = ALPHA / (2 * tau)
@@ -38,8 +38,9 @@ def test_zero_weights_follow_the_critically_damped_closed_form():
     np.testing.assert_allclose(ydd, -(y0 - goal) * w**2 * (1 - w * t[:, None]) * decay, rtol=0, atol=1e-10)
 
 
-def _reference_rollout(t, y0, goal, weights, tau, n_basis, alpha_s=ALPHA / 3, overlap=0.8):
-    """Adaptive RK45 on the continuous equations of SPEC section 1, re-derived in numpy."""
+def _reference_rollout(t, y0, goal, weights, tau, n_basis, formulation, alpha_s=ALPHA / 3, overlap=0.8):
+    """Adaptive RK45 on the continuous equations, re-derived in numpy: SPEC section 1
+    (``"ijspeert"``) or Pastor et al. 2009, ``K (g - y) - D z - K (g - y0) s + K f(s)``."""
     centres = np.exp(-alpha_s * np.linspace(0, 1, n_basis))
     widths = -np.log(overlap) / np.diff(centres) ** 2
     widths = np.append(widths, widths[-1])
@@ -48,27 +49,33 @@ def _reference_rollout(t, y0, goal, weights, tau, n_basis, alpha_s=ALPHA / 3, ov
         y, z = np.split(state, 2)
         s = np.exp(-alpha_s * time / tau)
         psi = np.exp(-widths * (s - centres) ** 2)
-        force = (weights @ psi) / psi.sum() * s * (goal - y0)
+        f = (weights @ psi) / psi.sum() * s
+        stiffness = ALPHA * ALPHA / 4
+        force = f * (goal - y0) if formulation == "ijspeert" else stiffness * (f - (goal - y0) * s)
         return np.concatenate([z / tau, (ALPHA * (ALPHA / 4 * (goal - y) - z) + force) / tau])
 
     sol = solve_ivp(rhs, (t[0], t[-1]), np.concatenate([y0, np.zeros_like(y0)]), t_eval=t, rtol=1e-11, atol=1e-12)
     return sol.y[: len(y0)].T
 
 
+@pytest.mark.parametrize("formulation", ["ijspeert", "pastor"])
 @pytest.mark.parametrize("uniform", [True, False])
-def test_rollout_converges_to_the_continuous_solution(uniform):
+def test_rollout_converges_to_the_continuous_solution(uniform, formulation):
     rng = np.random.default_rng(3)
     tau, n_basis = 1.3, 8
     y0, goal, weights = rng.normal(size=2), rng.normal(size=2) + 2, rng.normal(size=(2, n_basis)) * 40
+    if formulation == "pastor":
+        weights = weights / 10  # units of y: the forcing is K f(s), K = alpha_z beta_z
     errors = []
     for n_steps in (100, 400):
         u = np.linspace(0, 1, n_steps)
         t = tau * (u if uniform else u - 0.15 * np.sin(2 * np.pi * u) / np.pi)  # smooth monotone warp
-        ours = DMP(n_basis).rollout(t=t, y0=y0, goal=goal, tau=tau, weights=weights)
-        errors.append(np.abs(ours - _reference_rollout(t, y0, goal, weights, tau, n_basis)).max())
+        ours = DMP(n_basis, formulation=formulation).rollout(t=t, y0=y0, goal=goal, tau=tau, weights=weights)
+        reference = _reference_rollout(t, y0, goal, weights, tau, n_basis, formulation)
+        errors.append(np.abs(ours - reference).max())
     # first-order hold on the forcing term: second-order convergence in the step size
     # (400 > BLOCK samples, so the non-uniform case also crosses block boundaries)
-    assert errors[1] < 2e-4 * np.abs(goal - y0).max()
+    assert errors[1] < 2e-4 * max(np.abs(goal - y0).max(), np.abs(reference - y0).max())
     assert errors[1] < errors[0] / 6
 
 

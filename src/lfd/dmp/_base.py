@@ -17,6 +17,9 @@ class Primitive(ABC):
     _KIND: ClassVar[str]
     _VECTORS: ClassVar[tuple[str, ...]] = ("y0", "goal")  # (D,) or (B, D) learned vectors
     _SCALARS: ClassVar[dict] = {"tau": check.positive_float, "n_steps": check.positive_int}
+    #: Constructor arguments added after format version 1 was fixed, with the value that a
+    #: file written before they existed implies (read by :meth:`load` when one is missing).
+    _MISSING_PARAMS: ClassVar[dict] = {}
     n_basis: int
 
     @abstractmethod
@@ -63,6 +66,7 @@ class Primitive(ABC):
             ValueError: wrong file type/version or inconsistent contents.
         """
         params, fitted = _io.read_json(path, cls._KIND)
+        params = {**cls._MISSING_PARAMS, **params}
         try:
             primitive = cls(**params)
         except TypeError as exc:

@@ -2,19 +2,16 @@
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 import torch
 
 from . import _validation as check
 from ._base import Primitive
 from .canonical import discrete_activations, discrete_phase
-from .fitting import (
-    demo_derivatives,
-    forcing_target,
-    lwr_weights,
-    safe_inverse_amplitude,
-    warn_if_returning,
-)
+from .fitting import DEFAULT_RIDGE, check_ridge, demo_derivatives, forcing_target, lwr_weights
+from .formulation import DEFAULT_FORMULATION, check_formulation, unscale_weights
 from .functional import DiscreteGains, cached_trajectory_fit, grid_key, rollout_with_gains
 
 __all__ = ["DMP", "FIT_METHODS"]
@@ -33,9 +30,13 @@ def check_method(method: str) -> str:
 class DMP(Primitive):
     """Multi-DoF discrete DMP with one shared phase (SPEC section 1).
 
-    ``tau dz = alpha_z (beta_z (g - y) - z) + f(s)``, ``tau dy = z``, ``tau ds = -alpha_s s``,
-    ``f(s) = (sum_i w_i psi_i(s) / sum_i psi_i(s)) s (g - y0)``, ``psi_i = exp(-h_i (s - c_i)^2)``,
+    ``tau dz = alpha_z (beta_z (g - y) - z) + F(s)``, ``tau dy = z``, ``tau ds = -alpha_s s``,
+    ``f(s) = (sum_i w_i psi_i(s) / sum_i psi_i(s)) s``, ``psi_i = exp(-h_i (s - c_i)^2)``,
     centres evenly spaced in time over ``[0, tau]``, widths from the neighbour spacing.
+    The forcing input ``F`` depends on ``formulation`` (:mod:`lfd.dmp.formulation`):
+    ``"pastor"`` (default) ``F = K f(s) - K (g - y0) s`` with ``K = alpha_z beta_z``, which
+    represents DoFs that end where they began; ``"ijspeert"`` ``F = f(s) (g - y0)``, which
+    rescales the motion with a new goal but keeps a DoF with ``g == y0`` at rest.
 
     Args:
         n_basis: number of basis functions ``K`` per DoF (>= 1).
@@ -45,9 +46,14 @@ class DMP(Primitive):
         overlap: activation of a basis at its neighbour's centre, in ``(0, 1)`` (default
             0.8: wide bases suit the default least-squares fit; use ~0.5 or less with
             ``fit(..., method="lwr")``).
+        formulation: ``"pastor"`` (default) or ``"ijspeert"``; see :mod:`lfd.dmp.formulation`.
+        ridge: Tikhonov strength of the ``"trajectory"`` fit, relative to the largest squared
+            singular value of the response matrix (default ``1e-6``, chosen by measurement,
+            see :class:`lfd.dmp.fitting.TrajectoryFit`); 0 is the plain pseudo-inverse.
 
     Attributes (after :meth:`fit`; shapes for one demonstration / a batch of ``B``):
-        weights_: ``(D, K)`` / ``(B, D, K)`` forcing weights.
+        weights_: ``(D, K)`` / ``(B, D, K)`` forcing weights (units of ``y`` for
+            ``"pastor"``, dimensionless for ``"ijspeert"``).
         y0_: ``(D,)`` / ``(B, D)`` demonstrated start (first sample).
         goal_: ``(D,)`` / ``(B, D)`` demonstrated goal (last sample).
         tau_: duration ``t[-1] - t[0]`` of the demonstration in seconds.
@@ -59,6 +65,8 @@ class DMP(Primitive):
     """
 
     _KIND = "lfd.dmp.DMP"
+    # files saved before these arguments existed: the formulation and the (unregularised) fit they used
+    _MISSING_PARAMS: ClassVar[dict] = {"formulation": "ijspeert", "ridge": 0.0}
 
     def __init__(
         self,
@@ -67,9 +75,13 @@ class DMP(Primitive):
         beta_z: float | None = None,
         alpha_s: float | None = None,
         overlap: float = 0.8,
+        formulation: str = DEFAULT_FORMULATION,
+        ridge: float = DEFAULT_RIDGE,
     ):
         self.n_basis = check.positive_int("n_basis", n_basis)
         self.gains = DiscreteGains.resolve(alpha_z, beta_z, alpha_s, overlap)
+        self.formulation = check_formulation(formulation)
+        self.ridge = check_ridge(ridge)
 
     alpha_z = property(lambda self: self.gains.alpha_z, doc="Damping gain of the transformation system.")
     beta_z = property(lambda self: self.gains.beta_z, doc="Spring gain of the transformation system.")
@@ -83,6 +95,8 @@ class DMP(Primitive):
             "beta_z": self.beta_z,
             "alpha_s": self.alpha_s,
             "overlap": self.overlap,
+            "formulation": self.formulation,
+            "ridge": self.ridge,
         }
 
     def fit(self, t, y, method: str = "trajectory") -> DMP:
@@ -100,11 +114,11 @@ class DMP(Primitive):
 
         Both are vectorised over the batch; the inputs are not modified.
 
-        Zero-length motion: the forcing term scales with ``g - y0``, so a DoF with
-        ``g == y0`` gets zero weights and stays at rest in every rollout; a stationary DoF
-        is reproduced exactly, while one that moves and returns to its start cannot be
-        represented and triggers a ``RuntimeWarning`` (see
-        :func:`lfd.dmp.fitting.safe_inverse_amplitude`).
+        Zero-length motion (``g == y0``): the default ``"pastor"`` formulation reproduces a
+        DoF that moves and returns to its start like any other. With ``"ijspeert"`` the
+        forcing term scales with ``g - y0``, so such a DoF gets zero weights and stays at
+        rest in every rollout; a stationary DoF is still reproduced exactly, one that moved
+        triggers a ``RuntimeWarning`` (see :func:`lfd.dmp.formulation.unscale_weights`).
 
         Args:
             t: ``(T,)`` sample times in seconds, strictly increasing, ``T >= 3``.
@@ -123,17 +137,15 @@ class DMP(Primitive):
         tau = float(t[-1] - t[0])
         y0, goal = y[..., 0, :], y[..., -1, :]
         if method == "trajectory":
-            scaled = cached_trajectory_fit(grid_key(t), tau, self.n_basis, self.gains).weights(y, goal)
+            scaled = cached_trajectory_fit(grid_key(t), tau, self.n_basis, self.gains, self.ridge).weights(y, goal)
         else:
             dy, ddy = demo_derivatives(t, y)
             target = forcing_target(y, dy, ddy, goal, tau, self.alpha_z, self.beta_z)
             theta = torch.from_numpy((t - t[0]) / tau)
             activations = discrete_activations(theta, self.n_basis, self.alpha_s, self.overlap).numpy()
             scaled = lwr_weights(activations, discrete_phase(theta, self.alpha_s).numpy(), target)
-        displacement = goal - y0
-        extent = np.max(np.abs(y - y0[..., None, :]), axis=(-2, -1))
-        warn_if_returning(y, displacement, extent)
-        self.weights_ = scaled * safe_inverse_amplitude(displacement, extent)[..., None]
+        stiffness = self.alpha_z * self.beta_z
+        self.weights_ = unscale_weights(scaled, y, y0, goal, self.formulation, stiffness)
         self.y0_, self.goal_, self.tau_, self.n_steps_ = y0, goal, tau, int(t.shape[0])
         return self
 
@@ -176,4 +188,6 @@ class DMP(Primitive):
                 raise ValueError("t is required when tau has one value per sample")
             t = np.linspace(0.0, check.positive_float("tau", float(tau)), self._fitted("n_steps", None))
         times = check.time_grid(t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1)
-        return rollout_with_gains(y0, goal, weights, times, tau, self.gains, return_derivatives)
+        return rollout_with_gains(
+            y0, goal, weights, times, tau, self.gains, return_derivatives, formulation=self.formulation
+        )

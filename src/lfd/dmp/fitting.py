@@ -3,23 +3,23 @@
 Two estimators, both vectorised over a leading batch of demonstrations ``(B, ...)``
 sharing one time grid, neither forming a ``T x T`` matrix:
 
-- :class:`TrajectoryFit` (default of ``fit``): least squares on the *positions*.
-  The rollout is exactly linear in the weights (:mod:`lfd.dmp.transform`), so the weights
-  minimising the reproduction error come from one ``(T, K)`` pseudo-inverse shared by all
-  DoFs and demonstrations (O(T K^2) once per time grid, then O(B T K D)). No numerical
-  differentiation of the demonstration is needed.
+- :class:`TrajectoryFit` (default of ``fit``): ridge-regularised least squares on the
+  *positions*. The rollout is exactly linear in the weights (:mod:`lfd.dmp.transform`), so
+  the weights minimising the reproduction error come from one ``(K, T)`` regularised
+  pseudo-inverse shared by all DoFs and demonstrations (O(T K^2) once per time grid, then
+  O(B T K D)). No numerical differentiation of the demonstration is needed.
 - :func:`lwr_weights`: SPEC section 1's per-basis locally weighted regression of the
   forcing target ``f_target = tau^2 ddy - alpha_z (beta_z (g - y) - tau dy)``, O(B T K D).
   Cheaper and local, but at 20 bases it reproduces curved demonstrations far less
   accurately (it averages the target over each basis instead of interpolating it).
 
-Both return *amplitude-scaled* weights ``v = w * a`` (``a = g - y0`` for discrete DMPs,
-``r`` for rhythmic ones); divide by the amplitude with :func:`safe_inverse_amplitude`.
+Both return *amplitude-scaled* weights ``v`` (the forcing input is ``features @ v``); the
+weights ``w`` follow from the formulation (:func:`lfd.dmp.formulation.unscale_weights` for
+discrete DMPs, ``v / r`` for rhythmic ones).
 """
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,17 +29,13 @@ from torch import Tensor
 from .transform import RolloutOperator
 
 __all__ = [
+    "DEFAULT_RIDGE",
     "TrajectoryFit",
+    "check_ridge",
     "demo_derivatives",
     "forcing_target",
     "lwr_weights",
-    "safe_inverse_amplitude",
 ]
-
-#: Relative size (w.r.t. the demonstration's extent) at or below which a start-to-goal
-#: displacement ``g - y0`` counts as zero; see :func:`safe_inverse_amplitude`.
-ZERO_DISPLACEMENT = 1e-8
-
 
 def demo_derivatives(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Velocity and acceleration of sampled positions by second-order finite differences.
@@ -78,27 +74,6 @@ def forcing_target(
     return tau**2 * ddy - alpha_z * (beta_z * (goal[..., None, :] - y) - tau * dy)
 
 
-def safe_inverse_amplitude(displacement: np.ndarray, extent: np.ndarray) -> np.ndarray:
-    """``1 / (g - y0)`` used to turn amplitude-scaled weights into weights, 0 for zero-length DoFs.
-
-    The discrete forcing term scales with ``a = g - y0``, so weights are ``v / a``. A DoF with
-    ``|a| <= ZERO_DISPLACEMENT * extent`` counts as zero-length: its factor (hence its
-    weights) is 0, so it stays at rest in every rollout from the same start and moves
-    straight to a new goal. A stationary DoF is thereby reproduced exactly; one that moves
-    and returns to its start cannot be represented by this DMP formulation (see
-    :func:`warn_if_returning`).
-
-    Args:
-        displacement: ``(..., D)`` start-to-goal displacement ``g - y0``.
-        extent: ``(...)`` largest distance of the demonstration from its start (all DoFs).
-
-    Returns:
-        ``(..., D)`` finite factors.
-    """
-    moving = np.abs(displacement) > ZERO_DISPLACEMENT * extent[..., None]
-    return np.divide(1.0, displacement, out=np.zeros_like(displacement), where=moving)
-
-
 def lwr_weights(activations: np.ndarray, phase: np.ndarray, target: np.ndarray) -> np.ndarray:
     """Per-basis locally weighted regression of the forcing target (amplitude-scaled).
 
@@ -119,32 +94,62 @@ def lwr_weights(activations: np.ndarray, phase: np.ndarray, target: np.ndarray) 
     return np.divide(numerator, denominator, out=np.zeros_like(numerator), where=denominator > 0)
 
 
+#: Default ridge strength of the trajectory fit, relative to the largest squared singular
+#: value of the (end-weighted) response matrix; chosen by measurement on coarse grids and
+#: LASA (``benchmarks/dmp_ridge.py``, docs/dmp.md "Regularised fitting").
+DEFAULT_RIDGE = 0.0
+
+
+def check_ridge(ridge) -> float:
+    """``ridge`` as a finite float ``>= 0``, else ``ValueError``."""
+    if isinstance(ridge, bool) or not isinstance(ridge, (int, float, np.floating, np.integer)):
+        raise ValueError(f"ridge must be a finite number >= 0, got {ridge!r}")
+    if not np.isfinite(ridge) or ridge < 0:
+        raise ValueError(f"ridge must be a finite number >= 0, got {ridge!r}")
+    return float(ridge)
+
+
 @dataclass(frozen=True)
 class TrajectoryFit:
-    """Least-squares fit of amplitude-scaled weights to positions on one time grid.
+    """Ridge (Tikhonov) least-squares fit of amplitude-scaled weights to positions on one grid.
 
     The rollout from start ``y0`` (scaled velocity ``z0``) towards ``g`` is
     ``y = g + E_ee (y0 - g) + E_ez z0 + Phi v``; the weights minimising
-    ``sum_t c_t^2 |y_t - free_t - Phi_t v|^2`` are ``v = S (y - free)``. ``c_t = 1`` except
-    for the final sample, ``c_{T-1} = sqrt(T)``: the end point counts as much as all other
-    samples together, so the rollout ends where the demonstration ends (reaching accuracy)
-    at a negligible cost in RMSE.
+    ``sum_t c_t^2 |y_t - free_t - Phi_t v|^2 + lambda |v|^2`` are ``v = S (y - free)``.
+    ``c_t = 1`` except for the final sample, ``c_{T-1} = sqrt(T)``: the end point counts as
+    much as all other samples together, so the rollout ends where the demonstration ends
+    (reaching accuracy) at a negligible cost in RMSE. ``lambda = ridge * sigma_max^2``
+    (``sigma_max`` the largest singular value of ``C Phi``), so ``ridge`` is dimensionless
+    and independent of the number of samples; ``ridge = 0`` is the plain pseudo-inverse
+    (the response matrix has condition numbers of ~1e6 at 20 bases: on grids of 30-50
+    samples it interpolates them with weights of 1e5-1e6 that oscillate between samples).
 
     Attributes:
         initial: ``(T, 2)`` position response ``[E_ee, E_ez]`` to the start state.
-        solver: ``(K, T)`` weighted pseudo-inverse ``S`` of ``Phi`` (thin SVD).
+        solver: ``(K, T)`` regularised pseudo-inverse ``S`` of ``Phi`` (thin SVD).
     """
 
     initial: Tensor
     solver: Tensor
 
     @classmethod
-    def from_operator(cls, operator: RolloutOperator) -> TrajectoryFit:
-        """Precompute from a float64 operator (O(T K^2), once per time grid)."""
+    def from_operator(cls, operator: RolloutOperator, ridge: float = DEFAULT_RIDGE) -> TrajectoryFit:
+        """Precompute from a float64 operator (O(T K^2), once per time grid).
+
+        Args:
+            operator: rollout operator on the demonstration's grid.
+            ridge: relative Tikhonov strength (>= 0), see the class docstring.
+        """
         n_steps = operator.forced.shape[-3]
         rows = torch.ones(n_steps, dtype=operator.forced.dtype)
         rows[-1] = n_steps**0.5
-        solver = torch.linalg.pinv(operator.forced[:, 0, :] * rows[:, None]) * rows
+        u, sigma, vh = torch.linalg.svd(operator.forced[:, 0, :] * rows[:, None], full_matrices=False)
+        if ridge > 0:
+            gain = sigma / (sigma**2 + ridge * sigma[0] ** 2)
+        else:  # pinv's cut-off
+            cutoff = sigma[0] * max(u.shape) * torch.finfo(sigma.dtype).eps
+            gain = torch.where(sigma > cutoff, 1.0 / sigma, torch.zeros_like(sigma))
+        solver = (vh.transpose(-1, -2) * gain) @ u.transpose(-1, -2) * rows
         return cls(operator.initial[:, 0, :], solver)
 
     def weights(self, y: np.ndarray, goal: np.ndarray, z0: np.ndarray | None = None) -> np.ndarray:
@@ -161,19 +166,3 @@ class TrajectoryFit:
             free = free + self.initial[:, 1:] * torch.from_numpy(z0)[..., None, :]
         return (self.solver @ (positions - free)).transpose(-1, -2).numpy()
 
-
-def warn_if_returning(positions: np.ndarray, displacement: np.ndarray, extent: np.ndarray) -> None:
-    """``RuntimeWarning`` for DoFs that move but end where they started (zero-length, yet not at rest).
-
-    Args:
-        positions: ``(..., T, D)`` demonstration; displacement: ``(..., D)``; extent: ``(...)``.
-    """
-    threshold = ZERO_DISPLACEMENT * extent[..., None]
-    moving = np.max(np.abs(positions - positions[..., :1, :]), axis=-2) > threshold
-    if np.any(moving & (np.abs(displacement) <= threshold)):
-        warnings.warn(
-            "a demonstrated DoF moves but ends at its start (g == y0); the discrete DMP forcing "
-            "term scales with (g - y0), so that DoF is reproduced as staying at rest",
-            RuntimeWarning,
-            stacklevel=3,
-        )

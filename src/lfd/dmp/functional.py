@@ -17,7 +17,8 @@ from torch import Tensor
 
 from . import _validation as check
 from .canonical import discrete_features
-from .fitting import TrajectoryFit
+from .fitting import DEFAULT_RIDGE, TrajectoryFit
+from .formulation import DEFAULT_FORMULATION, check_formulation, scale_weights
 from .transform import RolloutOperator, build_operator
 
 __all__ = ["DiscreteGains", "Gains", "clear_caches", "discrete_operator", "rollout_batch"]
@@ -95,9 +96,11 @@ def _cached_operator(t_bytes: bytes, tau: float, n_basis: int, gains: DiscreteGa
 
 
 @lru_cache(maxsize=32)
-def cached_trajectory_fit(t_bytes: bytes, tau: float, n_basis: int, gains: DiscreteGains) -> TrajectoryFit:
+def cached_trajectory_fit(
+    t_bytes: bytes, tau: float, n_basis: int, gains: DiscreteGains, ridge: float = DEFAULT_RIDGE
+) -> TrajectoryFit:
     """:class:`~lfd.dmp.fitting.TrajectoryFit` for a grid key from :func:`grid_key` (cached)."""
-    return TrajectoryFit.from_operator(_cached_operator(t_bytes, tau, n_basis, gains))
+    return TrajectoryFit.from_operator(_cached_operator(t_bytes, tau, n_basis, gains), ridge)
 
 
 def clear_caches() -> None:
@@ -119,25 +122,40 @@ def operator_for(t: np.ndarray, tau, n_basis: int, gains: DiscreteGains, dtype, 
     return _cached_operator(grid_key(t), float(tau), n_basis, gains).to(dtype, device)
 
 
-def discrete_amplitude(y0: Tensor, goal: Tensor) -> Tensor:
-    """Amplitude of the discrete forcing term, ``g - y0`` ``(B, D)``."""
-    return goal - y0
+def discrete_scale(formulation: str, gains: DiscreteGains):
+    """``(weights, y0, goal) -> v``: the amplitude-scaled weights of ``formulation`` (see
+    :mod:`lfd.dmp.formulation`), as :func:`evaluate` expects."""
+    stiffness = gains.alpha_z * gains.beta_z
+
+    def scale(weights: Tensor, y0: Tensor, goal: Tensor) -> Tensor:
+        return scale_weights(weights, y0, goal, formulation, stiffness)
+
+    return scale
 
 
 def discrete_rollout(
-    operator: RolloutOperator, y0: Tensor, goal: Tensor, weights: Tensor, return_derivatives: bool = False
+    operator: RolloutOperator,
+    y0: Tensor,
+    goal: Tensor,
+    weights: Tensor,
+    return_derivatives: bool = False,
+    *,
+    formulation: str = DEFAULT_FORMULATION,
+    z0: Tensor | None = None,
 ):
-    """Discrete DMP trajectory from an operator: forcing weights scaled by ``g - y0``.
+    """Discrete DMP trajectory from an operator (forcing weights scaled per ``formulation``).
 
     Args:
         operator: from :func:`discrete_operator` / :func:`operator_for`.
         y0, goal: ``(B, D)``; weights: ``(B, D, K)`` (any of them may have batch 1).
+        formulation: see :mod:`lfd.dmp.formulation` (stiffness from the operator's gains).
+        z0: ``(B, D)`` start scaled velocity ``tau dy/dt(0)``; ``None`` means at rest.
 
     Returns:
         ``(B, T, D)`` positions, or ``(y, dy/dt, d2y/dt2)``.
     """
-    v = weights * discrete_amplitude(y0, goal)[..., None]
-    return operator.apply(y0, goal, v, return_derivatives=return_derivatives)
+    v = scale_weights(weights, y0, goal, formulation, operator.alpha_z * operator.beta_z)
+    return operator.apply(y0, goal, v, z0, return_derivatives=return_derivatives)
 
 
 def time_grid(t, n_steps, dt) -> np.ndarray:
@@ -184,7 +202,7 @@ def _tau_value(tau):
     return float(value) if value.ndim == 0 else torch.from_numpy(value)
 
 
-def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, amplitude, yd0=None, return_derivatives=False):
+def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=None, return_derivatives=False):
     """Shared front end of every rollout: convert, check, broadcast, build, apply.
 
     Args:
@@ -193,7 +211,8 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, amplitude, yd
         t: ``(T,)`` validated float64 time grid in seconds.
         tau: float, or tensor ``()``/``(B,)`` in seconds.
         make_operator: ``(t, tau, n_basis, dtype, device) -> RolloutOperator``.
-        amplitude: ``(y0, goal) -> (B, D)`` factor applied to the weights.
+        scale: ``(weights (B, D, K), y0 (B, D), goal (B, D)) -> v (B, D, K)``, the
+            amplitude-scaled weights fed to the operator.
         yd0: start velocity in units/s (``None``: at rest).
 
     Returns:
@@ -217,7 +236,7 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, amplitude, yd
     values = {name: x if x.ndim == (3 if name == "weights" else 2) else x[None] for name, x in values.items()}
     weights = values["weights"]
     operator = make_operator(t, tau, weights.shape[-1], weights.dtype, weights.device)
-    v = weights * amplitude(values["y0"], values["goal"])[..., None]
+    v = scale(weights, values["y0"], values["goal"])
     z0 = None if yd0 is None else values["yd0"] * operator.tau[..., None]
     outputs = operator.apply(values["y0"], values["goal"], v, z0, return_derivatives=return_derivatives)
     outputs = outputs if return_derivatives else (outputs,)
@@ -228,13 +247,16 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, amplitude, yd
     return outputs if return_derivatives else outputs[0]
 
 
-def rollout_with_gains(y0, goal, weights, t: np.ndarray, tau, gains: DiscreteGains, return_derivatives=False):
-    """:func:`rollout_batch` with an already validated grid ``t`` and resolved gains."""
+def rollout_with_gains(
+    y0, goal, weights, t: np.ndarray, tau, gains: DiscreteGains, return_derivatives=False, *, formulation, yd0=None
+):
+    """:func:`rollout_batch` with an already validated grid ``t``, resolved gains and formulation."""
 
     def make_operator(times, tau_value, n_basis, dtype, device):
         return operator_for(times, tau_value, n_basis, gains, dtype, device)
 
-    return evaluate(y0, goal, weights, t, tau, make_operator, discrete_amplitude, return_derivatives=return_derivatives)
+    scale = discrete_scale(formulation, gains)
+    return evaluate(y0, goal, weights, t, tau, make_operator, scale, yd0, return_derivatives)
 
 
 def rollout_batch(
@@ -250,6 +272,8 @@ def rollout_batch(
     beta_z: float | None = None,
     alpha_s: float | None = None,
     overlap: float = 0.8,
+    formulation: str = DEFAULT_FORMULATION,
+    yd0=None,
     return_derivatives: bool = False,
 ):
     """Roll out a batch of discrete DMPs sharing one time grid.
@@ -259,13 +283,16 @@ def rollout_batch(
         y0       (B, D) or (D,)        start positions (e.g. radians or metres)
         goal     (B, D) or (D,)        goal positions
         weights  (B, D, K) or (D, K)   forcing weights
+        yd0      (B, D) or (D,)        start velocity in units/s (default: at rest)
         tau      float, () or (B,)     duration in seconds (default: t[-1] - t[0])
         ->       (B, T, D), or (T, D) when no input has a batch dimension
 
     Inputs without a batch dimension are shared by the whole batch (e.g. one start and
     goal, 1000 weight sets). Pass either ``t`` ``(T,)`` (seconds, strictly increasing,
-    the motion starts at ``t[0]`` with zero velocity) or ``n_steps`` and ``dt``
-    (``t = arange(n_steps) * dt``).
+    the motion starts at ``t[0]``, at rest unless ``yd0`` is given) or ``n_steps`` and
+    ``dt`` (``t = arange(n_steps) * dt``). ``formulation`` (``"pastor"`` default, or
+    ``"ijspeert"``) sets how the forcing term scales, see :mod:`lfd.dmp.formulation`; the
+    weights must come from a fit with the same formulation.
 
     Backend: if any of ``y0, goal, weights, tau`` is a ``torch.Tensor``, all are used as
     tensors (dtype and device of the first tensor among ``weights, y0, goal, tau``) and
@@ -288,9 +315,10 @@ def rollout_batch(
         (1000, 100, 7)
     """
     gains = DiscreteGains.resolve(alpha_z, beta_z, alpha_s, overlap)
+    formulation = check_formulation(formulation)
     times = time_grid(t, n_steps, dt)
     if tau is None:
         if times.shape[0] < 2:
             raise ValueError("tau is required when the time grid has a single sample")
         tau = times[-1] - times[0]
-    return rollout_with_gains(y0, goal, weights, times, tau, gains, return_derivatives)
+    return rollout_with_gains(y0, goal, weights, times, tau, gains, return_derivatives, formulation=formulation, yd0=yd0)

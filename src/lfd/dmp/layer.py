@@ -6,6 +6,7 @@ import torch
 from torch import Tensor, nn
 
 from . import _validation as check
+from .formulation import DEFAULT_FORMULATION, check_formulation
 from .functional import DiscreteGains, discrete_rollout, operator_for, time_grid
 from .transform import RolloutOperator
 
@@ -27,6 +28,8 @@ class DMPLayer(nn.Module):
         dt: sample spacing in seconds; the grid is ``t = arange(T) * dt``.
         alpha_z, beta_z, alpha_s, overlap: DMP gains, as in :class:`lfd.dmp.DMP`.
         tau: default duration in seconds (default ``(T - 1) * dt``).
+        formulation: ``"pastor"`` (default) or ``"ijspeert"``, as in :class:`lfd.dmp.DMP`
+            (see :mod:`lfd.dmp.formulation`); weights must come from the same formulation.
 
     Buffers: ``t`` ``(T,)`` the output times in seconds; ``initial``, ``forced``,
     ``features`` the float64 operator matrices for the default ``tau``.
@@ -58,10 +61,12 @@ class DMPLayer(nn.Module):
         alpha_s: float | None = None,
         tau: float | None = None,
         overlap: float = 0.8,
+        formulation: str = DEFAULT_FORMULATION,
     ):
         super().__init__()
         self.n_basis = check.positive_int("n_basis", n_basis)
         self.gains = DiscreteGains.resolve(alpha_z, beta_z, alpha_s, overlap)
+        self.formulation = check_formulation(formulation)
         self._times = time_grid(None, n_steps, dt)
         if tau is None and n_steps < 2:
             raise ValueError("tau is required when n_steps == 1")
@@ -78,7 +83,10 @@ class DMPLayer(nn.Module):
         return int(self._times.shape[0])
 
     def extra_repr(self) -> str:
-        return f"n_basis={self.n_basis}, n_steps={self.n_steps}, tau={self.tau}, gains={self.gains}"
+        return (
+            f"n_basis={self.n_basis}, n_steps={self.n_steps}, tau={self.tau}, gains={self.gains}, "
+            f"formulation={self.formulation!r}"
+        )
 
     def operator(self, tau=None, dtype: torch.dtype = torch.float64, device=None) -> RolloutOperator:
         """Rollout operator for the default ``tau`` (buffers) or a given one, in ``dtype``."""
@@ -91,22 +99,25 @@ class DMPLayer(nn.Module):
             return operator.to(dtype, device)
         return operator_for(self._times, tau, self.n_basis, self.gains, dtype, device)
 
-    def forward(self, y0: Tensor, goal: Tensor, weights: Tensor, tau=None, return_derivatives: bool = False):
+    def forward(
+        self, y0: Tensor, goal: Tensor, weights: Tensor, tau=None, return_derivatives: bool = False, yd0=None
+    ):
         """Roll out ``B`` DMPs.
 
         Args:
-            y0: ``(B, D)`` start positions (at rest).
+            y0: ``(B, D)`` start positions.
             goal: ``(B, D)`` goals.
             weights: ``(B, D, K)`` forcing weights.
             tau: ``None`` (layer default), a float, or a tensor ``()``/``(B,)`` in seconds.
             return_derivatives: also return velocity and acceleration.
+            yd0: ``(B, D)`` start velocity in units/s (default: at rest).
 
         Returns:
             ``(B, T, D)`` positions, or ``(y, dy/dt, d2y/dt2)`` (units, units/s, units/s^2).
         """
         if weights.ndim != 3 or weights.shape[-1] != self.n_basis:
             raise ValueError(f"weights must have shape (B, D, {self.n_basis}), got {tuple(weights.shape)}")
-        for name, value in (("y0", y0), ("goal", goal)):
+        for name, value in (("y0", y0), ("goal", goal), ("yd0", y0 if yd0 is None else yd0)):
             if value.shape != weights.shape[:2]:
                 raise ValueError(f"{name} must have shape {tuple(weights.shape[:2])} (B, D), got {tuple(value.shape)}")
         if isinstance(tau, Tensor) and not (tau.ndim == 0 or tau.shape == weights.shape[:1]):
@@ -114,4 +125,5 @@ class DMPLayer(nn.Module):
         if tau is not None and not isinstance(tau, Tensor):
             tau = check.positive_float("tau", tau)
         operator = self.operator(tau, weights.dtype, weights.device)
-        return discrete_rollout(operator, y0, goal, weights, return_derivatives)
+        z0 = None if yd0 is None else yd0 * operator.tau[..., None]
+        return discrete_rollout(operator, y0, goal, weights, return_derivatives, formulation=self.formulation, z0=z0)

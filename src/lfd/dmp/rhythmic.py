@@ -12,7 +12,7 @@ from . import _validation as check
 from ._base import Primitive
 from .canonical import rhythmic_activations, rhythmic_features
 from .discrete import check_method
-from .fitting import TrajectoryFit, demo_derivatives, forcing_target, lwr_weights
+from .fitting import DEFAULT_RIDGE, TrajectoryFit, check_ridge, demo_derivatives, forcing_target, lwr_weights
 from .functional import Gains, evaluate
 from .transform import RolloutOperator, build_operator
 
@@ -46,6 +46,7 @@ class RhythmicDMP(Primitive):
         alpha_z: damping gain (default 25).
         beta_z: spring gain (default ``alpha_z / 4``).
         overlap: activation of a basis at its neighbour's centre, in ``(0, 1)`` (sets ``h``).
+        ridge: relative Tikhonov strength of the ``"trajectory"`` fit, as in :class:`lfd.dmp.DMP`.
 
     Attributes (after :meth:`fit`; one demonstration / a batch of ``B``):
         weights_: ``(D, K)`` / ``(B, D, K)`` forcing weights (for ``r = 1``).
@@ -60,9 +61,19 @@ class RhythmicDMP(Primitive):
     _VECTORS = ("y0", "yd0", "goal")
     _SCALARS: ClassVar[dict] = {**Primitive._SCALARS, "duration": check.positive_float}
 
-    def __init__(self, n_basis: int = 20, alpha_z: float = 25.0, beta_z: float | None = None, overlap: float = 0.8):
+    _MISSING_PARAMS: ClassVar[dict] = {"ridge": 0.0}  # files saved before ridge existed: pinv fit
+
+    def __init__(
+        self,
+        n_basis: int = 20,
+        alpha_z: float = 25.0,
+        beta_z: float | None = None,
+        overlap: float = 0.8,
+        ridge: float = DEFAULT_RIDGE,
+    ):
         self.n_basis = check.positive_int("n_basis", n_basis)
         self.gains = Gains.resolve(alpha_z, beta_z, overlap)
+        self.ridge = check_ridge(ridge)
 
     alpha_z = property(lambda self: self.gains.alpha_z, doc="Damping gain of the transformation system.")
     beta_z = property(lambda self: self.gains.beta_z, doc="Spring gain of the transformation system.")
@@ -74,7 +85,13 @@ class RhythmicDMP(Primitive):
         return 2.0 * math.pi * self._fitted("tau", None)
 
     def _params(self) -> dict:
-        return {"n_basis": self.n_basis, "alpha_z": self.alpha_z, "beta_z": self.beta_z, "overlap": self.overlap}
+        return {
+            "n_basis": self.n_basis,
+            "alpha_z": self.alpha_z,
+            "beta_z": self.beta_z,
+            "overlap": self.overlap,
+            "ridge": self.ridge,
+        }
 
     def fit(self, t, y, period: float | None = None, method: str = "trajectory") -> RhythmicDMP:
         """Learn the periodic forcing term from a demonstration.
@@ -98,7 +115,7 @@ class RhythmicDMP(Primitive):
         goal = np.trapezoid(y, t, axis=-2) / duration
         dy, ddy = demo_derivatives(t, y)
         if method == "trajectory":
-            solver = TrajectoryFit.from_operator(rhythmic_operator(t, tau, self.n_basis, self.gains))
+            solver = TrajectoryFit.from_operator(rhythmic_operator(t, tau, self.n_basis, self.gains), self.ridge)
             self.weights_ = solver.weights(y, goal, tau * dy[..., 0, :])
         else:
             target = forcing_target(y, dy, ddy, goal, tau, self.alpha_z, self.beta_z)
@@ -163,7 +180,7 @@ class RhythmicDMP(Primitive):
         def make_operator(grid, tau_value, n_basis, dtype, device):
             return rhythmic_operator(grid, tau_value, n_basis, self.gains, dtype, device)
 
-        def amplitude(start, anchor):
-            return anchor.new_full(anchor.shape, float(r))
+        def scale(w, start, anchor):
+            return w * float(r)
 
-        return evaluate(y0, goal, weights, times, tau, make_operator, amplitude, yd0, return_derivatives)
+        return evaluate(y0, goal, weights, times, tau, make_operator, scale, yd0, return_derivatives)
