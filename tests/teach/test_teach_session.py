@@ -70,12 +70,15 @@ def test_collision_is_refused_counted_and_never_recorded(boxes_session):
     p0, goal = s.tool_position, s.scene.goal.center
     results = drag_line(s, p0, goal, n=40)  # straight through the wall
     refused = [r for r in results if not r.accepted]
-    assert refused and all(r.in_collision and r.reason == "collision" for r in refused)
+    assert refused and refused[0].in_collision and refused[0].reason == "collision"
+    # once stuck at the wall, targets further on are collisions or too far a joint change
+    assert all(r.reason in ("collision", "joint_jump") for r in refused)
     # the arm stays at its last collision-free pose
     first = results.index(refused[0])
     np.testing.assert_array_equal(refused[0].q, results[first - 1].q)
     assert s.collisions == 1  # one continuous push into the wall is one collision
-    assert s.counters["refused_collision"] == len(refused)
+    assert s.counters["refused_collision"] == sum(r.in_collision for r in refused)
+    assert s.counters["refused_jump"] == sum(r.reason == "joint_jump" for r in refused)
     # no recorded configuration is in collision (checked by a fresh PyBullet client)
     fresh = CollisionChecker(s.robot, s.scene.obstacles, s.scene.table_z)
     assert not any(fresh.check(q).in_collision for q in s.recorded.q)
@@ -83,7 +86,8 @@ def test_collision_is_refused_counted_and_never_recorded(boxes_session):
     # backing off and pushing in again is a second collision
     back = drag_line(s, s.tool_position, p0, n=10)
     again = drag_line(s, p0, goal, n=40)
-    runs = sum(1 for prev, r in zip([results[-1], *back, *again], [*back, *again]) if r.in_collision and not prev.in_collision)
+    seq = [results[-1], *back, *again]
+    runs = sum(1 for prev, r in zip(seq[:-1], seq[1:]) if r.in_collision and prev.accepted)
     assert runs >= 1 and s.collisions == 1 + runs
 
 
@@ -170,14 +174,18 @@ def test_two_d_panel_waypoints_collisions_and_goal():
         s.drag(s.tool_position)
     goal = s.scene.goal.center
     p0 = s.tool_position
-    assert s.move_to(p0 + [0, 0, ABOVE_WALL - p0[2]]).accepted
+    above_start, over_goal = p0 + [0, 0, ABOVE_WALL - p0[2]], np.array([goal[0], goal[1], ABOVE_WALL])
+    assert s.move_to(above_start).accepted and s.store()
+    # straight to the goal in joint space from here sweeps through the wall: the move is refused
+    r = s.move_to(goal)
+    assert not r.accepted and r.in_collision and s.collisions == 1
+    assert s.move_to(over_goal).accepted and s.store()
+    # Go Home jumps; storing it would make the arm sweep back through the wall: refused
+    s.go_home()
+    assert not s.store() and s.collisions == 2 and s.counters["refused_stores"] == 1
+    for p in (above_start, over_goal, goal):
+        assert s.move_to(p).accepted
     assert s.store()
-    # straight to the goal in joint space from here sweeps through the wall: Store is refused
-    assert s.move_to(goal).accepted
-    assert not s.store() and s.collisions == 1 and s.counters["refused_stores"] == 1
-    # the user goes back, adds a waypoint over the wall, then the goal
-    assert s.move_to([goal[0], goal[1], ABOVE_WALL]).accepted and s.store()
-    assert s.move_to(goal).accepted and s.store()
     assert s.recording_state == "done" and s.end_reason == "goal"
     wp = s.waypoints
     assert wp.shape == (4, 4)
@@ -213,3 +221,15 @@ def test_added_obstacle_is_checked(boxes_session):
     s.add_obstacle(s.tool_position + [0, 0.15, 0], [0.1, 0.05, 0.1])
     results = drag_line(s, s.tool_position, s.tool_position + [0, 0.2, 0], n=10)
     assert any(r.in_collision for r in results) and len(s.scene.obstacles) == 3
+
+
+def test_one_fast_update_cannot_jump_through_the_wall(boxes_session):
+    s = boxes_session
+    near = np.array([0.48, -0.10, 0.2])
+    assert all(r.accepted for r in drag_line(s, s.tool_position, near, n=20))
+    far = np.array([0.48, 0.10, 0.2])  # the wall (4 cm either side of y = 0) lies between
+    step = s.ik.solve(s.q, far)
+    assert step.reached and step.jump < s.max_joint_step
+    assert not s.checker.check(step.q).in_collision  # the end pose alone is free...
+    r = s.drag(far)
+    assert not r.accepted and r.in_collision and s.collisions == 1  # ...the motion to it is not

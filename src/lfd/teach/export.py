@@ -18,15 +18,14 @@ Files written by :func:`export_session` (atomically, temp file + rename):
 
 **DMP formulation.** A path over an obstacle lifts joints and puts them back, so a
 joint can end where it started. The classic forcing term scales with ``g - y0`` and
-cannot represent that joint; when :class:`lfd.dmp.DMP` offers a ``formulation``
-argument the export asks for the one whose forcing term does not vanish at
-``g == y0`` (:data:`RETURNING_FORMULATION`).
+cannot represent that joint; the export asks :class:`lfd.dmp.DMP` explicitly for
+Pastor et al.'s formulation (:data:`RETURNING_FORMULATION`), whose forcing term does
+not vanish at ``g == y0``.
 """
 
 from __future__ import annotations
 
 import csv
-import inspect
 import io
 import json
 import math
@@ -48,9 +47,7 @@ RETURNING_FORMULATION = "pastor"
 
 def dmp_options() -> dict:
     """Constructor options of :class:`lfd.dmp.DMP` for teach demonstrations."""
-    if "formulation" in inspect.signature(DMP.__init__).parameters:
-        return {"formulation": RETURNING_FORMULATION}
-    return {}
+    return {"formulation": RETURNING_FORMULATION}
 
 
 def _uniform(rec, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
@@ -65,12 +62,7 @@ def fit_recording_dmp(rec, n_samples: int = 200, n_basis: int = 30) -> DMP:
     if len(rec) < 3:
         raise ValueError(f"the recording has {len(rec)} sample(s); drag (or store waypoints) first: at least 3 needed")
     t, q = _uniform(rec, n_samples)
-    import warnings
-
-    with warnings.catch_warnings():
-        if dmp_options():
-            warnings.simplefilter("ignore", RuntimeWarning)
-        return DMP(n_basis=n_basis, **dmp_options()).fit(t, q)
+    return DMP(n_basis=n_basis, **dmp_options()).fit(t, q)
 
 
 def _csv_text(t: np.ndarray, q: np.ndarray) -> str:

@@ -148,9 +148,10 @@ class TeachServer:
     # ------------------------------------------------------------------ scene
     def _build_scene(self) -> None:
         s, sc = self.session, self.server.scene
-        self.server.initial_camera.position = (1.6, -1.6, 1.2)
-        self.server.initial_camera.look_at = (0.3, 0.0, 0.2)
+        self.server.initial_camera.position = (1.3, -1.3, 1.0)
+        self.server.initial_camera.look_at = (0.35, 0.0, 0.2)
         sc.set_up_direction("+z")
+        sc.configure_default_lights(cast_shadow=False)  # shadows cost a lot in software WebGL
         if s.scene.table_z is not None:
             sc.add_box("/table", color=(200, 180, 150), dimensions=(2.0, 2.0, 0.02), position=(0.3, 0.0, s.scene.table_z - 0.01))
         for i, box in enumerate(s.scene.obstacles):
@@ -162,22 +163,20 @@ class TeachServer:
         self.visual_nodes = []
         for k, v in enumerate(self.visuals):
             if v.kind == "sphere":
-                node = sc.add_icosphere(f"/robot/v{k}", radius=v.radius, color=_GREY)
+                node = sc.add_icosphere(f"/robot/v{k}", radius=v.radius, color=_GREY, subdivisions=2, cast_shadow=False, receive_shadow=False)
             else:
-                node = sc.add_cylinder(f"/robot/v{k}", radius=v.radius, height=v.length, color=_GREY)
+                node = sc.add_cylinder(
+                    f"/robot/v{k}", radius=v.radius, height=v.length, color=_GREY, radial_segments=16, cast_shadow=False, receive_shadow=False
+                )
             self.visual_nodes.append(node)
         tool = s.tool_position
+        self.gizmo_scale = 0.25  # m: length of the gizmo's arrows
         self.gizmo = sc.add_transform_controls(
-            "/gizmo", scale=0.25, position=tuple(tool), disable_rotations=True, depth_test=False, line_width=4.0
+            "/gizmo", scale=self.gizmo_scale, position=tuple(tool), disable_rotations=True, depth_test=False, line_width=4.0
         )
         self.marker = sc.add_icosphere("/gizmo/marker", radius=0.025, color=_GREEN)
         self.ghost = sc.add_icosphere("/ghost", radius=0.03, color=_RED, opacity=0.3, visible=False)
         self.gizmo.on_update(self._on_gizmo)
-
-        @self.server.on_client_connect
-        def _(client) -> None:
-            client.camera.position = (1.3, -1.3, 1.0)
-            client.camera.look_at = (0.35, 0.0, 0.2)
         self.recorded_line = None
         self.executed_line = None
 
@@ -216,7 +215,8 @@ class TeachServer:
                 sl = gui.add_slider(f"q{j} ({spec.joint_names[j]})", min=float(spec.lower[j]), max=float(spec.upper[j]), step=0.01, initial_value=float(s.q[j]))
                 sl.on_update(self._on_slider)
                 self.sliders.append(sl)
-            self.xyz = gui.add_vector3("x/y/z (m)", initial_value=tuple(np.round(s.tool_position, 3)), step=0.01)
+            self.xyz = gui.add_vector3("x/y/z (m)", initial_value=tuple(np.round(s.tool_position, 3)), step=0.001)
+            self.xyz_uuid = self.xyz._impl.uuid  # the id of its first input in the page
             gui.add_button("Move (IK)").on_click(lambda _e: self._run(self._move_ik))
             for label, fn in (("Store", self._store), ("Playback ", self._playback), ("Go Home", self._home), ("Send ", self._send)):
                 gui.add_button(label).on_click(lambda _e, fn=fn: self._run(fn))

@@ -9,7 +9,8 @@ bounded-time IK (:class:`~lfd.teach.drag_ik.DragIK`). An update is *refused* (th
 stays at its last accepted configuration) when the IK step would change a joint by more
 than ``max_joint_step`` rad, when the target is out of reach and the best-effort pose
 is no closer to it, or when the new configuration is in collision (arm - obstacle, arm -
-table, self). Recording starts on the first accepted drag (its first sample is the
+table, self) anywhere on its joint-space segment from the last accepted configuration
+(checked every ``sweep_resolution`` rad, so a fast drag cannot pass through a thin wall). Recording starts on the first accepted drag (its first sample is the
 configuration before it) and ends when the tool enters the goal region or on
 :meth:`stop`.
 
@@ -130,6 +131,8 @@ class TeachSession:
         clock: function returning seconds (default ``time.monotonic``); scripted users
             pass a simulated clock.
         validate: check the scene against the robot (see :meth:`TeachScene` checks).
+        sweep_resolution: every move is collision-checked along its joint-space
+            segment at this spacing (rad of the largest joint change), not only at its end.
 
     Raises:
         ValueError: unknown robot, bad scene (field named), start pose outside the
@@ -150,6 +153,7 @@ class TeachSession:
         panel_speed: float = 0.6,
         clock: Callable[[], float] | None = None,
         validate: bool = True,
+        sweep_resolution: float = 0.01,
     ) -> None:
         if robot not in TEACH_ROBOTS:
             known = ", ".join(TEACH_ROBOTS)
@@ -166,6 +170,9 @@ class TeachSession:
         self.ik = DragIK(self.robot, time_budget=ik_time_budget, wam_q3=wam_q3)
         self.max_joint_step = float(max_joint_step)
         self.panel_speed = float(panel_speed)
+        if not sweep_resolution > 0:
+            raise ValueError("sweep_resolution must be positive (rad)")
+        self.sweep_resolution = float(sweep_resolution)
         self.clock = clock or time.monotonic
         self._mode = mode
         n = self.robot.n_dof
@@ -346,6 +353,17 @@ class TeachSession:
             raise ValueError(f"{name} contains NaN or inf: {arr.tolist()}")
         return arr
 
+    def _sweep(self, q_from: np.ndarray, q_to: np.ndarray):
+        """Collision report of the straight joint-space motion ``q_from -> q_to``, checked
+        every ``sweep_resolution`` rad of the largest joint change (end included), so
+        one update cannot jump through a thin obstacle."""
+        steps = max(1, int(math.ceil(float(np.max(np.abs(q_to - q_from))) / self.sweep_resolution)))
+        for s in np.linspace(0.0, 1.0, steps + 1)[1:][::-1]:  # the end first: most refusals are there
+            report = self.checker.check(q_from + s * (q_to - q_from))
+            if report.in_collision:
+                return report
+        return report
+
     # ------------------------------------------------------------------ 3-D mode
     def drag(self, position, orientation=None) -> DragResult:
         """One gizmo update: move the tool towards ``position`` (3,) m (base frame).
@@ -365,7 +383,7 @@ class TeachSession:
             return self._refuse("joint_jump", target, step, time.perf_counter() - tic, f"joint change {step.jump:.2f} rad")
         if not step.reached and step.error >= current_error - 1e-6:
             return self._refuse("unreachable", target, step, time.perf_counter() - tic, "target out of reach")
-        report = self.checker.check(step.q)
+        report = self._sweep(self.q, step.q)
         latency = time.perf_counter() - tic
         self.latencies.append(latency)
         if report.in_collision:
@@ -412,7 +430,7 @@ class TeachSession:
         q = self.ik._clamp(q)
         tic = time.perf_counter()
         self.counters["panel_moves"] += 1
-        report = self.checker.check(q)
+        report = self._sweep(self.q, q)
         latency = time.perf_counter() - tic
         target = self.kin.tool_position(q)
         if report.in_collision:
@@ -447,13 +465,10 @@ class TeachSession:
         if self.recording_state == "idle":
             self._begin()
         self.counters["stores"] += 1
-        last = self._waypoints[-1]
-        steps = max(2, int(math.ceil(float(np.max(np.abs(self.q - last))) / 0.02)))
-        for s in np.linspace(0.0, 1.0, steps + 1)[1:]:
-            if self.checker.check(last + _min_jerk(np.array(s)) * (self.q - last)).in_collision:
-                self.counters["refused_stores"] += 1
-                self._refuse("collision", self.tool_position, None, 0.0, "segment")
-                return False
+        if self._sweep(self._waypoints[-1], self.q).in_collision:
+            self.counters["refused_stores"] += 1
+            self._refuse("collision", self.tool_position, None, 0.0, "segment")
+            return False
         self._refusing = False
         self._waypoints.append(self.q.copy())
         if self.in_goal:
