@@ -159,16 +159,16 @@ class TeachServer:
         if s.scene.goal is not None:
             g = s.scene.goal
             sc.add_icosphere("/goal", radius=g.radius, color=_GREEN, opacity=0.35, position=tuple(g.center))
+        # one scene frame per link (moved on every update), its URDF shapes as fixed children
         self.visuals = urdf_visuals(s.robot.to_urdf(), s.robot.spec.link_names)
-        self.visual_nodes = []
+        self.link_nodes = [sc.add_frame(f"/robot/link{i}", show_axes=False) for i in range(s.n_dof)]
         for k, v in enumerate(self.visuals):
+            parent = "/robot/base" if v.link < 0 else f"/robot/link{v.link}"
+            pose = {"position": tuple(v.origin[:3, 3]), "wxyz": tuple(_wxyz(v.origin[:3, :3])), "cast_shadow": False, "receive_shadow": False}
             if v.kind == "sphere":
-                node = sc.add_icosphere(f"/robot/v{k}", radius=v.radius, color=_GREY, subdivisions=2, cast_shadow=False, receive_shadow=False)
+                sc.add_icosphere(f"{parent}/v{k}", radius=v.radius, color=_GREY, subdivisions=2, **pose)
             else:
-                node = sc.add_cylinder(
-                    f"/robot/v{k}", radius=v.radius, height=v.length, color=_GREY, radial_segments=16, cast_shadow=False, receive_shadow=False
-                )
-            self.visual_nodes.append(node)
+                sc.add_cylinder(f"{parent}/v{k}", radius=v.radius, height=v.length, color=_GREY, radial_segments=16, **pose)
         tool = s.tool_position
         self.gizmo_scale = 0.25  # m: length of the gizmo's arrows
         self.gizmo = sc.add_transform_controls(
@@ -188,10 +188,9 @@ class TeachServer:
 
     def _draw_arm(self, q: np.ndarray) -> None:
         frames = self.session.kin.frames(q)
-        for v, node in zip(self.visuals, self.visual_nodes, strict=True):
-            world = (np.eye(4) if v.link < 0 else frames[v.link]) @ v.origin
-            node.position = tuple(world[:3, 3])
-            node.wxyz = tuple(_wxyz(world[:3, :3]))
+        for node, frame in zip(self.link_nodes, frames[:-1], strict=True):
+            node.position = tuple(frame[:3, 3])
+            node.wxyz = tuple(_wxyz(frame[:3, :3]))
 
     def _draw_path(self, name: str, points: np.ndarray, color) -> object | None:
         if len(points) < 2:
@@ -256,17 +255,24 @@ class TeachServer:
                 if self._closed:
                     return
                 target, self._pending = self._pending, None
-            with self.lock:
-                if self.session.mode != "3d":
-                    continue
-                r = self.session.drag(target)
-                self.processed_updates += 1
-                self.marker.color = _GREEN if r.accepted and r.reachable else _RED
-                self.ghost.visible = not r.reachable or r.reason == "unreachable"
-                if self.ghost.visible:
-                    self.ghost.position = tuple(r.target)
-                self.status_text = "" if r.accepted and r.reachable else f"refused: {r.reason} {r.detail}" if not r.accepted else "target out of reach (best effort)"
-                self._refresh(sliders=True)
+            self.handle_drag(target)
+
+    def handle_drag(self, target: np.ndarray):
+        """One drag update as the worker runs it: IK + collision check (the session),
+        then the scene update (arm, gizmo colour, ghost, sliders, status). Returns the
+        :class:`~lfd.teach.session.DragResult` (None outside the 3-D mode)."""
+        with self.lock:
+            if self.session.mode != "3d":
+                return None
+            r = self.session.drag(target)
+            self.processed_updates += 1
+            self.marker.color = _GREEN if r.accepted and r.reachable else _RED
+            self.ghost.visible = not r.reachable or r.reason == "unreachable"
+            if self.ghost.visible:
+                self.ghost.position = tuple(r.target)
+            self.status_text = "" if r.accepted and r.reachable else f"refused: {r.reason} {r.detail}" if not r.accepted else "target out of reach (best effort)"
+            self._refresh(sliders=True)
+            return r
 
     # ------------------------------------------------------------------ panel actions
     def _on_mode(self, event) -> None:

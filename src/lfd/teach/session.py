@@ -256,6 +256,7 @@ class TeachSession:
         self.recording_state = "idle"  # idle -> recording -> done
         self._t: list[float] = []
         self._q: list[np.ndarray] = []
+        self._tool: list[np.ndarray] = []
         self._waypoints: list[np.ndarray] = []
         self._t0 = 0.0
         self.end_reason: str | None = None
@@ -272,12 +273,13 @@ class TeachSession:
             t = self._t[-1] + 1e-3
         self._t.append(float(t))
         self._q.append(q.copy())
+        self._tool.append(self.kin.tool_position(q))
 
     def _begin(self) -> None:
         self.recording_state = "recording"
         self._t0 = self.clock()
         if self._mode == "3d":
-            self._t, self._q = [0.0], [self.q.copy()]
+            self._t, self._q, self._tool = [0.0], [self.q.copy()], [self.tool_position]
         else:
             self._waypoints = [self.q.copy()]
 
@@ -295,9 +297,10 @@ class TeachSession:
         """The demonstration so far: drag samples (3-D) or the waypoint path (2-D)."""
         if self._mode == "2d":
             t, q = self._waypoint_path(self._waypoints)
+            tool = np.array([self.kin.tool_position(x) for x in q]).reshape(-1, 3)
         else:
             t, q = np.array(self._t, dtype=float), np.array(self._q, dtype=float).reshape(-1, self.n_dof)
-        tool = np.array([self.kin.tool_position(x) for x in q]).reshape(-1, 3)
+            tool = np.array(self._tool, dtype=float).reshape(-1, 3)
         return Recording(t, q, tool)
 
     @property
