@@ -233,3 +233,18 @@ def test_one_fast_update_cannot_jump_through_the_wall(boxes_session):
     assert not s.checker.check(step.q).in_collision  # the end pose alone is free...
     r = s.drag(far)
     assert not r.accepted and r.in_collision and s.collisions == 1  # ...the motion to it is not
+
+
+def test_scripted_users_complete_a_seeded_task():
+    from lfd.teach.scripted_users import klm_seconds, make_task, run_drag_user, run_slider_user, run_xyz_user
+
+    task = make_task(3)
+    assert task == make_task(3)  # seeded
+    runs = [f(task) for f in (run_drag_user, run_xyz_user, run_slider_user)]
+    assert all(r.success for r in runs)
+    drag, xyz, slider = runs
+    assert drag.actions["drag_segments"] >= 3 and drag.actions["keystrokes"] == 0
+    assert xyz.actions["clicks"] >= 6 and xyz.actions["keystrokes"] > 0
+    assert slider.actions["slider_moves"] >= 3
+    assert all(r.path_length > 0.5 for r in runs)  # over the wall and down, at least ~0.7 m
+    assert klm_seconds(drag) < klm_seconds(xyz)  # fewer, cheaper gestures (a model, not a measurement)

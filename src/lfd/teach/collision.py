@@ -23,7 +23,7 @@ Example::
     >>> checker = CollisionChecker(load_robot("wam4"), [Box(np.array([0.4, 0, 0.6]), np.array([0.2, 0.2, 0.2]))])
     >>> checker.check(np.array([0.0, 0.0, 0.0, 1.57])).in_collision   # elbow bent towards +x
     True
-    >>> checker.check(np.array([3.0, 0.0, 0.0, 1.57]) * [0, 0, 0, 1]).in_collision is False
+    >>> checker.check(np.array([0.0, 0.0, 0.0, 0.0])).in_collision    # stretched up
     False
     >>> checker.close()
 """

@@ -128,6 +128,14 @@ def _plan(pos: np.ndarray, goal: np.ndarray, height: float) -> list[np.ndarray]:
     return [np.array([pos[0], pos[1], max(height, pos[2])]), np.array([goal[0], goal[1], max(height, pos[2])]), goal.copy()]
 
 
+def _start(task: Task, mode: str, robot: str) -> tuple[TeachSession, np.ndarray, float, list[np.ndarray]]:
+    """A session on ``task`` in ``mode``, the goal centre, the first aimed height and plan."""
+    s = TeachSession(robot=robot, scene=task.scene, mode=mode, clock=_Clock())
+    goal = np.asarray(task.scene["goal"]["center"], float)
+    height = task.wall_top + task.clearance
+    return s, goal, height, _plan(s.tool_position, goal, height)
+
+
 def _finish(user: str, task: Task, s: TeachSession, actions: Counter) -> UserRun:
     rec = s.recorded
     ok = s.recording_state == "done" and s.end_reason == "goal"
@@ -138,10 +146,7 @@ def _finish(user: str, task: Task, s: TeachSession, actions: Counter) -> UserRun
 
 def run_drag_user(task: Task, max_actions: int = 40, robot: str = "wam4") -> UserRun:
     """The 3-D user (see the module docstring)."""
-    s = TeachSession(robot=robot, scene=task.scene, mode="3d", clock=_Clock())
-    goal = np.asarray(task.scene["goal"]["center"], float)
-    height = task.wall_top + task.clearance
-    via = _plan(s.tool_position, goal, height)
+    s, goal, height, via = _start(task, "3d", robot)
     actions: Counter = Counter()
     i = 0
     while s.recording_state != "done" and actions["drag_segments"] < max_actions and i < len(via):
@@ -172,10 +177,7 @@ def _type_xyz(actions: Counter, p: np.ndarray) -> None:
 
 def run_xyz_user(task: Task, max_actions: int = 120, robot: str = "wam4") -> UserRun:
     """The 2-D panel user with the x/y/z entry (see the module docstring)."""
-    s = TeachSession(robot=robot, scene=task.scene, mode="2d", clock=_Clock())
-    goal = np.asarray(task.scene["goal"]["center"], float)
-    height = task.wall_top + task.clearance
-    via = _plan(s.tool_position, goal, height)
+    s, goal, height, via = _start(task, "2d", robot)
     actions: Counter = Counter()
     i = 0
     while s.recording_state != "done" and sum(actions[k] for k in ("clicks", "keystrokes")) < max_actions and i < len(via):
@@ -194,10 +196,7 @@ def run_xyz_user(task: Task, max_actions: int = 120, robot: str = "wam4") -> Use
 
 def run_slider_user(task: Task, max_actions: int = 60, robot: str = "wam4") -> UserRun:
     """The 2-D panel user with the joint sliders (see the module docstring)."""
-    s = TeachSession(robot=robot, scene=task.scene, mode="2d", clock=_Clock())
-    goal = np.asarray(task.scene["goal"]["center"], float)
-    height = task.wall_top + task.clearance
-    via = _plan(s.tool_position, goal, height)
+    s, goal, height, via = _start(task, "2d", robot)
     actions: Counter = Counter()
     i = 0
     total = lambda: actions["slider_moves"] + actions["clicks"]  # noqa: E731

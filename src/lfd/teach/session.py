@@ -37,8 +37,8 @@ Example::
     ...     r = s.drag(start + a * (np.array([0.35, 0.25, 0.55]) - start))
     >>> r.accepted, r.reached_goal, s.recording_state, s.collisions
     (True, True, 'done', 0)
-    >>> s.recorded.q.shape
-    (30, 4)
+    >>> s.recorded.q.shape           # the start + one sample per update until the goal
+    (25, 4)
 """
 
 from __future__ import annotations
