@@ -9,7 +9,7 @@ import pytest
 from teach_helpers import BOXES, FakeClock, drag_line
 
 from lfd.data.episodes import EpisodeRecord
-from lfd.data.sawyer import load_demo_csv
+from lfd.data.sawyer import load_demo_csv, make_demonstration
 from lfd.dmp import DMP
 from lfd.teach import TeachSession
 from lfd.teach.collision import CollisionChecker
@@ -150,6 +150,8 @@ def test_two_d_export_and_sawyer_csv(tmp_path):
     paths = s.export(tmp_path)
     demo = load_demo_csv(paths["csv"])  # the Sawyer tools' default: time, j0..j6
     np.testing.assert_allclose(demo.q[-1], s.waypoints[-1])
+    task_demo = make_demonstration(s.robot, demo_csv=paths["csv"])  # what the Sawyer/PoWER protocol reads
+    np.testing.assert_allclose(task_demo.q[0], s.start, atol=1e-12)
     info = json.loads(paths["json"].read_text())
     assert info["mode"] == "2d" and len(info["waypoints"]) == 4
     s.close()
