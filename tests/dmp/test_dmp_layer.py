@@ -149,3 +149,21 @@ def test_layer_and_rollout_batch_reject_bad_arguments():
         rollout_batch(np.zeros(2), np.ones(2), np.zeros((2, 3)), np.linspace(0, 1, 5), tau=np.array([1.0, -1.0]))
     with pytest.raises(ValueError, match="weights contains NaN"):
         rollout_batch(np.zeros(2), np.ones(2), np.full((2, 3), np.nan), np.linspace(0, 1, 5))
+
+
+@pytest.mark.parametrize("formulation", ["pastor", "ijspeert"])
+def test_layer_formulation_and_start_velocity_match_the_numpy_rollout(formulation):
+    rng = np.random.default_rng(12)
+    y0, goal, yd0 = (torch.from_numpy(rng.normal(size=(4, 3))) for _ in range(3))
+    weights = torch.from_numpy(rng.normal(size=(4, 3, 10)))
+    layer = DMPLayer(n_basis=10, n_steps=40, dt=0.05, formulation=formulation)
+    out = layer(y0, goal, weights, yd0=yd0)
+    expected = rollout_batch(y0.numpy(), goal.numpy(), weights.numpy(), n_steps=40, dt=0.05, yd0=yd0.numpy(),
+                             formulation=formulation)
+    np.testing.assert_allclose(out.numpy(), expected, atol=1e-12)
+    _, velocity, _ = layer(y0, goal, weights, return_derivatives=True, yd0=yd0)
+    np.testing.assert_allclose(velocity[:, 0].numpy(), yd0.numpy(), atol=1e-12)
+    other = "ijspeert" if formulation == "pastor" else "pastor"
+    assert not np.allclose(DMPLayer(10, 40, 0.05, formulation=other)(y0, goal, weights).numpy(), layer(y0, goal, weights).numpy())
+    with pytest.raises(ValueError, match="formulation"):
+        DMPLayer(10, 40, 0.05, formulation="schaal")

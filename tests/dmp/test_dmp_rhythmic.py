@@ -108,3 +108,30 @@ def test_rejects_bad_arguments():
             dmp.rollout(**kwargs)
     with pytest.raises(ValueError, match="not fitted"):
         RhythmicDMP().rollout()
+
+
+def test_rollout_accepts_the_keywords_of_the_discrete_rollout_and_tensors():
+    import inspect
+
+    import torch
+
+    discrete = list(inspect.signature(DMP.rollout).parameters)
+    rhythmic = list(inspect.signature(RhythmicDMP.rollout).parameters)
+    shared = [name for name in discrete if name != "coupling"]  # coupling terms are discrete-only
+    assert rhythmic[: len(shared)] == shared  # same names, same order
+    t = np.linspace(0, PERIOD, 121)
+    dmp = RhythmicDMP(15).fit(t, signal(t))
+    positional = dmp.rollout(t, dmp.y0_, dmp.goal_, dmp.tau_, dmp.weights_, False, dmp.yd0_)
+    np.testing.assert_allclose(positional, dmp.rollout(), atol=1e-12)
+    y, yd, ydd = dmp.rollout(return_derivatives=True)
+    assert y.shape == yd.shape == ydd.shape == (121, 2)
+    weights = torch.tensor(dmp.weights_, requires_grad=True)
+    tau = torch.tensor(dmp.tau_, dtype=torch.float64, requires_grad=True)
+    out = dmp.rollout(t=t, tau=tau, weights=weights)
+    assert isinstance(out, torch.Tensor)
+    np.testing.assert_allclose(out.detach().numpy(), dmp.rollout(t=t), atol=1e-10)
+    out.sum().backward()
+    assert weights.grad.abs().sum() > 0 and tau.grad.abs() > 0
+    taus = torch.tensor([dmp.tau_, 2 * dmp.tau_], dtype=torch.float64)
+    per_sample = dmp.rollout(t=t, tau=taus)
+    np.testing.assert_allclose(per_sample[1].numpy(), dmp.rollout(t=t, tau=2 * dmp.tau_), atol=1e-9)

@@ -5,7 +5,8 @@ import pytest
 import torch
 from scipy.integrate import solve_ivp
 
-from lfd.dmp import DMP, rollout_batch
+from lfd.dmp import DMP, clear_caches, rollout_batch
+from lfd.dmp import transform
 from lfd.dmp.canonical import discrete_features
 from lfd.dmp.transform import BLOCK, _forced_response_blocked, _forced_response_uniform, build_operator, transition
 
@@ -60,23 +61,34 @@ def _reference_rollout(t, y0, goal, weights, tau, n_basis, formulation, alpha_s=
 
 @pytest.mark.parametrize("formulation", ["ijspeert", "pastor"])
 @pytest.mark.parametrize("uniform", [True, False])
-def test_rollout_converges_to_the_continuous_solution(uniform, formulation):
+def test_rollout_converges_to_the_continuous_solution(uniform, formulation, monkeypatch):
     rng = np.random.default_rng(3)
     tau, n_basis = 1.3, 8
     y0, goal, weights = rng.normal(size=2), rng.normal(size=2) + 2, rng.normal(size=(2, n_basis)) * 40
     if formulation == "pastor":
         weights = weights / 10  # units of y: the forcing is K f(s), K = alpha_z beta_z
-    errors = []
-    for n_steps in (100, 400):
+    errors, refined = [], []
+    for n_steps in (30, 100, 400):
         u = np.linspace(0, 1, n_steps)
         t = tau * (u if uniform else u - 0.15 * np.sin(2 * np.pi * u) / np.pi)  # smooth monotone warp
         ours = DMP(n_basis, formulation=formulation).rollout(t=t, y0=y0, goal=goal, tau=tau, weights=weights)
         reference = _reference_rollout(t, y0, goal, weights, tau, n_basis, formulation)
-        errors.append(np.abs(ours - reference).max())
+        refined.append(np.abs(ours - reference).max())
+        with monkeypatch.context() as patch:  # the raw first-order hold on the grid itself
+            patch.setattr(transform, "MIN_STEPS_PER_TAU", 1)
+            clear_caches()
+            raw = DMP(n_basis, formulation=formulation).rollout(t=t, y0=y0, goal=goal, tau=tau, weights=weights)
+        clear_caches()
+        errors.append(np.abs(raw - reference).max())
     # first-order hold on the forcing term: second-order convergence in the step size
     # (400 > BLOCK samples, so the non-uniform case also crosses block boundaries)
-    assert errors[1] < 2e-4 * max(np.abs(goal - y0).max(), np.abs(reference - y0).max())
-    assert errors[1] < errors[0] / 6
+    size = max(np.abs(goal - y0).max(), np.abs(reference - y0).max())
+    assert errors[2] < 2e-4 * size
+    assert errors[2] < errors[1] / 6
+    # built on a refined grid (>= transform.MIN_STEPS_PER_TAU steps per tau), every sampling is as
+    # close to the continuous solution as a 1000-sample grid, even 30 samples
+    assert max(refined) < 3e-5 * size, refined
+    assert refined[0] < errors[0] / 50
 
 
 def test_fft_and_blocked_responses_agree_across_block_boundaries():

@@ -67,15 +67,16 @@ def test_trajectory_loss_gradient_reaches_the_conv_weights_through_the_dmp_layer
 
 def test_trajectory_loss_covers_rest_samples_after_the_demonstration(dmp_policy, monkeypatch):
     """The loss compares the DMP run on past its duration with the demonstration's last
-    sample: zero for the DMP that drew the demonstration (it rests at its goal), and for a
-    wrong goal it counts the rest samples too."""
+    sample: about zero for the DMP that drew the demonstration (it rests at its goal, up to
+    the forcing term's tail ``K s(tau) (w - (g - y0))`` of the default "pastor" formulation,
+    ~1e-4 rad here), and for a wrong goal it counts the rest samples too."""
     batch = dmp_batch()
     pred = {"goal": batch["goal"], "weights": batch["weights"]}
     monkeypatch.setattr(dmp_policy, "predict_params", lambda image, joints: (pred["goal"], pred["weights"]))
     dmp_policy.hparams.ee_weight = 0.0
     for rest in (0, 8):
         dmp_policy.hparams.rest_steps = rest
-        assert dmp_policy.losses(batch)["loss"] < 1e-10
+        assert dmp_policy.losses(batch)["loss"] < 1e-6
     pred["goal"] = batch["goal"] + 0.3
     on = DMPLayer(n_basis=5, n_steps=20, dt=0.1, tau=1.1)(batch["joints"], pred["goal"], batch["weights"])
     target = torch.cat([batch["trajectory"], batch["trajectory"][:, -1:].expand(-1, 8, -1)], dim=1)

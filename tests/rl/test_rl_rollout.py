@@ -38,7 +38,8 @@ def test_weight_scale_bounds_the_effect_of_every_weight(sawyer_dmp):
     assert np.all(scale > 0)
     goal = sawyer_dmp.goal_.copy()
     goal[2] = sawyer_dmp.y0_[2]
-    assert rollout.weight_scale(goal)[2] == 0.0
+    # the weights' effect scales with g - y0 only when the forcing term does ("ijspeert")
+    assert (rollout.weight_scale(goal)[2] == 0.0) == rollout.goal_scaled
 
 
 def test_unfitted_dmp_and_bad_shapes_are_rejected(line_dmp):

@@ -8,11 +8,13 @@ import numpy as np
 import torch
 
 from . import _validation as check
+from . import transform
 from ._base import Primitive
 from .canonical import discrete_activations, discrete_phase
 from .fitting import DEFAULT_RIDGE, check_ridge, demo_derivatives, forcing_target, lwr_weights
 from .formulation import DEFAULT_FORMULATION, check_formulation, unscale_weights
 from .functional import DiscreteGains, cached_trajectory_fit, grid_key, rollout_with_gains
+from .stepping import advance, integrate
 
 __all__ = ["DMP", "FIT_METHODS"]
 
@@ -55,6 +57,7 @@ class DMP(Primitive):
         weights_: ``(D, K)`` / ``(B, D, K)`` forcing weights (units of ``y`` for
             ``"pastor"``, dimensionless for ``"ijspeert"``).
         y0_: ``(D,)`` / ``(B, D)`` demonstrated start (first sample).
+        yd0_: ``(D,)`` / ``(B, D)`` start velocity in units/s (zero unless ``fit(yd0=...)``).
         goal_: ``(D,)`` / ``(B, D)`` demonstrated goal (last sample).
         tau_: duration ``t[-1] - t[0]`` of the demonstration in seconds.
         n_steps_: number of demonstration samples (default rollout length).
@@ -65,6 +68,7 @@ class DMP(Primitive):
     """
 
     _KIND = "lfd.dmp.DMP"
+    _VECTORS = ("y0", "yd0", "goal")
     # files saved before these arguments existed: the formulation and the (unregularised) fit they used
     _MISSING_PARAMS: ClassVar[dict] = {"formulation": "ijspeert", "ridge": 0.0}
 
@@ -99,7 +103,7 @@ class DMP(Primitive):
             "ridge": self.ridge,
         }
 
-    def fit(self, t, y, method: str = "trajectory") -> DMP:
+    def fit(self, t, y, method: str = "trajectory", yd0=None) -> DMP:
         """Learn the forcing weights from one demonstration or a batch sharing ``t``.
 
         The start ``y0_`` is the first sample, the goal ``goal_`` the last, ``tau_`` the
@@ -124,6 +128,10 @@ class DMP(Primitive):
             t: ``(T,)`` sample times in seconds, strictly increasing, ``T >= 3``.
             y: ``(T, D)`` positions, or ``(B, T, D)`` for ``B`` demonstrations.
             method: ``"trajectory"`` or ``"lwr"``.
+            yd0: start velocity of the demonstration in units/s: ``None`` (default) starts
+                at rest, ``"demo"`` estimates it from the samples (second-order finite
+                differences), or a ``(D,)``/``(B, D)`` array. Learned as ``yd0_``, the
+                default start velocity of :meth:`rollout`.
 
         Returns:
             ``self``.
@@ -136,8 +144,10 @@ class DMP(Primitive):
         t, y = check.demonstration(t, y)
         tau = float(t[-1] - t[0])
         y0, goal = y[..., 0, :], y[..., -1, :]
+        start_velocity = self._start_velocity(t, y, yd0)
         if method == "trajectory":
-            scaled = cached_trajectory_fit(grid_key(t), tau, self.n_basis, self.gains, self.ridge).weights(y, goal)
+            solver = cached_trajectory_fit(grid_key(t), tau, self.n_basis, self.gains, self.ridge)
+            scaled = solver.weights(y, goal, tau * start_velocity)
         else:
             dy, ddy = demo_derivatives(t, y)
             target = forcing_target(y, dy, ddy, goal, tau, self.alpha_z, self.beta_z)
@@ -147,9 +157,40 @@ class DMP(Primitive):
         stiffness = self.alpha_z * self.beta_z
         self.weights_ = unscale_weights(scaled, y, y0, goal, self.formulation, stiffness)
         self.y0_, self.goal_, self.tau_, self.n_steps_ = y0, goal, tau, int(t.shape[0])
+        self.yd0_ = start_velocity
         return self
 
-    def rollout(self, t=None, y0=None, goal=None, tau=None, weights=None, return_derivatives: bool = False):
+    @staticmethod
+    def _start_velocity(t: np.ndarray, y: np.ndarray, yd0) -> np.ndarray:
+        """``(..., D)`` start velocity in units/s for :meth:`fit`."""
+        if yd0 is None:
+            return np.zeros_like(y[..., 0, :])
+        if isinstance(yd0, str):
+            if yd0 != "demo":
+                raise ValueError(f"yd0 must be None, 'demo' or an array, got {yd0!r}")
+            return demo_derivatives(t, y)[0][..., 0, :]
+        velocity = check.finite_array("yd0", yd0, (1, 2))
+        try:
+            return np.broadcast_to(velocity, y[..., 0, :].shape).copy()
+        except ValueError:
+            raise ValueError(f"yd0 must have shape {y[..., 0, :].shape}, got {velocity.shape}") from None
+
+    def _restore(self, fitted: dict) -> None:
+        weights = np.asarray(fitted.get("weights", []))
+        fitted = {"yd0": np.zeros(weights.shape[:-1]), **fitted}  # files from before yd0: at rest
+        super()._restore(fitted)
+
+    def rollout(
+        self,
+        t=None,
+        y0=None,
+        goal=None,
+        tau=None,
+        weights=None,
+        return_derivatives: bool = False,
+        yd0=None,
+        coupling=None,
+    ):
         """Generate a trajectory, optionally with a new start, goal, duration or weights.
 
         Every argument left as ``None`` takes the learned value. Batched inputs broadcast
@@ -164,6 +205,13 @@ class DMP(Primitive):
             tau: duration in seconds (temporal scaling): a float, or a tensor ``()``/``(B,)``.
             weights: ``(D, K)`` or ``(B, D, K)`` forcing weights.
             return_derivatives: also return velocity and acceleration.
+            yd0: ``(D,)`` or ``(B, D)`` start velocity in units/s (default ``yd0_``: zero
+                unless the fit was given one; an unfitted DMP starts at rest).
+            coupling: coupling terms (:mod:`lfd.dmp.coupling`, e.g. obstacle avoidance,
+                joint limits). They make the motion nonlinear, so the rollout is then
+                integrated step-wise (:func:`lfd.dmp.stepping.integrate`, same discretisation
+                as the closed form, vectorised over the batch; numpy only, and with
+                ``return_derivatives`` the acceleration is by finite differences).
 
         Returns:
             Positions ``(T, D)`` (``(B, T, D)`` if any input is batched); with
@@ -188,6 +236,57 @@ class DMP(Primitive):
                 raise ValueError("t is required when tau has one value per sample")
             t = np.linspace(0.0, check.positive_float("tau", float(tau)), self._fitted("n_steps", None))
         times = check.time_grid(t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1)
+        if yd0 is None and self.is_fitted and np.any(self.yd0_ != 0):
+            yd0 = self.yd0_
+        if coupling:
+            return self._coupled_rollout(times, y0, goal, tau, weights, yd0, coupling, return_derivatives)
         return rollout_with_gains(
-            y0, goal, weights, times, tau, self.gains, return_derivatives, formulation=self.formulation
+            y0, goal, weights, times, tau, self.gains, return_derivatives, formulation=self.formulation, yd0=yd0
+        )
+
+    def _coupled_rollout(self, times, y0, goal, tau, weights, yd0, coupling, return_derivatives):
+        """Step-wise rollout with coupling terms (numpy in/out), same grid refinement as the closed form."""
+        if isinstance(tau, torch.Tensor) or any(isinstance(x, torch.Tensor) for x in (y0, goal, weights, yd0)):
+            raise ValueError("coupling terms need numpy inputs (the coupled rollout is not differentiable)")
+        arrays = {"y0": (y0, (1, 2)), "goal": (goal, (1, 2)), "weights": (weights, (2, 3))}
+        if yd0 is not None:
+            arrays["yd0"] = (yd0, (1, 2))
+        values = {name: check.finite_array(name, x, dims) for name, (x, dims) in arrays.items()}
+        tau = check.positive_float("tau", float(tau))
+        positions, velocities = integrate(
+            times - times[0], y0=values["y0"], goal=values["goal"], weights=values["weights"], tau=tau,
+            yd0=values.get("yd0"), n_basis=self.n_basis, gains=self.gains, formulation=self.formulation,
+            coupling=coupling, substeps=transform.grid_substeps(torch.from_numpy(times / tau)),
+        )
+        if not return_derivatives:
+            return positions
+        if times.shape[0] < 3:
+            raise ValueError("return_derivatives with coupling needs at least 3 samples")
+        return positions, velocities, np.gradient(velocities, times, axis=-2, edge_order=2)
+
+    def step(self, state, dt: float, goal=None, *, y0=None, tau=None, weights=None, coupling=(), substeps: int = 1):
+        """Advance a running movement by ``dt`` seconds (online execution; pure function).
+
+        Args:
+            state: :class:`lfd.dmp.DMPState` (``y``, ``yd`` in units/s, elapsed ``t`` in s);
+                start with ``DMPState(y0, yd0)``.
+            dt: step in seconds.
+            goal: current goal ``(D,)``/``(B, D)`` (may differ from step to step; default ``goal_``).
+            y0: start of the movement (default ``y0_``); tau, weights: default the learned ones.
+            coupling: coupling terms evaluated at the start of each sub-step.
+            substeps: equal sub-steps (the closed-form rollout on a grid with step ``dt``
+                seconds uses ``lfd.dmp.transform.substeps(dt / tau)``).
+
+        Returns:
+            The new :class:`lfd.dmp.DMPState`. :class:`lfd.dmp.DMPRunner` keeps the state for you.
+        """
+        y0, goal, tau, weights = (
+            self._fitted(name, value)
+            for name, value in (("y0", y0), ("goal", goal), ("tau", tau), ("weights", weights))
+        )
+        return advance(
+            state, dt, y0=check.finite_array("y0", y0, (1, 2)), goal=check.finite_array("goal", goal, (1, 2)),
+            weights=check.finite_array("weights", weights, (2, 3)), tau=check.positive_float("tau", float(tau)),
+            n_basis=self.n_basis, gains=self.gains, formulation=self.formulation, coupling=coupling,
+            substeps=substeps,
         )

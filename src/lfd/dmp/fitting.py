@@ -97,7 +97,7 @@ def lwr_weights(activations: np.ndarray, phase: np.ndarray, target: np.ndarray) 
 #: Default ridge strength of the trajectory fit, relative to the largest squared singular
 #: value of the (end-weighted) response matrix; chosen by measurement on coarse grids and
 #: LASA (``benchmarks/dmp_ridge.py``, docs/dmp.md "Regularised fitting").
-DEFAULT_RIDGE = 0.0
+DEFAULT_RIDGE = 1e-12
 
 
 def check_ridge(ridge) -> float:

@@ -19,7 +19,7 @@ from . import _validation as check
 from .canonical import discrete_features
 from .fitting import DEFAULT_RIDGE, TrajectoryFit
 from .formulation import DEFAULT_FORMULATION, check_formulation, scale_weights
-from .transform import RolloutOperator, build_operator
+from .transform import RolloutOperator, build_refined_operator
 
 __all__ = ["DiscreteGains", "Gains", "clear_caches", "discrete_operator", "rollout_batch"]
 
@@ -80,8 +80,11 @@ def discrete_operator(t: Tensor, tau: Tensor, n_basis: int, gains: DiscreteGains
         :class:`~lfd.dmp.transform.RolloutOperator` in the dtype of ``t`` (use float64).
     """
     theta = (t - t[0]) / tau[..., None]
-    features = discrete_features(theta, n_basis, gains.alpha_s, gains.overlap)
-    return build_operator(theta, features, tau, gains.alpha_z, gains.beta_z)
+
+    def features_of(times: Tensor) -> Tensor:
+        return discrete_features(times, n_basis, gains.alpha_s, gains.overlap)
+
+    return build_refined_operator(theta, features_of, tau, gains.alpha_z, gains.beta_z)
 
 
 def grid_key(t: np.ndarray) -> bytes:
@@ -274,6 +277,7 @@ def rollout_batch(
     overlap: float = 0.8,
     formulation: str = DEFAULT_FORMULATION,
     yd0=None,
+    coupling=None,
     return_derivatives: bool = False,
 ):
     """Roll out a batch of discrete DMPs sharing one time grid.
@@ -301,6 +305,9 @@ def rollout_batch(
     in, float64 numpy out, with NaN/inf and ``tau > 0`` checks.
 
     Args:
+        coupling: coupling terms (:mod:`lfd.dmp.coupling`: obstacles, joint limits); the
+            motion is then integrated step-wise on the same refined grid, vectorised over
+            the batch (numpy inputs only; see :meth:`lfd.dmp.DMP.rollout`).
         return_derivatives: also return velocity (units/s) and acceleration (units/s^2),
             same shape as the positions.
 
@@ -321,4 +328,11 @@ def rollout_batch(
         if times.shape[0] < 2:
             raise ValueError("tau is required when the time grid has a single sample")
         tau = times[-1] - times[0]
-    return rollout_with_gains(y0, goal, weights, times, tau, gains, return_derivatives, formulation=formulation, yd0=yd0)
+    if coupling:
+        from .discrete import DMP  # the coupled rollout lives with the estimator (step-wise integration)
+
+        dmp = DMP(np.shape(weights)[-1], gains.alpha_z, gains.beta_z, gains.alpha_s, gains.overlap, formulation)
+        return dmp.rollout(times, y0, goal, tau, weights, return_derivatives, yd0=yd0, coupling=coupling)
+    return rollout_with_gains(
+        y0, goal, weights, times, tau, gains, return_derivatives, formulation=formulation, yd0=yd0
+    )

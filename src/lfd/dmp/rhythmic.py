@@ -14,7 +14,7 @@ from .canonical import rhythmic_activations, rhythmic_features
 from .discrete import check_method
 from .fitting import DEFAULT_RIDGE, TrajectoryFit, check_ridge, demo_derivatives, forcing_target, lwr_weights
 from .functional import Gains, evaluate
-from .transform import RolloutOperator, build_operator
+from .transform import RolloutOperator, build_refined_operator
 
 __all__ = ["RhythmicDMP", "rhythmic_operator"]
 
@@ -29,8 +29,11 @@ def rhythmic_operator(
     """
     tau = torch.as_tensor(tau, dtype=torch.float64)
     phi = torch.as_tensor(t - t[0], dtype=torch.float64) / tau[..., None]
-    features = rhythmic_features(phi, n_basis, gains.overlap)
-    return build_operator(phi, features, tau, gains.alpha_z, gains.beta_z).to(dtype, device)
+
+    def features_of(phase):
+        return rhythmic_features(phase, n_basis, gains.overlap)
+
+    return build_refined_operator(phi, features_of, tau, gains.alpha_z, gains.beta_z).to(dtype, device)
 
 
 class RhythmicDMP(Primitive):
@@ -133,49 +136,71 @@ class RhythmicDMP(Primitive):
         goal=None,
         tau=None,
         weights=None,
-        r: float = 1.0,
-        yd0=None,
         return_derivatives: bool = False,
+        yd0=None,
+        r: float = 1.0,
     ):
-        """Generate a periodic trajectory.
+        """Generate a periodic trajectory; the same keywords as :meth:`lfd.dmp.DMP.rollout`, plus ``r``.
 
         Defaults reproduce the demonstration, transformed: the start state is the
         demonstrated one mapped to the new anchor, amplitude and tempo,
         ``y0 = goal + r (y0_ - goal_)`` and ``yd0 = r yd0_ tau_ / tau``. Since the system is
         linear, ``rollout(r=a)`` is then exactly ``goal + a (rollout() - goal)``.
 
+        Backend as :func:`lfd.dmp.rollout_batch`: numpy in, float64 numpy out (validated);
+        if any of ``y0, goal, weights, tau, yd0`` is a ``torch.Tensor`` the result is a tensor,
+        differentiable w.r.t. them (``tau`` as a tensor ``()`` or ``(B,)``).
+
         Args:
             t: ``(T,)`` output times in seconds (strictly increasing, start at ``t[0]``);
                 default ``n_steps_`` samples over ``duration_ * tau / tau_``.
             y0, yd0: ``(D,)`` or ``(B, D)`` start position (units) and velocity (units/s).
             goal: ``(D,)`` or ``(B, D)`` anchor.
-            tau: ``period / (2 pi)`` in seconds.
+            tau: ``period / (2 pi)`` in seconds: a float, or a tensor ``()``/``(B,)``.
             weights: ``(D, K)`` or ``(B, D, K)``.
-            r: amplitude of the forcing term (finite, may be 0 or negative).
             return_derivatives: also return velocity (units/s) and acceleration (units/s^2).
+            r: amplitude of the forcing term (finite, may be 0 or negative).
 
         Returns:
-            Positions ``(T, D)`` or ``(B, T, D)``, numpy float64 (or the derivative triple).
+            Positions ``(T, D)`` or ``(B, T, D)`` (or the derivative triple).
+
+        Raises:
+            ValueError: shape mismatch, NaN/inf, ``tau <= 0``, bad ``t``, non-finite ``r``, or
+                a missing value on an unfitted DMP.
         """
-        if not np.isfinite(r):
+        if isinstance(r, bool) or not isinstance(r, (int, float, np.floating, np.integer)) or not np.isfinite(r):
             raise ValueError(f"r must be a finite number, got {r!r}")
         weights = self._fitted("weights", weights)
-        if np.shape(weights)[-1:] != (self.n_basis,) or np.ndim(weights) not in (2, 3):
+        if tuple(np.shape(weights))[-1:] != (self.n_basis,) or len(np.shape(weights)) not in (2, 3):
             raise ValueError(
                 f"weights must have shape (D, K = {self.n_basis}) or (B, D, K), got {tuple(np.shape(weights))}"
             )
         n_dims = np.shape(weights)[-2]
-        tau = check.positive_float("tau", self._fitted("tau", tau))
-        goal = check.finite_array("goal", self._fitted("goal", goal), (1, 2))
-        if goal.shape[-1] != n_dims:
-            raise ValueError(f"goal must have shape ({n_dims},) or (B, {n_dims}), got {goal.shape}")
+        tau = self._fitted("tau", tau)
+        tensor_tau = isinstance(tau, torch.Tensor)
+        if not tensor_tau:
+            tau = check.positive_float("tau", tau)
+        goal = self._fitted("goal", goal)
+        if not isinstance(goal, torch.Tensor):
+            goal = check.finite_array("goal", goal, (1, 2))
+        if tuple(goal.shape)[-1:] != (n_dims,) or goal.ndim not in (1, 2):
+            raise ValueError(f"goal must have shape ({n_dims},) or (B, {n_dims}), got {tuple(goal.shape)}")
         if y0 is None:
-            y0 = goal + r * (self._fitted("y0", None) - self.goal_)
+            offset = self._fitted("y0", None) - self.goal_
+            if isinstance(goal, torch.Tensor):
+                offset = torch.as_tensor(offset, dtype=goal.dtype, device=goal.device)
+            y0 = goal + r * offset
         if yd0 is None:
-            yd0 = r * self._fitted("yd0", None) * self.tau_ / tau
+            demo = r * self._fitted("yd0", None) * self.tau_
+            if tensor_tau:
+                yd0 = torch.as_tensor(demo, dtype=tau.dtype, device=tau.device) / tau[..., None]
+            else:
+                yd0 = demo / tau
         if t is None:
-            t = np.linspace(0.0, self._fitted("duration", None) * tau / self.tau_, self.n_steps_)
-        times = check.time_grid(t, min_samples=1)
+            if tensor_tau and tau.ndim > 0:
+                raise ValueError("t is required when tau has one value per sample")
+            t = np.linspace(0.0, self._fitted("duration", None) * float(tau) / self.tau_, self.n_steps_)
+        times = check.time_grid(t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1)
 
         def make_operator(grid, tau_value, n_basis, dtype, device):
             return rhythmic_operator(grid, tau_value, n_basis, self.gains, dtype, device)

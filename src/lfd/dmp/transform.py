@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import torch
 from torch import Tensor
 
-__all__ = ["RolloutOperator", "build_operator", "transition"]
+__all__ = ["RolloutOperator", "build_operator", "build_refined_operator", "grid_substeps", "substeps", "transition"]
 
 #: Output samples per block on non-uniform grids: O(T * BLOCK * K) time, O(BLOCK^2)
 #: memory, and a Python loop over T / BLOCK blocks.
@@ -48,6 +48,17 @@ BLOCK = 128
 
 #: Grids whose steps agree to this relative tolerance are treated as uniform (FFT path).
 UNIFORM_RTOL = 1e-9
+
+#: Internal steps per unit of normalised time (per ``tau``) at least: every interval of a
+#: coarser grid is subdivided equally when the operator is built and only the grid's own
+#: rows are kept, so the first-order hold acts on a fine grid and a rollout at any sampling
+#: agrees with the continuous solution (about 1e-5 of the motion's size) instead of carrying
+#: the hold error of a 30-sample grid; fits on coarse grids then replay on fine grids as
+#: they reproduce their samples. The subdivision depends on ``dt / tau`` only (not on the
+#: number of samples), so temporal scaling stays exact and a longer grid starts with the
+#: same samples as a shorter one; a batch with one ``tau`` per sample uses the finest
+#: subdivision any of them needs (so it agrees with one rollout per ``tau`` to ~1e-6).
+MIN_STEPS_PER_TAU = 1000
 
 
 def transition(theta: Tensor, alpha_z: float, beta_z: float) -> Tensor:
@@ -277,3 +288,76 @@ def build_operator(theta: Tensor, features: Tensor, tau: Tensor, alpha_z: float,
     initial = transition(theta - theta[..., :1], alpha_z, beta_z)
     forced = _forced_response(theta, features, alpha_z, beta_z)
     return RolloutOperator(initial, forced, features, tau, alpha_z, beta_z)
+
+
+def substeps(step: float, min_steps: int | None = None) -> int:
+    """Equal subdivisions of an interval of normalised length ``step = dt / tau`` so that
+    none exceeds ``1 / min_steps`` (default :data:`MIN_STEPS_PER_TAU`).
+
+    Rounded with a relative slack of 1e-4, so that round steps (``dt / tau = 0.02``) do not
+    sit on a switching point: the operator is smooth in ``tau`` (for gradients) except within
+    1e-4 of the (non-round) values where the count changes.
+    """
+    min_steps = MIN_STEPS_PER_TAU if min_steps is None else min_steps
+    return max(1, math.ceil(float(step) * min_steps * (1.0 - 1e-4)))
+
+
+def grid_substeps(theta: Tensor) -> int:
+    """:func:`substeps` for the largest interval of normalised times ``theta`` ``(..., T)``."""
+    if theta.shape[-1] < 2:
+        return 1
+    return substeps(float((theta[..., 1:] - theta[..., :-1]).detach().max()))
+
+
+def refine(theta: Tensor, factor: int) -> Tensor:
+    """Split every interval of ``theta`` ``(..., T)`` into ``factor`` equal ones: ``(..., (T-1) factor + 1)``.
+
+    Row ``n * factor`` of the result is ``theta[..., n]`` (differentiable w.r.t. ``theta``).
+    """
+    if factor == 1:
+        return theta
+    fractions = torch.arange(factor, dtype=theta.dtype, device=theta.device) / factor
+    inner = theta[..., :-1, None] + (theta[..., 1:] - theta[..., :-1])[..., None] * fractions
+    return torch.cat([inner.flatten(-2), theta[..., -1:]], dim=-1)
+
+
+def build_refined_operator(
+    theta: Tensor, features_of, tau: Tensor, alpha_z: float, beta_z: float, factor: int | None = None
+) -> RolloutOperator:
+    """:func:`build_operator` on ``theta`` refined ``factor`` times, keeping only the rows of ``theta``.
+
+    Args:
+        theta: ``(T,)`` or ``(B, T)`` normalised times, strictly increasing, ``theta_0 = 0``.
+        features_of: ``theta (..., T') -> (..., T', K)`` forcing features.
+        tau: ``()`` or ``(B,)`` temporal scaling in seconds.
+        factor: subdivisions per interval; default :func:`grid_substeps` of each row of
+            ``theta``, so that a batch with one ``tau`` per row equals one rollout per ``tau``.
+    """
+    if factor is None and theta.ndim == 2 and theta.shape[0] > 1 and theta.shape[-1] > 1:
+        factors = [grid_substeps(row) for row in theta]
+        if len(set(factors)) > 1:  # rows that need different subdivisions: one operator per group
+            parts = {}
+            for value in sorted(set(factors)):
+                rows = torch.tensor([i for i, f in enumerate(factors) if f == value], device=theta.device)
+                part = build_refined_operator(theta[rows], features_of, tau[rows], alpha_z, beta_z, value)
+                parts[value] = (rows, part)
+            order = torch.argsort(torch.cat([rows for rows, _ in parts.values()]))
+
+            def gather(name: str) -> Tensor:
+                return torch.cat([getattr(op, name) for _, op in parts.values()])[order]
+
+            return RolloutOperator(gather("initial"), gather("forced"), gather("features"), tau, alpha_z, beta_z)
+    factor = grid_substeps(theta) if factor is None else factor
+    fine = refine(theta, factor)
+    operator = build_operator(fine, features_of(fine), tau, alpha_z, beta_z)
+    if factor == 1:
+        return operator
+    rows = slice(None, None, factor)
+    return RolloutOperator(
+        operator.initial[..., rows, :, :],
+        operator.forced[..., rows, :, :],
+        operator.features[..., rows, :],
+        tau,
+        alpha_z,
+        beta_z,
+    )

@@ -1,14 +1,19 @@
-"""Reinforcement learning of DMP skills with PoWER (pure numpy/torch, no simulator inside).
+"""Policy search for DMP skills: PoWER, PI^BB, CMA-ES (pure numpy/torch, no simulator inside).
 
-Main entry points:
+Main entry points (one harness, :class:`SearchProblem`: same parameters, rollouts, rollout
+counting and stopping rule; see ``docs/power.md``):
 
 - :func:`power`: PoWER on the weights (and optionally the goal) of a fitted
-  :class:`lfd.dmp.DMP`, with batched rollouts, importance sampling over the best
-  rollouts seen so far, joint-limit penalties and a stopping rule.
+  :class:`lfd.dmp.DMP`: ``variant="per-step"`` (Kober & Peters, default), ``"episodic"`` or
+  ``"pyrdmp"`` (the published pyrdmp code), with batched rollouts, importance sampling over
+  the best rollouts seen so far, variance adaptation, joint-limit penalties and a stopping rule.
+- :func:`pibb` (Stulp & Sigaud's PI^BB) and :func:`cmaes` (Hansen's CMA-ES, scaled coordinates).
 - :func:`adapt_to_goal`: adapt a learned DMP to a new goal in joint space (rad) or task
   space (m, through the robot's IK/FK), then refine it with PoWER.
 - Rewards (SPEC eq. 5.4): :class:`JointGoalReward`, :class:`TaskGoalReward`,
-  :func:`returns_from_distances`; any ``reward(trajectories (B, T, D)) -> (B,)`` works.
+  :func:`returns_from_distances`; via points and obstacles with per-step returns-to-go:
+  :class:`ViaPointReward`, :class:`ObstacleReward`; any
+  ``reward(trajectories (B, T, D)) -> (B,)`` works.
 
 Example::
 
@@ -26,21 +31,37 @@ Example::
 """
 
 from .adapt import adapt_to_goal, goal_configuration
+from .cmaes import cmaes
 from .memory import keep_best
-from .power import PowerHistory, PowerResult, power
-from .rewards import JointGoalReward, TaskGoalReward, limit_violation, returns_from_distances
+from .pibb import pibb
+from .power import POWER_VARIANTS, power
+from .problem import PowerHistory, PowerResult, SearchProblem
+from .rewards import (
+    JointGoalReward,
+    ObstacleReward,
+    TaskGoalReward,
+    ViaPointReward,
+    limit_violation,
+    returns_from_distances,
+)
 from .rollout import DMPRollout
 
 __all__ = [
     "DMPRollout",
     "JointGoalReward",
+    "ObstacleReward",
+    "POWER_VARIANTS",
     "PowerHistory",
     "PowerResult",
+    "SearchProblem",
     "TaskGoalReward",
+    "ViaPointReward",
     "adapt_to_goal",
+    "cmaes",
     "goal_configuration",
     "keep_best",
     "limit_violation",
+    "pibb",
     "power",
     "returns_from_distances",
 ]
