@@ -262,8 +262,10 @@ class TeachSession:
         self.end_reason: str | None = None
 
     def clear(self) -> None:
-        """Forget the recording and put the arm back at the start (counters kept)."""
+        """Forget the recording (and the last Send) and put the arm back at the start
+        (counters kept: they count the whole session)."""
         self._reset_recording()
+        self.last_send = None
         self.q = self.start.copy()
         self._refusing = False
 
