@@ -1,0 +1,22 @@
+"""Teach by dragging: program an arm in a browser 3-D scene, or with a 2-D joint panel.
+
+SPEC section 7 (the thesis' VARM system). :class:`TeachSession` is the whole logic
+(IK, collisions, recording, export, Send) and runs without a browser;
+:class:`~lfd.teach.server.TeachServer` puts it behind a local viser web app
+(``python scripts/teach.py robot=wam4 scene=configs/teach/boxes.yaml``).
+
+Example (runnable)::
+
+    import numpy as np
+    from lfd.teach import TeachSession
+
+    s = TeachSession(robot="wam4", scene="configs/teach/boxes.yaml")
+    r = s.drag(s.tool_position + [0.0, 0.0, 0.05])   # DragResult(accepted, q, in_collision, reached_goal, ...)
+    s.recorded.t.shape, s.recorded.q.shape          # (2,), (2, 4)
+    s.set_joints(s.q)                               # the 2-D panel's sliders (same collision rule)
+"""
+
+from .scene import Box, Goal, TeachScene, load_scene
+from .session import TEACH_ROBOTS, DragResult, Recording, TeachSession
+
+__all__ = ["TEACH_ROBOTS", "Box", "DragResult", "Goal", "Recording", "TeachScene", "TeachSession", "load_scene"]

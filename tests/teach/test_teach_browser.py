@@ -1,0 +1,194 @@
+"""The teach page in a real browser: headless Chromium (Debian's ``chromium``) driven by
+Playwright through ``executable_path`` (no browser download). The tests drag the gizmo
+with mouse events, press the panel's buttons and check the server's state; screenshots
+go to ``outputs/tests/teach/`` (or ``$LFD_TEACH_SCREENSHOTS``).
+
+They fail, not skip, when Chromium is missing: the README's test command installs it.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from teach_helpers import BOXES, ROOT
+
+from lfd.teach import TeachSession
+from lfd.teach.drag_ik import as_rotation
+from lfd.teach.server import TeachServer
+
+CHROMIUM = "/usr/bin/chromium"
+FLAGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+SHOTS = Path(os.environ.get("LFD_TEACH_SCREENSHOTS", ROOT / "outputs" / "tests" / "teach"))
+VIEW = {"width": 900, "height": 600}
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from playwright.sync_api import sync_playwright
+
+    assert Path(CHROMIUM).exists(), f"{CHROMIUM} missing: apt-get install -y chromium (see the README's test command)"
+    profile = tempfile.mkdtemp(prefix="lfd-teach-chromium-")
+    with sync_playwright() as pw:
+        context = pw.chromium.launch_persistent_context(
+            profile, executable_path=CHROMIUM, args=FLAGS, headless=True, viewport=VIEW
+        )
+        yield context
+        context.close()
+    shutil.rmtree(profile, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    session = TeachSession(robot="wam4", scene=BOXES)
+    server = TeachServer(session, port=0, export_dir=tmp_path_factory.mktemp("teach") / "export")
+    yield server
+    server.close()
+    session.close()
+
+
+@pytest.fixture(scope="module")
+def page(browser, served):
+    """One page for both tests (loading the page is the slow part in software WebGL)."""
+    page, _ = _open(browser, served)
+    yield page
+    page.close()
+
+
+def _open(browser, server):
+    page = browser.new_page()
+    page.goto(server.url)
+    page.get_by_role("button", name="Store").wait_for(timeout=45_000)
+    # wait until the page reports its camera, then point it at the arm and wait for the echo
+    assert _wait(lambda: server.server.get_clients() and _camera(server).image_width > 0, timeout=45)
+    cam = _camera(server)
+    for _ in range(3):
+        cam.position, cam.look_at = (1.3, -1.3, 1.0), (0.35, 0.0, 0.2)
+        if _wait(lambda: np.allclose(_camera(server).position, (1.3, -1.3, 1.0), atol=1e-2), timeout=5):
+            break
+    time.sleep(1.0)  # let the frame with the new camera render
+    return page, _camera(server)
+
+
+def _camera(server):
+    return next(iter(server.server.get_clients().values())).camera
+
+
+def _project(cam, point) -> np.ndarray:
+    """Pixel of a world point for viser's camera (OpenCV axes: x right, y down, z forward)."""
+    rot = as_rotation(cam.wxyz)
+    pc = rot.T @ (np.asarray(point, float) - cam.position)
+    f = cam.image_height / 2.0 / np.tan(cam.fov / 2.0)
+    return np.array([cam.image_width / 2.0 + f * pc[0] / pc[2], cam.image_height / 2.0 + f * pc[1] / pc[2]])
+
+
+def _drag_arrow(page, server, cam, axis: int, distance: float, steps: int = 15) -> None:
+    """Grab the gizmo's arrow along ``axis`` and drag it by ``distance`` m along that axis."""
+    tool = server.session.tool_position
+    along = np.eye(3)[axis] * server.gizmo_scale * 0.7
+    a = _project(cam, tool + along)
+    b = _project(cam, tool + along + np.eye(3)[axis] * distance)
+    page.mouse.move(*a)
+    page.mouse.down()
+    for k in range(1, steps + 1):
+        page.mouse.move(*(a + (b - a) * k / steps))
+        time.sleep(0.02)
+    page.mouse.up()
+    time.sleep(0.3)
+
+
+def _wait(predicate, timeout: float = 20.0) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.1)
+    return predicate()
+
+
+def test_drag_gizmo_records_collides_exports_and_sends(page, served):
+    s = served.session
+    cam = _camera(served)
+    _shot(page, "3d_0_loaded.png")
+    z0 = s.tool_position[2]
+    _drag_arrow(page, served, cam, axis=2, distance=0.12)  # lift the tool
+    assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
+    assert s.tool_position[2] > z0 + 0.05 and s.collisions == 0
+    _shot(page, "3d_1_lifted.png")
+    _drag_arrow(page, served, cam, axis=1, distance=0.45)  # sideways into the wall
+    assert _wait(lambda: s.collisions >= 1)
+    assert s.counters["refused_collision"] >= 1
+    assert abs(s.tool_position[1]) > 0.03  # the arm stopped short of the wall (y = 0, 4 cm thick)
+    _shot(page, "3d_2_collision.png")
+    n = len(s.recorded)
+    page.get_by_role("button", name="Stop").click()
+    assert _wait(lambda: s.recording_state == "done")
+    page.get_by_role("button", name="Export").click()
+    assert _wait(lambda: served.last_export is not None)
+    assert all(Path(p).is_file() for p in served.last_export.values())
+    assert Path(served.last_export["csv"]).read_text().count("\n") == n + 1
+    page.get_by_role("button", name="Send", exact=True).first.click()
+    assert _wait(lambda: s.last_send is not None, timeout=30)
+    assert s.last_send.final_error < 0.01
+    assert _wait(lambda: "final error" in served.status.content)
+    time.sleep(0.5)
+    _shot(page, "3d_3_sent.png")
+
+
+def test_two_d_panel_buttons(page, served):
+    s = served.session
+    page.get_by_role("button", name="Clear").click()
+    assert _wait(lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
+    page.get_by_role("button", name="2-D panel").click()
+    assert _wait(lambda: s.mode == "2d")
+    # joint slider: drag the first slider's thumb to the right with the mouse
+    thumb = page.get_by_role("slider").first.bounding_box()
+    x, y = thumb["x"] + thumb["width"] / 2, thumb["y"] + thumb["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    for k in range(1, 6):
+        page.mouse.move(x + k, y)  # ~0.04 rad per pixel
+        time.sleep(0.05)
+    page.mouse.up()
+    assert _wait(lambda: s.counters["panel_moves"] >= 1)
+    assert s.q[0] > s.start[0] + 0.02
+    # x/y/z entry + Move (IK), then Store
+    p = s.tool_position + [0.0, 0.0, 0.1]
+    inputs = page.locator("input.mantine-NumberInput-input")
+    first = inputs.evaluate_all(f"(els) => els.findIndex(e => e.id === '{served.xyz_uuid}')")
+    for k in range(3):
+        box = inputs.nth(first + k)
+        box.fill(f"{p[k]:.3f}")
+        box.press("Tab")
+    assert _wait(lambda: np.allclose(served.xyz.value, np.round(p, 3), atol=1e-6))
+    page.get_by_role("button", name="Move (IK)").click()
+    assert _wait(lambda: np.linalg.norm(s.tool_position - np.round(p, 3)) < 2e-3)
+    page.get_by_role("button", name="Store").click()
+    assert _wait(lambda: len(s.waypoints) == 2)
+    _shot(page, "2d_1_stored.png")
+    page.get_by_role("button", name="Go Home").click()
+    assert _wait(lambda: np.allclose(s.q, s.start))
+    page.get_by_role("button", name="Store").click()
+    assert _wait(lambda: len(s.waypoints) == 3)
+    page.get_by_role("button", name="Playback", exact=True).nth(1).click()
+    assert _wait(lambda: served.playbacks == 1, timeout=30)
+    _shot(page, "2d_2_playback.png")
+    assert s.counters["stores"] == 2 and s.counters["refused_stores"] == 0
+
+
+def _shot(page, name: str) -> None:
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(SHOTS / name), timeout=60_000)

@@ -1,0 +1,26 @@
+"""The documented examples of lfd.teach run."""
+
+from __future__ import annotations
+
+import doctest
+import os
+import textwrap
+
+import pytest
+from teach_helpers import ROOT
+
+import lfd.teach
+from lfd.teach import collision, drag_ik, execute, kinematics, scene, session
+
+
+@pytest.mark.parametrize("module", [collision, drag_ik, execute, kinematics, scene, session], ids=lambda m: m.__name__)
+def test_doctests(module):
+    result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0
+
+
+def test_package_example_runs(monkeypatch):
+    monkeypatch.chdir(ROOT)
+    code = lfd.teach.__doc__.split("Example (runnable)::")[1]
+    exec(compile(textwrap.dedent(code), "lfd.teach example", "exec"), {})
+    assert os.getcwd() == str(ROOT)

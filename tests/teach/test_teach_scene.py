@@ -1,0 +1,98 @@
+"""Scene files: the shipped scene loads, bad scenes fail with errors naming the field."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from teach_helpers import BOXES, ROOT
+
+from lfd.teach import TeachSession, load_scene
+
+
+def test_shipped_scene_loads():
+    scene = load_scene(BOXES)
+    assert scene.name == "boxes" and len(scene.obstacles) == 2 and scene.goal.radius == 0.05
+    assert np.isclose(np.degrees(scene.obstacles[1].yaw), 20.0)
+    assert load_scene(scene.to_dict()).to_dict() == scene.to_dict()  # the dict form round-trips
+
+
+@pytest.mark.parametrize(
+    ("scene", "match"),
+    [
+        ({"obstacles": [{"center": [0.5, 0.0], "size": [0.1, 0.1, 0.1]}]}, r"obstacles\[0\]\.center"),
+        ({"obstacles": [{"center": [0.5, 0.0, 0.1], "size": [0.1, -0.1, 0.1]}]}, r"obstacles\[0\]\.size"),
+        ({"obstacles": [{"center": [0.5, 0.0, 0.1]}]}, r"obstacles\[0\]\.size' is missing"),
+        ({"obstacles": [{"center": [0.5, 0.0, 0.1], "size": [0.1, 0.1, 0.1], "colour": 1}]}, "unknown key"),
+        ({"goal": {"center": [0.5, 0.0, 0.1], "radius": 0}}, "goal.radius"),
+        ({"goal": {"center": [0.5, "x", 0.1], "radius": 0.1}}, "goal.center"),
+        ({"table_z": float("nan")}, "table_z"),
+        ({"start": [0.0, 0.0, 0.0, np.inf]}, "start"),
+        ({"goals": {}}, "unknown key"),
+    ],
+)
+def test_bad_fields_are_named(scene, match):
+    with pytest.raises(ValueError, match=match):
+        load_scene(scene)
+
+
+def test_missing_and_malformed_files(tmp_path):
+    with pytest.raises(FileNotFoundError, match="scene file not found"):
+        load_scene(tmp_path / "nope.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("obstacles: [ {center: [1, 2\n")
+    with pytest.raises(ValueError, match="not valid YAML"):
+        load_scene(bad)
+
+
+def test_unknown_robot():
+    with pytest.raises(ValueError, match="unknown robot 'ur5'.*wam4, pr2_right_arm, sawyer"):
+        TeachSession(robot="ur5")
+    with pytest.raises(ValueError, match="not a teachable arm"):
+        TeachSession(robot="human_arm")
+
+
+def test_obstacle_overlapping_the_base():
+    scene = {"obstacles": [{"center": [0.05, 0.0, 0.0], "size": [0.1, 0.1, 0.1]}]}
+    with pytest.raises(ValueError, match=r"obstacles\[0\]' overlaps the robot base"):
+        TeachSession(robot="wam4", scene=scene)
+
+
+def test_goal_out_of_reach():
+    with pytest.raises(ValueError, match="'goal': unreachable for wam4"):
+        TeachSession(robot="wam4", scene={"goal": {"center": [1.5, 0.0, 0.3], "radius": 0.05}})
+
+
+def test_start_pose_checked():
+    with pytest.raises(ValueError, match="'start' must have 4"):
+        TeachSession(robot="wam4", scene={"start": [0.0, 0.0, 0.0]})
+    with pytest.raises(ValueError, match="joint 1 = 2.500 rad is outside"):
+        TeachSession(robot="wam4", scene={"start": [0.0, 2.5, 0.0, 1.0]})
+    with pytest.raises(ValueError, match="start pose is in collision"):
+        TeachSession(robot="wam4", scene={"start": [0.0, 1.5, 0.0, 1.5], "table_z": 0.0})
+
+
+def _script(*overrides: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "scripts" / "teach.py"), *overrides],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_entry_point_prints_the_url():
+    out = _script("robot=wam4", "scene=configs/teach/boxes.yaml", "port=0", "duration_s=0")
+    assert out.returncode == 0, out.stderr
+    assert "teach: wam4 ready at http://127.0.0.1:" in out.stdout
+
+
+@pytest.mark.slow
+def test_entry_point_reports_a_bad_scene(tmp_path):
+    scene = tmp_path / "s.yaml"
+    scene.write_text("goal: {center: [0.4, 0, 0.3], radius: -1}\n")
+    out = _script("robot=wam4", f"scene={scene}", "port=0", "duration_s=0")
+    assert out.returncode == 2 and "goal.radius" in out.stderr
