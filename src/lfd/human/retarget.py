@@ -103,7 +103,7 @@ def _check_points(**points) -> int:
     return shape[0]
 
 
-def retarget_wam4(shoulder, elbow, wrist, side: str = "right", *, singular_deg: float = 5.0) -> RetargetResult:
+def retarget_wam4(shoulder, elbow, wrist, side: str = "right", *, singular_deg: float = 10.0) -> RetargetResult:
     """WAM 4-DoF joint angles reproducing the arm posture (see module docstring).
 
     Args:
@@ -139,7 +139,7 @@ def retarget_wam4(shoulder, elbow, wrist, side: str = "right", *, singular_deg: 
             cand = np.array([_wrap(q1[t]), q2[t], 0.0, 0.0])
             viol = np.maximum(lo[:2] - cand[:2], 0).sum() + np.maximum(cand[:2] - hi[:2], 0).sum()
             step = 0.0 if prev is None else np.abs(_wrap(cand[:2] - prev[:2])).sum()
-            cost = 10.0 * viol + step
+            cost = viol + step  # a branch switch (a jump of ~pi in q1 and q3) only for a larger violation
             if best is None or cost < best[0]:
                 best = (cost, cand)
         q[t] = best[1]
