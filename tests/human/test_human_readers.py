@@ -185,6 +185,7 @@ def test_missing_file_and_unknown_format(tmp_path):
         read_skeleton(path, format="bvh")
     with pytest.raises(ValueError, match=r"has no option\(s\) \['body'\]"):
         read_skeleton(FIXTURES / "synthetic.trc", body=1)
+    assert read_skeleton(FIXTURES / "synthetic.trc", up=(0, 0, 2)).up.tolist() == [0.0, 0.0, 1.0]
 
 
 def test_csv_non_monotonic_time_and_missing_column(tmp_path):

@@ -16,7 +16,7 @@ format          layout
 ``uiprmd``      UI-PRMD Kinect: ``.../Positions/<name>_positions.txt`` and its sibling
                 ``.../Angles/<name>_angles.txt``; 22 joints, cm, local offsets and Euler
                 angles (``euler_order``, default ``"ZXY"``), 30 Hz
-``trc``         OpenSim marker file (tab-separated, ``Units`` mm/cm/m, y up)
+``trc``         OpenSim marker file (tab-separated, ``Units`` mm/cm/m, y up unless ``up=``)
 ``csv``         generic CSV with a header: long (``t, joint, x, y, z[, tracked]``) or wide
                 (``t, <joint>_x, <joint>_y, <joint>_z, ...``); ``units`` and ``up`` options
 ==============  ===========================================================================
@@ -150,7 +150,8 @@ def read_skeleton(path: str | os.PathLike, format: str | None = None, **options)
             when omitted.
         **options: per format: ``rate`` (Hz, files without a time column: kinect_csv, ntu,
             uiprmd; default 30), ``body`` (ntu: body index in order of appearance or body id),
-            ``euler_order`` and ``angles_path`` (uiprmd), ``units`` and ``up`` (csv).
+            ``euler_order`` and ``angles_path`` (uiprmd), ``units`` and ``up`` (csv), ``up`` (trc;
+            OpenSim's y-up by default, e.g. ``(0, 0, 1)`` for a z-up lab).
 
     Returns:
         :class:`Skeleton` in metres, canonical joint names, ``source = "<path> (<format>)"``.
@@ -378,7 +379,7 @@ def _read_uiprmd(path: Path, *, rate: float = 30.0, euler_order: str = "ZXY", an
 
 
 # ---------------------------------------------------------------------------- OpenSim TRC
-def _read_trc(path: Path) -> Skeleton:
+def _read_trc(path: Path, *, up: tuple[float, float, float] = (0.0, 1.0, 0.0)) -> Skeleton:
     lines = _lines(path)
     if len(lines) < 5 or not lines[0].startswith("PathFileType"):
         raise SkeletonFormatError(path, 1, "PathFileType", "not an OpenSim .trc file (first line must start with PathFileType)")
@@ -418,7 +419,7 @@ def _read_trc(path: Path) -> Skeleton:
         names=_canonical_names(markers, path, 4),
         positions=data[:, 2:].reshape(len(data), n_markers, 3) * _UNITS[units],
         source=f"{path} (trc)",
-        up=np.array([0.0, 1.0, 0.0]),
+        up=np.asarray(up, float),
     )
 
 
