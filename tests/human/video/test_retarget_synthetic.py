@@ -1,0 +1,88 @@
+"""Retargeting on synthetic human motions with known joint angles (human FK -> retarget -> robot FK)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from lfd.human.arm_ik import arm_fk, mirror
+from lfd.human.retarget import WAM_MOUNT, retarget_wam4, retarget_wrist_path, time_scale
+from lfd.human.synthetic import _sines
+from lfd.robots import load_robot
+
+
+def human_motion(seed: int, duration: float = 4.0, rate: float = 30.0, side: str = "right"):
+    """Known human-arm angles (sums of sines inside the limits) -> trunk-frame shoulder, elbow, wrist."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(duration * rate)) / rate
+    freq = rng.uniform(0.15, 0.5, (4, 2))
+    phase = rng.uniform(0, 2 * np.pi, (4, 2))
+    amp = np.deg2rad([[15, 10], [20, 15], [20, 10], [25, 15]])
+    q, _, _ = _sines(t, np.deg2rad([30.0, -40.0, 10.0, 70.0]), amp, freq, phase)
+    elbow, wrist = arm_fk(q, 0.30, 0.26)
+    shoulder = np.array([0.0, -0.18 if side == "right" else 0.18, 0.0])
+    pts = [shoulder + mirror(p, side) for p in (np.zeros_like(elbow), elbow, wrist)]
+    return t, q, pts
+
+
+@pytest.mark.parametrize("side", ["right", "left"])
+def test_wam_reproduces_the_posture(side):
+    t, q_h, (s, e, w) = human_motion(1, side=side)
+    res = retarget_wam4(s, e, w, side=side)
+    robot = load_robot("wam4")
+    assert robot.within_limits(torch.from_numpy(res.q)).all()
+    assert not res.clamped.any()
+    # Elbow angle: the WAM elbow equals the human elbow flexion.
+    np.testing.assert_allclose(res.q[:, 3], q_h[:, 3], atol=1e-9)
+    # Upper-arm and forearm directions (robot FK, back in the trunk frame) equal the person's.
+    frames = robot.fk(torch.from_numpy(res.q), all_links=True).numpy()
+    rot = res.base_rotation
+    upper = frames[:, 2, :3, 2] @ rot.T
+    fore = frames[:, 4, :3, 2] @ rot.T
+    def unit(v):
+        return v / np.linalg.norm(v, axis=1, keepdims=True)
+    assert np.degrees(np.arccos(np.clip((upper * unit(e - s)).sum(1), -1, 1))).max() < 0.01
+    assert np.degrees(np.arccos(np.clip((fore * unit(w - e)).sum(1), -1, 1))).max() < 0.01
+    # Continuous: no joint jumps more than 0.1 rad between frames at 30 Hz.
+    assert np.abs(np.diff(res.q, axis=0)).max() < 0.1
+
+
+def test_wam_clamps_unreachable_postures():
+    # Upper arm pointing across the body and backwards: outside the WAM's |q2| <= 2 rad cone.
+    s = np.zeros((1, 3))
+    e = np.array([[-0.1, 0.28, 0.0]])
+    w = e + np.array([[0.2, 0.0, 0.1]])
+    res = retarget_wam4(s, e, w)
+    assert res.clamped.all() and load_robot("wam4").within_limits(torch.from_numpy(res.q)).all()
+    with pytest.raises(ValueError, match="shoulder must have shape"):
+        retarget_wam4(np.zeros((3, 2)), e, w)
+    with pytest.raises(ValueError, match="NaN"):
+        retarget_wam4(np.full((1, 3), np.nan), e, w)
+
+
+@pytest.mark.parametrize("robot", ["sawyer", "pr2_right_arm"])
+def test_seven_dof_follows_the_scaled_wrist_path(robot):
+    t, _, (s, e, w) = human_motion(2, duration=3.0)
+    res = retarget_wrist_path(s, e, w, robot=robot)
+    model = load_robot(robot)
+    q = torch.from_numpy(res.q)
+    assert model.within_limits(q).all()
+    tool = model.fk(q).numpy()[:, :3, 3]
+    err = np.linalg.norm(tool - res.target, axis=1)
+    assert err.max() < 0.01, err.max()  # within 1 cm everywhere
+    # The target is the person's wrist path, scaled and placed at the robot's shoulder.
+    rel = (res.target - res.target[0]) / res.scale
+    np.testing.assert_allclose(rel, w - w[0], atol=1e-12)
+    # Continuous in joint space: no joint moves more than 0.15 rad between frames (30 Hz).
+    assert np.abs(np.diff(res.q, axis=0)).max() < 0.15
+
+
+def test_time_scale_respects_velocity_limits():
+    t = np.linspace(0, 1, 101)
+    q = np.c_[np.sin(2 * np.pi * t) * 2.0, t]
+    ts, factor = time_scale(t, q, [2.0, 2.0])
+    assert factor > 1
+    qd = np.gradient(q, ts, axis=0)
+    assert np.abs(qd).max() <= 2.0 + 1e-9
+    assert time_scale(t, 0.1 * q, [2.0, 2.0])[1] == 1.0
