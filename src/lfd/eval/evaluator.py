@@ -10,7 +10,9 @@ directory:
 * ``episodes.csv``: one row per episode and method;
 * ``distance_<object>.png``: final distance per placement, both methods side by side;
 * ``paths3d_<object>.png``: demonstrated and executed end-effector paths;
-* ``rollouts/<method>_<object>_p<k>.gif``: the first ``n_gifs`` episodes per method.
+* ``rollouts/<method>_<object>_p<k>.gif``: the first ``n_gifs`` episodes per method;
+* ``<method>/eval_info.json`` and ``<method>/videos/eval_episode_<i>.mp4``: LeRobot's
+  layout (:mod:`lfd.eval.lerobot_report`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import time
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -29,6 +32,7 @@ import torch
 
 from lfd.data.datasets import load_dataset
 from lfd.data.storage import json_bytes, write_bytes_atomic
+from lfd.eval.lerobot_report import write_lerobot_eval
 from lfd.eval.metrics import approach_angle_deg, integrated_squared_jerk, summarise
 from lfd.eval.plots import distance_bars, paths_3d, write_gif
 from lfd.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, run_episode
@@ -210,6 +214,7 @@ class ReachEvaluator:
         unknown = sorted(set(checkpoints) - set(CONTROLLERS))
         if unknown or not checkpoints:
             raise ValueError(f"ReachEvaluator.run: checkpoints must map some of {sorted(CONTROLLERS)} to files, got {sorted(checkpoints)}")
+        t0 = time.perf_counter()
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         checkpoints = {kind: Path(path) for kind, path in checkpoints.items()}
@@ -245,6 +250,8 @@ class ReachEvaluator:
             )
             metrics[kind].update({"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps})
         self._write(out_dir, metrics, rows, cases, traces)
+        # the same episodes in LeRobot's layout: <out_dir>/<method>/eval_info.json and videos/eval_episode_<i>.mp4
+        write_lerobot_eval(out_dir, rows, cases, traces, gen, seed=gen.seed, eval_s=time.perf_counter() - t0, n_videos=self.n_gifs, frame_every=self.gif_every)
         return metrics
 
     def _episodes(self, kind: str, policy, cases: list[Case], scene, steps: int, out_dir: Path) -> list[EpisodeTrace]:

@@ -133,3 +133,19 @@ class Camera:
             return rgb.copy()
         empty = np.asarray(depth).reshape(self.height, self.width, 1) >= 1.0
         return np.where(empty, backdrop, rgb)
+
+
+def third_person_camera(width: int = 640, height: int = 480) -> Camera:
+    """A camera a person would watch a rollout through: to the right of and in front of
+    the robot (torso frame), looking at the arm and the placement area from outside, at a
+    watchable resolution (default 640 x 480). Not a policy input."""
+    return Camera(
+        eye=(0.95, -1.45, 0.55),
+        target=(0.35, -0.05, -0.18),
+        up=(0.0, 0.0, 1.0),
+        fov_deg=50.0,
+        width=width,
+        height=height,
+        near=0.05,
+        far=6.0,
+    )

@@ -1,0 +1,47 @@
+"""Export a dataset as LeRobot v3.0 or robomimic HDF5 (``configs/export_dataset.yaml``)::
+
+    python scripts/export_dataset.py data=original format=lerobot out=data/original.lerobot
+    python scripts/export_dataset.py data=original format=robomimic out=data/original.hdf5
+    python scripts/export_dataset.py format=lerobot lerobot.codec=h264     # H.264 instead of AV1
+
+The dataset is generated first when it is missing (like ``train.py``), otherwise verified
+against its manifest. A progress bar shows the episodes; the time taken is printed.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import hydra
+from omegaconf import DictConfig, OmegaConf
+
+CONFIGS = str(Path(__file__).resolve().parents[1] / "configs")
+SUFFIX = {"lerobot": ".lerobot", "robomimic": ".hdf5"}
+
+
+def export(cfg: DictConfig) -> Path:
+    """Generate or verify ``cfg.data``'s dataset, then export it as ``cfg.format``."""
+    from lfd.data.export import FORMATS, export_dataset
+
+    if cfg.format not in FORMATS:
+        raise ValueError(f"format: expected one of {FORMATS}, got {cfg.format!r}")
+    datamodule = hydra.utils.instantiate(cfg.data)
+    datamodule.prepare_data()
+    out = Path(cfg.out) if cfg.out else Path(f"{datamodule.path}{SUFFIX[cfg.format]}")
+    options = OmegaConf.to_container(cfg[cfg.format], resolve=True)
+    t0 = time.perf_counter()
+    export_dataset(
+        datamodule.path, out, format=cfg.format, overwrite=cfg.overwrite, progress=cfg.progress, limit=cfg.limit, **options
+    )
+    print(f"[lfd] {cfg.format} export of {datamodule.path} written to {out} in {time.perf_counter() - t0:.1f} s")
+    return out
+
+
+@hydra.main(version_base="1.3", config_path=CONFIGS, config_name="export_dataset")
+def main(cfg: DictConfig) -> str:
+    return str(export(cfg))
+
+
+if __name__ == "__main__":
+    main()
