@@ -36,6 +36,7 @@ def test_experiment_fast_dev_run(compose, tiny_reaching, tmp_path_factory, capsy
     target = compose("train", f"experiment={name}").data._target_
     assert target in SHRINK, f"experiment={name}: no shrinking overrides for data {target}"
     shrink = [*SHRINK[target], *(tiny_reaching if target == "lfd.data.ReachDataModule" else ())]
-    cfg = compose("train", f"experiment={name}", f"paths.root_dir={root}", "++trainer.fast_dev_run=true", *shrink)
+    run = root / f"run-{name}"
+    cfg = compose("train", f"experiment={name}", f"paths.root_dir={root}", f"paths.output_dir={run}", "++trainer.fast_dev_run=true", *shrink)
     train.main(cfg)  # instantiates datamodule, model, callbacks, loggers, trainer; fits one batch
-    assert f"[lfd] run directory: {root / 'run'}" in capsys.readouterr().out
+    assert f"[lfd] run directory: {run}" in capsys.readouterr().out
