@@ -151,7 +151,7 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
     for kind, m in saved.items():
         assert m["checkpoint"] == str(checkpoints[kind])
         assert m["episodes"] == 2
-        assert set(m["final_distance_m"]) == {"mean", "median", "p90"} and m["final_distance_m"]["mean"] > 0
+        assert set(m["final_distance_m"]) == {"mean", "median", "p90", "ci"} and m["final_distance_m"]["mean"] > 0  # ci: cluster bootstrap (issue 12)
         for key in ("success_5cm", "success_2cm", "approach_correct"):
             assert 0.0 <= m[key] <= 1.0
         for key in ("success_5cm_ci", "success_2cm_ci"):
@@ -166,6 +166,12 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
     assert len(rows) == 4 and {r["method"] for r in rows} == {"cnn_dmp", "velocity"}
     for r in rows:
         assert float(r["final_distance_m"]) >= 0 and r["success_5cm"] in ("True", "False")
+        # issue 12: the object's distance and displacement, contacts, the ood mark
+        assert float(r["object_distance_m"]) >= 0 and float(r["object_displacement_m"]) >= 0
+        assert r["arm_table_contact"] in ("True", "False") and r["arm_object_contact"] in ("True", "False")
+        assert r["ood"] == "False"  # the test split is drawn from the training ranges
+        if r["approach_correct"] == "True":
+            assert float(r["final_distance_m"]) < 0.05
     means = {k: np.mean([float(r["final_distance_m"]) for r in rows if r["method"] == k]) for k in saved}
     for k in saved:
         assert means[k] == pytest.approx(saved[k]["final_distance_m"]["mean"])

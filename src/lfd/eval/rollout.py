@@ -122,6 +122,11 @@ class EpisodeTrace:
         limit_violations: control steps whose command lay outside the joint limits.
         latencies_ms: wall time of each policy call, ms.
         frames: uint8 frames for a GIF (every ``frame_every`` steps), empty unless asked.
+        table_contact_steps, object_contact_steps: control steps before the end (the
+            states after steps ``0 .. S - 1``) at which an arm link touched the table / the
+            object (:meth:`~lfd.sim.scene.ReachScene.arm_touches`).
+        object_displacement: distance (m) the object's centre moved from the start to the
+            end of the episode (0 without an object).
     """
 
     joints: np.ndarray
@@ -129,6 +134,9 @@ class EpisodeTrace:
     limit_violations: int
     latencies_ms: list[float]
     frames: list[np.ndarray] = field(default_factory=list)
+    table_contact_steps: int = 0
+    object_contact_steps: int = 0
+    object_displacement: float = 0.0
 
 
 def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndarray, record_every: int = 0) -> EpisodeTrace:
@@ -145,11 +153,17 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
     latencies: list[float] = []
     frames: list[np.ndarray] = []
     joints, poses = [], []
-    violations = 0
+    violations = table_contacts = object_contacts = 0
+    probe = hasattr(scene, "arm_touches")  # stand-in scenes in tests have no contacts
+    has_object = probe and getattr(scene, "object_id", -1) >= 0
+    start = scene.object_pose()[:3, 3] if has_object else None
     for step in range(steps + 1):
         q, _ = scene.joint_state()
         joints.append(q)
         poses.append(scene.ee_pose())
+        if probe and 0 < step < steps:
+            table_contacts += int(scene.arm_touches("table"))
+            object_contacts += int(has_object and scene.arm_touches("object"))
         recording = record_every and step % record_every == 0
         image = scene.render() if controller.needs_image or recording else None
         if recording:
@@ -162,7 +176,8 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
         outside = clamped != q_target
         violations += int(outside.any())
         scene.step(clamped, np.where(outside, 0.0, qd_target))
-    return EpisodeTrace(np.stack(joints), np.stack(poses), violations, latencies, frames)
+    moved = float(np.linalg.norm(scene.object_pose()[:3, 3] - start)) if has_object else 0.0
+    return EpisodeTrace(np.stack(joints), np.stack(poses), violations, latencies, frames, table_contacts, object_contacts, moved)
 
 
 @dataclass(frozen=True)
