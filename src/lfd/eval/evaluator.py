@@ -31,6 +31,7 @@ import numpy as np
 import torch
 
 from lfd.data.datasets import load_dataset
+from lfd.data.fingerprint import training_overlap
 from lfd.data.storage import json_bytes, write_bytes_atomic
 from lfd.eval.lerobot_report import write_lerobot_eval
 from lfd.eval.metrics import MAX_DISPLACEMENT_M, SUCCESS_RADIUS_M, approach_angle_deg, integrated_squared_jerk, summarise
@@ -252,6 +253,15 @@ class ReachEvaluator:
         try:
             with ReachScene(load_robot(gen.robot), image_size=gen.image_size, control_dt=gen.control_dt, substeps=gen.substeps) as scene:
                 cases, source = self.cases(data, scene)
+                for kind, policy in policies.items():
+                    labels = [(f"{c.obj.name} at placement {c.placement_index}", c.obj, c.placement) for c in cases]
+                    overlap = training_overlap(getattr(policy, "dataset_fingerprint", None), labels)
+                    if overlap:
+                        shown = "; ".join(overlap[:5]) + (f"; ... ({len(overlap)} in all)" if len(overlap) > 5 else "")
+                        raise ValueError(
+                            f"{kind} checkpoint {checkpoints[kind]} was trained on items of the evaluation cases ({source}): "
+                            f"{shown}; evaluate on cases it never saw"
+                        )
                 traces = {kind: self._episodes(kind, policy, cases, scene, steps, out_dir) for kind, policy in policies.items()}
         finally:
             torch.set_num_threads(threads)
