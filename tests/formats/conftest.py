@@ -16,6 +16,7 @@ TINY = dict(
     n_train_placements=3,
     n_test_objects=1,
     n_test_placements=1,
+    n_val_objects=0,  # configs/data/quick.yaml holds out 4 validation objects (issue 12); the tiny set none
     image_size=64,
     n_steps=30,
     n_basis=8,
