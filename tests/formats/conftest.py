@@ -17,6 +17,7 @@ TINY = dict(
     n_test_objects=1,
     n_test_placements=1,
     n_val_objects=0,  # configs/data/quick.yaml holds out 4 validation objects (issue 12); the tiny set none
+    n_val_object_placements=0,
     image_size=64,
     n_steps=30,
     n_basis=8,
