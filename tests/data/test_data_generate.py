@@ -43,8 +43,13 @@ def test_generated_dataset_reloads(reference):
     for split, n in (("train", 4), ("val", 2), ("test", 2)):
         assert len(data.split(split)) == n
     # validation: known objects, placements never used in training; test: new objects
-    assert {e.obj for e in data.split("val")} <= {e.obj for e in data.split("train")}
-    assert not {e.obj for e in data.split("test")} & {e.obj for e in data.split("train")}
+    # compared by value (shape, dimensions, colour), not by name (issue 12)
+    def by_value(split):
+        return {(e.obj.shape, e.obj.dims, e.obj.rgba) for e in data.split(split)}
+
+    assert by_value("val") <= by_value("train")
+    assert not by_value("test") & by_value("train")
+    assert not {tuple(e.placement.as_array()) for e in data.split("test")} & {tuple(e.placement.as_array()) for e in data.split("train")}
     for e in data.episodes:
         a = e.arrays
         assert a["joints"].shape == a["velocities"].shape == (40, 7)

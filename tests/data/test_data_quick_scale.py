@@ -7,11 +7,13 @@ from lfd.data import ReachDataModule
 
 @pytest.mark.slow
 def test_quick_scale_dataset(tmp_path):
-    dm = ReachDataModule(name="quick", root=tmp_path, progress=False)  # the defaults are configs/data/quick.yaml
+    # the defaults are configs/data/quick.yaml's, but for the held-out validation objects (issue 12)
+    dm = ReachDataModule(name="quick", root=tmp_path, progress=False, n_val_objects=4, n_val_object_placements=3)
     dm.prepare_data()
     dm.setup()
     counts = dm.data.manifest["episodes"]
-    assert counts == {"total": 216, "train": 156, "val": 36, "test": 24}
+    # issue 12: + 4 held-out validation objects x 3 placements
+    assert counts == {"total": 228, "train": 156, "val": 48, "test": 24}
     discarded = sum(dm.data.manifest["discarded"].values())
     assert discarded / (counts["total"] + discarded) < 0.1
     assert max(float(e.arrays["final_error"]) for e in dm.data.episodes) < 0.01

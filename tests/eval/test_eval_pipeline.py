@@ -151,7 +151,7 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
     for kind, m in saved.items():
         assert m["checkpoint"] == str(checkpoints[kind])
         assert m["episodes"] == 2
-        assert set(m["final_distance_m"]) == {"mean", "median", "p90"} and m["final_distance_m"]["mean"] > 0
+        assert set(m["final_distance_m"]) == {"mean", "median", "p90", "ci"} and m["final_distance_m"]["mean"] > 0  # ci: cluster bootstrap (issue 12)
         for key in ("success_5cm", "success_2cm", "approach_correct"):
             assert 0.0 <= m[key] <= 1.0
         for key in ("success_5cm_ci", "success_2cm_ci"):
@@ -166,6 +166,12 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
     assert len(rows) == 4 and {r["method"] for r in rows} == {"cnn_dmp", "velocity"}
     for r in rows:
         assert float(r["final_distance_m"]) >= 0 and r["success_5cm"] in ("True", "False")
+        # issue 12: the object's distance and displacement, contacts, the ood mark
+        assert float(r["object_distance_m"]) >= 0 and float(r["object_displacement_m"]) >= 0
+        assert r["arm_table_contact"] in ("True", "False") and r["arm_object_contact"] in ("True", "False")
+        assert r["ood"] == "False"  # the test split is drawn from the training ranges
+        if r["approach_correct"] == "True":
+            assert float(r["final_distance_m"]) < 0.05
     means = {k: np.mean([float(r["final_distance_m"]) for r in rows if r["method"] == k]) for k in saved}
     for k in saved:
         assert means[k] == pytest.approx(saved[k]["final_distance_m"]["mean"])
@@ -255,3 +261,27 @@ def test_mismatched_image_size_is_refused(checkpoints, tiny, workspace):
     cfg = tiny("evaluate", "data.image_size=48", "data.name=tiny48", "eval.limit=1")
     with pytest.raises(ValueError, match="built with image_size=32, the dataset has image_size=48"):
         evaluate.evaluate(cfg, workspace / "eval-mismatch")
+
+
+def test_checkpoint_carries_fingerprint_and_own_training_items_are_refused(checkpoints, tiny, workspace):
+    """Issue 12: the checkpoint knows its dataset; evaluating it on a training object is refused, naming both."""
+    from lfd.data.datasets import load_dataset
+    from lfd.data.storage import sha256_file
+
+    data = load_dataset(workspace / "data" / "tiny")
+    for path in checkpoints.values():
+        fp = load_policy(path).dataset_fingerprint
+        assert fp["manifest_sha256"] == sha256_file(data.path / "manifest.json")
+        assert set(fp["split_keys"]) == {"train", "val", "test"}
+        assert len(fp["train_placements"]) == len(data.split("train"))
+    obj = data.split("train")[0].obj
+    assert obj.shape == "cylinder"
+    scenario = workspace / "own.yaml"
+    scenario.write_text(
+        "objects:\n"
+        f"  - {{name: mine, shape: cylinder, radius: {obj.dims[0]!r}, height: {obj.dims[1]!r}, rgba: {list(obj.rgba)!r}}}\n"
+        "placements:\n  - [0.55, 0.05, 0.3]\n"
+    )
+    cfg = tiny("evaluate", f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=2")
+    with pytest.raises(ValueError, match=rf"checkpoint .* was trained on items of the evaluation cases .*object 'mine' is training object '{obj.name}'"):
+        evaluate.evaluate(cfg, workspace / "eval-own")

@@ -35,6 +35,11 @@ class IdealScene:
         self.commands.append((np.array(q_target), np.array(qd_target)))
         self.q = np.array(q_target, dtype=float)
 
+    def step_velocity(self, qd_target):
+        """Velocity control (issue 12): the joints move at the commanded velocity."""
+        self.commands.append((self.q + DT * np.asarray(qd_target), np.array(qd_target)))
+        self.q = self.q + DT * np.asarray(qd_target, dtype=float)
+
 
 class LinePlanner:
     kind = "cnn_dmp"
@@ -108,3 +113,40 @@ def test_policy_calls_carry_only_image_and_joints(controller):
     for image, joints, *time in policy.calls:
         assert image.shape == (4, 4, 3) and image.dtype == np.uint8 and joints.shape == (N,)
         assert all(isinstance(t, float) for t in time)
+
+
+def test_executed_joint_velocity_matches_the_command_in_pybullet():
+    """Issue 12: the velocity baseline's actuation executes what the policy commands
+    (within 5 %), for speeds like the demonstrations' and inside the URDF limits."""
+    from lfd.robots import load_robot
+    from lfd.sim.scene import ReachScene
+
+    robot = load_robot("pr2_right_arm")
+    qd = np.array([0.3, 0.25, 0.2, 0.3, -0.4, -0.3, 0.5])  # rad/s, below every velocity limit, away from the joint limits
+    dt = 4.0 / 99
+    lower = np.where(robot.continuous.numpy(), -np.inf, robot.lower.numpy())
+    upper = np.where(robot.continuous.numpy(), np.inf, robot.upper.numpy())
+    with ReachScene(robot, image_size=8, control_dt=dt, substeps=10) as scene:
+        trace = run_episode(scene, VelocityController(ConstantVelocity(qd), dt), steps=25, lower=lower, upper=upper)
+    assert trace.limit_violations == 0
+    executed = np.diff(trace.joints, axis=0)[5:] / dt  # after a 0.2 s start
+    np.testing.assert_allclose(executed.mean(0), qd, rtol=0.05)
+    assert np.abs(executed - qd).max() < 0.05 * np.abs(qd).max()
+
+
+def test_scene_applies_urdf_effort_and_velocity_limits():
+    """Issue 12: a step command far away moves no joint faster than its URDF limit."""
+    from lfd.robots import load_robot
+    from lfd.sim.scene import ReachScene
+
+    robot = load_robot("pr2_right_arm")
+    limits = robot.velocity_limits.numpy()
+    with ReachScene(robot, image_size=8) as scene:
+        np.testing.assert_allclose(scene.forces, robot.effort_limits.numpy())
+        assert scene.self_collision and scene.overlapping_links  # on, with the by-construction pairs off
+        target = scene.joint_state()[0] + np.array([1.5, -1.0, 1.5, 1.0, 2.0, 1.0, 2.0])
+        speeds = []
+        for _ in range(15):
+            scene.step(target, np.zeros(7))
+            speeds.append(np.abs(scene.joint_state()[1]))
+    assert np.max(np.stack(speeds) / limits) <= 1.05

@@ -19,8 +19,14 @@ class GeneratorConfig:
 
     Episodes: ``n_train_objects x n_train_placements`` on training objects (split into
     train and validation by placement: per object, ``round(val_fraction *
-    n_train_placements)`` of its placements go to validation) plus ``n_test_objects x
-    n_test_placements`` on new object instances at new placements (test split).
+    n_train_placements)`` of its placements go to validation), ``n_val_objects x
+    n_val_object_placements`` on held-out objects at new placements (validation split,
+    what model selection sees of new objects), plus ``n_test_objects x
+    n_test_placements`` on new object instances at new placements (test split, for the
+    final report only). Every object and placement is drawn from a random stream keyed by
+    ``(seed, group, object, placement)`` (:mod:`lfd.data.episodes`), so experiments with
+    the same seed share items only within the same group: no experiment's test item is
+    another's training item.
 
     Attributes:
         seed: drives objects, placements and splits (with the episode index).
@@ -43,6 +49,8 @@ class GeneratorConfig:
     n_test_objects: int = 4
     n_test_placements: int = 6
     val_fraction: float = 0.2
+    n_val_objects: int = 0
+    n_val_object_placements: int = 0
     families: tuple[str, ...] = SHAPES
     x_range: tuple[float, float] = (0.45, 0.70)
     y_range: tuple[float, float] = (-0.30, 0.30)
@@ -70,6 +78,8 @@ class GeneratorConfig:
             ("n_train_placements", 1),
             ("n_test_objects", 0),
             ("n_test_placements", 0),
+            ("n_val_objects", 0),
+            ("n_val_object_placements", 0),
             ("image_size", 8),
             ("n_steps", 2),
             ("substeps", 1),
@@ -115,7 +125,11 @@ class GeneratorConfig:
 
     @property
     def n_episodes(self) -> int:
-        return self.n_train_objects * self.n_train_placements + self.n_test_objects * self.n_test_placements
+        return (
+            self.n_train_objects * self.n_train_placements
+            + self.n_val_objects * self.n_val_object_placements
+            + self.n_test_objects * self.n_test_placements
+        )
 
     @property
     def placement_ranges(self) -> PlacementRanges:

@@ -58,6 +58,8 @@ class ReachDataModule(L.LightningDataModule):
         n_test_objects: int = 4,
         n_test_placements: int = 6,
         val_fraction: float = 0.2,
+        n_val_objects: int = 0,
+        n_val_object_placements: int = 0,
         families: Sequence[str] = SHAPES,
         x_range: Sequence[float] = (0.45, 0.70),
         y_range: Sequence[float] = (-0.30, 0.30),
@@ -92,6 +94,8 @@ class ReachDataModule(L.LightningDataModule):
             n_test_objects=n_test_objects,
             n_test_placements=n_test_placements,
             val_fraction=val_fraction,
+            n_val_objects=n_val_objects,
+            n_val_object_placements=n_val_object_placements,
             families=tuple(families),
             x_range=tuple(x_range),
             y_range=tuple(y_range),
@@ -143,6 +147,15 @@ class ReachDataModule(L.LightningDataModule):
         for split in wanted:
             if split not in self.datasets and self.data.manifest["episodes"][split] > 0:
                 self.datasets[split] = view(self.data, split, augment if split == "train" else None)
+
+    def fingerprint(self) -> dict:
+        """The loaded dataset's fingerprint (:func:`lfd.data.fingerprint.dataset_fingerprint`),
+        which the policies store in their checkpoints."""
+        if self.data is None:
+            raise RuntimeError("ReachDataModule.fingerprint: call setup() first")
+        from lfd.data.fingerprint import dataset_fingerprint
+
+        return dataset_fingerprint(self.data)
 
     @property
     def stats(self) -> dict[str, dict[str, torch.Tensor]]:

@@ -2,8 +2,17 @@
 
 Episode ``i`` of a dataset is fully determined by the generator config, the seed and
 ``i``: :func:`plan_episodes` fixes its object and split, and the placement is drawn from
-``numpy.random.default_rng([seed, PLACEMENT_STREAM, i])`` inside the generator. That is
-what makes the bytes independent of the number of worker processes and shards.
+:func:`placement_rng` inside the generator. That is what makes the bytes independent of
+the number of worker processes and shards.
+
+Split keys: objects come in three *groups*, ``train`` (training objects; a share of their
+placements is validation), ``val`` (held-out validation objects) and ``test`` (test
+objects). Object ``j`` of group ``g`` is drawn from
+``default_rng([seed, OBJECT_STREAM, GROUP_KEYS[g], j])`` and its placement ``k`` from
+``default_rng([seed, PLACEMENT_STREAM, GROUP_KEYS[g], j, k])`` -- never from a stream
+indexed by the episode number -- so two datasets with the same seed (``quick`` and
+``original``) share an item only when it has the same group, object and placement number:
+one experiment's test object or placement is never another's training item.
 """
 
 from __future__ import annotations
@@ -16,12 +25,14 @@ import numpy as np
 from lfd.data.config import GeneratorConfig
 from lfd.data.storage import DatasetError
 from lfd.sim.expert import DISCARD_REASONS
-from lfd.sim.objects import ObjectSpec, Placement, sample_objects
+from lfd.sim.objects import ObjectSpec, Placement, sample_object
 
 SPLITS = ("train", "val", "test")
 EPISODE_DIR = "episodes"
-# Independent random streams derived from the seed.
-TRAIN_OBJECT_STREAM, TEST_OBJECT_STREAM, SPLIT_STREAM, PLACEMENT_STREAM = range(4)
+# Independent random streams derived from the seed (0, 1: retired streams of format 1).
+SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM = 2, 3, 4
+#: Stream key of each object group (see the module docstring).
+GROUP_KEYS = {"train": 0, "val": 1, "test": 2}
 
 
 def episode_path(index: int) -> str:
@@ -40,29 +51,46 @@ class EpisodePlan:
     object_index: int
     placement_index: int
     obj: ObjectSpec
+    group: str = "train"
+
+
+def group_objects(cfg: GeneratorConfig, group: str, n: int) -> list[ObjectSpec]:
+    """The first ``n`` objects of ``group``, object ``j`` from its own keyed stream (family
+    ``families[j % len(families)]``), named ``f"{group}-{j:02d}-{shape}"``."""
+    key = GROUP_KEYS[group]
+    return [
+        sample_object(np.random.default_rng([cfg.seed, OBJECT_STREAM, key, j]), cfg.families[j % len(cfg.families)], f"{group}-{j:02d}-{cfg.families[j % len(cfg.families)]}")
+        for j in range(n)
+    ]
 
 
 def plan_episodes(cfg: GeneratorConfig) -> list[EpisodePlan]:
     """All episodes, in index order: training objects (object-major, ``n_train_placements``
-    each; per object a random ``n_val_placements`` of them are validation), then the test
-    objects (new instances of the same families) with ``n_test_placements`` each."""
-    rng = np.random.default_rng
-    train_objs = sample_objects(rng([cfg.seed, TRAIN_OBJECT_STREAM]), cfg.n_train_objects, cfg.families, prefix="train")
-    test_objs = sample_objects(rng([cfg.seed, TEST_OBJECT_STREAM]), cfg.n_test_objects, cfg.families, prefix="test")
+    each; per object a random ``n_val_placements`` of them are validation), then the
+    held-out validation objects (``n_val_object_placements`` each, split ``val``), then the
+    test objects with ``n_test_placements`` each."""
     plans: list[EpisodePlan] = []
-    for j, obj in enumerate(train_objs):
-        val = set(rng([cfg.seed, SPLIT_STREAM, j]).permutation(cfg.n_train_placements)[: cfg.n_val_placements].tolist())
+    for j, obj in enumerate(group_objects(cfg, "train", cfg.n_train_objects)):
+        perm = np.random.default_rng([cfg.seed, SPLIT_STREAM, j]).permutation(cfg.n_train_placements)
+        val = set(perm[: cfg.n_val_placements].tolist())
         for k in range(cfg.n_train_placements):
-            plans.append(EpisodePlan(len(plans), "val" if k in val else "train", j, k, obj))
-    for j, obj in enumerate(test_objs):
-        for k in range(cfg.n_test_placements):
-            plans.append(EpisodePlan(len(plans), "test", j, k, obj))
+            plans.append(EpisodePlan(len(plans), "val" if k in val else "train", j, k, obj, "train"))
+    for group, n_obj, n_pl in (("val", cfg.n_val_objects, cfg.n_val_object_placements), ("test", cfg.n_test_objects, cfg.n_test_placements)):
+        for j, obj in enumerate(group_objects(cfg, group, n_obj)):
+            for k in range(n_pl):
+                plans.append(EpisodePlan(len(plans), group, j, k, obj, group))
     return plans
 
 
-def placement_rng(cfg: GeneratorConfig, index: int) -> np.random.Generator:
-    """The random stream episode ``index`` draws its placements from."""
-    return np.random.default_rng([cfg.seed, PLACEMENT_STREAM, index])
+def placement_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:
+    """The random stream an episode draws its placement (and retries) from: keyed by the
+    seed, the object group, the object and the placement number, not the episode index."""
+    return np.random.default_rng([cfg.seed, PLACEMENT_STREAM, GROUP_KEYS[plan.group], plan.object_index, plan.placement_index])
+
+
+def split_keys(cfg: GeneratorConfig) -> dict[str, list[int]]:
+    """The stream keys of each object group (for a dataset fingerprint)."""
+    return {g: [cfg.seed, OBJECT_STREAM, k] for g, k in GROUP_KEYS.items()}
 
 
 @dataclass
@@ -71,6 +99,7 @@ class EpisodeRecord:
 
     Attributes:
         index, split, object_index: from the plan.
+        group: the object group (``train``, ``val`` or ``test``; :data:`GROUP_KEYS`).
         obj, placement: the object and where it stood (torso frame).
         arrays: every numeric array of the file except ``frames``/``wrist_frames``
             (``data/README.md`` lists the keys and shapes).
@@ -84,6 +113,7 @@ class EpisodeRecord:
     placement: Placement
     arrays: dict[str, np.ndarray]
     path: Path
+    group: str = "train"
 
     @property
     def target_point(self) -> np.ndarray:
@@ -128,4 +158,5 @@ class EpisodeRecord:
             placement=Placement(x, y, yaw),
             arrays=arrays,
             path=Path(path),
+            group=str(arrays["object_group"]),
         )

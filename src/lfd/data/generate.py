@@ -134,7 +134,7 @@ class EpisodeWriter:
     def __call__(self, index: int) -> tuple[int, list[int]]:
         """Generate and write episode ``index``; returns it with its discard counts."""
         plan = self.plans[index]
-        rng = placement_rng(self.cfg, index)
+        rng = placement_rng(self.cfg, plan)
         discarded = dict.fromkeys(DISCARD_REASONS, 0)
         for _ in range(self.cfg.max_attempts):
             placement = self.cfg.placement_ranges.sample(rng)
@@ -162,6 +162,7 @@ class EpisodeWriter:
             "index": np.int64(plan.index),
             "split": np.str_(plan.split),
             "object_index": np.int64(plan.object_index),
+            "object_group": np.str_(plan.group),
             "placement_index": np.int64(plan.placement_index),
             "object_name": np.str_(plan.obj.name),
             "object_shape": np.str_(plan.obj.shape),

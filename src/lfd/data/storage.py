@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 #: Version of the on-disk layout described in ``data/README.md``.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
 
 
 class DatasetError(ValueError):

@@ -31,15 +31,16 @@ import numpy as np
 import torch
 
 from lfd.data.datasets import load_dataset
+from lfd.data.fingerprint import training_overlap
 from lfd.data.storage import json_bytes, write_bytes_atomic
 from lfd.eval.lerobot_report import write_lerobot_eval
-from lfd.eval.metrics import approach_angle_deg, integrated_squared_jerk, summarise
+from lfd.eval.metrics import MAX_DISPLACEMENT_M, SUCCESS_RADIUS_M, approach_angle_deg, integrated_squared_jerk, summarise
 from lfd.eval.plots import distance_bars, paths_3d, write_gif
 from lfd.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, run_episode
 from lfd.eval.scenario import load_scenario
 from lfd.models import checkpoint_kind, load_policy
 from lfd.robots import load_robot
-from lfd.sim.approach import ApproachPlan, plan_approach
+from lfd.sim.approach import TABLE_Z, ApproachPlan, plan_approach
 from lfd.sim.expert import DemoDiscarded, ScriptedExpert
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.scene import ReachScene
@@ -76,6 +77,7 @@ class Case:
         obj, placement: the object and where it stands.
         plan: the approach rule's target poses (grasp target point, approach direction).
         demo_ee: ``(T, 3)`` demonstrated tool path, or None if the expert failed here.
+        ood: why the case lies outside the training ranges ("" = inside; scenario cases only).
     """
 
     object_index: int
@@ -84,6 +86,13 @@ class Case:
     placement: Placement
     plan: ApproachPlan
     demo_ee: np.ndarray | None
+    ood: str = ""
+    table_z: float = TABLE_Z
+
+    @property
+    def object_centre(self) -> np.ndarray:
+        """``(3,)`` the object's centre where it was placed (torso frame)."""
+        return np.array([self.placement.x, self.placement.y, self.table_z + self.obj.height / 2])
 
     @property
     def label(self) -> str:
@@ -175,13 +184,22 @@ class ReachEvaluator:
         scripted expert's demonstration (the jerk reference) run in ``scene``."""
         table_z = scene.table_z
         if self.scenario is not None:
-            scenario = load_scenario(self.scenario)
             gen = data.config
+            scenario = load_scenario(self.scenario, camera=scene.camera, robot=scene.robot, training=gen, table_z=table_z)
             expert = ScriptedExpert(
                 scene.robot, duration=gen.duration, n_steps=gen.n_steps, approach_fraction=gen.approach_fraction, tolerance=gen.tolerance
             )
             cases = [
-                Case(i, j, obj, placement, plan_approach(obj, placement, table_z=table_z), _expert_path(expert, scene, obj, placement))
+                Case(
+                    i,
+                    j,
+                    obj,
+                    placement,
+                    plan_approach(obj, placement, table_z=table_z),
+                    _expert_path(expert, scene, obj, placement),
+                    scenario.ood(i, j),
+                    table_z,
+                )
                 for i, obj, j, placement in scenario.cases()
             ]
             return cases[: self.limit], f"scenario {scenario.source}"
@@ -196,6 +214,8 @@ class ReachEvaluator:
                 r.placement,
                 plan_approach(r.obj, r.placement, table_z=table_z),
                 r.arrays["ee_poses"][:, :3, 3],
+                "",
+                table_z,
             )
             for r in records
         ]
@@ -233,6 +253,15 @@ class ReachEvaluator:
         try:
             with ReachScene(load_robot(gen.robot), image_size=gen.image_size, control_dt=gen.control_dt, substeps=gen.substeps) as scene:
                 cases, source = self.cases(data, scene)
+                for kind, policy in policies.items():
+                    labels = [(f"{c.obj.name} at placement {c.placement_index}", c.obj, c.placement) for c in cases]
+                    overlap = training_overlap(getattr(policy, "dataset_fingerprint", None), labels)
+                    if overlap:
+                        shown = "; ".join(overlap[:5]) + (f"; ... ({len(overlap)} in all)" if len(overlap) > 5 else "")
+                        raise ValueError(
+                            f"{kind} checkpoint {checkpoints[kind]} was trained on items of the evaluation cases ({source}): "
+                            f"{shown}; evaluate on cases it never saw"
+                        )
                 traces = {kind: self._episodes(kind, policy, cases, scene, steps, out_dir) for kind, policy in policies.items()}
         finally:
             torch.set_num_threads(threads)
@@ -242,12 +271,21 @@ class ReachEvaluator:
             mine = [r for r in rows if r["method"] == kind]
             metrics[kind] = summarise(
                 final_distance=np.array([r["final_distance_m"] for r in mine]),
-                approach_ok=np.array([r["approach_correct"] for r in mine]),
+                approach_ok=np.array([r["approach_angle_ok"] for r in mine]),
                 jerk=np.array([r["jerk"] for r in mine]),
                 demo_jerk=np.array([r["demo_jerk"] for r in mine]),
                 limit_violations=np.array([r["joint_limit_violations"] for r in mine]),
                 latency_ms=np.concatenate([t.latencies_ms for t in traces[kind]]),
+                displacement=np.array([r["object_displacement_m"] for r in mine]),
+                clusters=np.array([r["object_index"] for r in mine]),
+                object_distance=np.array([r["object_distance_m"] for r in mine]),
+                table_contact=np.array([r["arm_table_contact"] for r in mine]),
+                object_contact=np.array([r["arm_object_contact"] for r in mine]),
             )
+            ood = [r for r in mine if r["ood"]]
+            if ood and len(ood) < len(mine):  # reported separately, never mixed into one number silently
+                metrics[kind]["in_distribution"] = self._subset([r for r in mine if not r["ood"]])
+                metrics[kind]["out_of_distribution"] = self._subset(ood)
             metrics[kind].update({"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps})
         self._write(out_dir, metrics, rows, cases, traces)
         # the same episodes in LeRobot's layout: <out_dir>/<method>/eval_info.json and videos/eval_episode_<i>.mp4
@@ -279,11 +317,28 @@ class ReachEvaluator:
         controller.start(steps)
         controller.command(Observation(image=scene.render(), joints=scene.joint_state()[0]), 0, [])
 
+    @staticmethod
+    def _subset(rows: list[dict[str, Any]]) -> dict[str, Any]:
+        """Headline numbers of a subset of one method's episodes (in / out of distribution)."""
+        d = np.array([r["final_distance_m"] for r in rows])
+        return {
+            "episodes": len(rows),
+            "objects": sorted({r["object"] for r in rows}),
+            "final_distance_m": {"mean": float(d.mean()), "median": float(np.median(d))},
+            "success_5cm": float(np.mean([r["success_5cm"] for r in rows])),
+            "approach_correct": float(np.mean([r["approach_correct"] for r in rows])),
+        }
+
     def _row(self, kind: str, case: Case, trace: EpisodeTrace, dt: float) -> dict[str, Any]:
+        """One ``episodes.csv`` row; the definitions are those of :mod:`lfd.eval.metrics`."""
         final = trace.ee_poses[-1]
         distance = float(np.linalg.norm(final[:3, 3] - case.plan.target_point))
         angle = float(approach_angle_deg(final[:3, 0], case.plan.approach_dir))
         p = case.placement
+        centre = case.object_centre
+        moved = float(trace.object_displacement)
+        near = distance < SUCCESS_RADIUS_M
+        still = moved < MAX_DISPLACEMENT_M
         return {
             "method": kind,
             "object": case.obj.name,
@@ -294,11 +349,18 @@ class ReachEvaluator:
             "y": p.y,
             "yaw_deg": math.degrees(p.yaw),
             "approach_mode": case.plan.mode,
+            "ood": bool(case.ood),
+            "ood_reason": case.ood,
             "final_distance_m": distance,
-            "success_5cm": distance < 0.05,
-            "success_2cm": distance < 0.02,
+            "object_distance_m": float(np.linalg.norm(final[:3, 3] - centre)),
+            "object_displacement_m": moved,
+            "arm_table_contact": trace.table_contact_steps > 0,
+            "arm_object_contact": trace.object_contact_steps > 0,
+            "success_5cm": near and still,
+            "success_2cm": distance < 0.02 and still,
             "approach_angle_deg": angle,
-            "approach_correct": angle <= self.approach_tol_deg,
+            "approach_angle_ok": angle <= self.approach_tol_deg,
+            "approach_correct": near and angle <= self.approach_tol_deg,
             "jerk": float(integrated_squared_jerk(trace.ee_poses[:, :3, 3], dt)),
             "demo_jerk": float(integrated_squared_jerk(case.demo_ee, dt)) if case.demo_ee is not None else math.nan,
             "joint_limit_violations": trace.limit_violations,

@@ -16,12 +16,16 @@ Controllers:
   like the demonstrations); the DMP plan covers the whole episode (past its duration it
   keeps converging to its goal), and a shorter plan is held at its last sample.
 * :class:`VelocityController` (velocity baseline): ``policy.act(image, joints, time)``
-  every control step; the position target is one control period ahead of the measured joints
-  (``q + qd * dt``) with ``qd`` as velocity feed-forward.
+  every control step, executed by *velocity control* (``scene.step_velocity``): the
+  commanded joint velocity is the velocity the joints move at, as the policy's labels are
+  the demonstrations' measured joint velocities. (Before issue 12 it was a position target
+  ``q + qd * dt`` plus ``qd`` as feed-forward, which executed ~1.3x the command.)
 
-Every command is clamped into the joint limits before execution (with no velocity
-feed-forward on the clamped joints); the number of steps whose command needed it is
-counted as joint-limit violations.
+Every command is clamped into the joint limits before execution: a position target (with
+no velocity feed-forward on the clamped joints), or a velocity that would leave the limits
+within one control period (reduced to land on the limit); the number of steps whose command
+needed it is counted as joint-limit violations. The scene caps velocities and torques at
+the URDF limits (:class:`~lfd.sim.scene.ReachScene`).
 
 :func:`closed_loop_reach` (Sawyer protocol, SPEC 5) needs no camera: a forward model
 estimates the tool position from the measured joints and an inverse model turns the
@@ -92,9 +96,12 @@ class PlanController:
 
 
 class VelocityController:
-    """Runs a velocity policy (``act(image, joints, time) -> (n,)`` rad/s) every control step."""
+    """Runs a velocity policy (``act(image, joints, time) -> (n,)`` rad/s) every control step;
+    :meth:`command` returns the position one period ahead and the velocity, which
+    :func:`run_episode` executes by velocity control (:attr:`actuation`)."""
 
     needs_image = True
+    actuation = "velocity"
 
     def __init__(self, policy, dt: float) -> None:
         self.policy, self.dt = policy, dt
@@ -122,6 +129,11 @@ class EpisodeTrace:
         limit_violations: control steps whose command lay outside the joint limits.
         latencies_ms: wall time of each policy call, ms.
         frames: uint8 frames for a GIF (every ``frame_every`` steps), empty unless asked.
+        table_contact_steps, object_contact_steps: control steps before the end (the
+            states after steps ``0 .. S - 1``) at which an arm link touched the table / the
+            object (:meth:`~lfd.sim.scene.ReachScene.arm_touches`).
+        object_displacement: distance (m) the object's centre moved from the start to the
+            end of the episode (0 without an object).
     """
 
     joints: np.ndarray
@@ -129,6 +141,9 @@ class EpisodeTrace:
     limit_violations: int
     latencies_ms: list[float]
     frames: list[np.ndarray] = field(default_factory=list)
+    table_contact_steps: int = 0
+    object_contact_steps: int = 0
+    object_displacement: float = 0.0
 
 
 def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndarray, record_every: int = 0) -> EpisodeTrace:
@@ -145,11 +160,17 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
     latencies: list[float] = []
     frames: list[np.ndarray] = []
     joints, poses = [], []
-    violations = 0
+    violations = table_contacts = object_contacts = 0
+    probe = hasattr(scene, "arm_touches")  # stand-in scenes in tests have no contacts
+    has_object = probe and getattr(scene, "object_id", -1) >= 0
+    start = scene.object_pose()[:3, 3] if has_object else None
     for step in range(steps + 1):
         q, _ = scene.joint_state()
         joints.append(q)
         poses.append(scene.ee_pose())
+        if probe and 0 < step < steps:
+            table_contacts += int(scene.arm_touches("table"))
+            object_contacts += int(has_object and scene.arm_touches("object"))
         recording = record_every and step % record_every == 0
         image = scene.render() if controller.needs_image or recording else None
         if recording:
@@ -161,8 +182,13 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
         clamped = np.clip(q_target, lower, upper)
         outside = clamped != q_target
         violations += int(outside.any())
-        scene.step(clamped, np.where(outside, 0.0, qd_target))
-    return EpisodeTrace(np.stack(joints), np.stack(poses), violations, latencies, frames)
+        if getattr(controller, "actuation", "position") == "velocity":
+            # the commanded velocity, reduced where it would leave the limits within the period
+            scene.step_velocity(np.where(outside, (clamped - q) / controller.dt, qd_target))
+        else:
+            scene.step(clamped, np.where(outside, 0.0, qd_target))
+    moved = float(np.linalg.norm(scene.object_pose()[:3, 3] - start)) if has_object else 0.0
+    return EpisodeTrace(np.stack(joints), np.stack(poses), violations, latencies, frames, table_contacts, object_contacts, moved)
 
 
 @dataclass(frozen=True)

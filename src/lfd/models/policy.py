@@ -26,6 +26,8 @@ from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_col
 ONECYCLE_PCT_START = 0.3
 #: Hyper-parameters that must equal the dataset's (``GeneratorConfig``) ones.
 DATA_KEYS = ("image_size", "duration", "n_steps", "robot")
+#: Checkpoint key of the training dataset's fingerprint.
+FINGERPRINT_KEY = "lfd_dataset_fingerprint"
 
 
 class VisuomotorPolicy(L.LightningModule):
@@ -170,6 +172,16 @@ class VisuomotorPolicy(L.LightningModule):
             if getattr(config, key) != self.hparams[key]:
                 raise ValueError(f"{type(self).__name__} was built with {key}={self.hparams[key]!r}, the dataset has {key}={getattr(config, key)!r}")
 
+    #: Dataset fingerprint of the training run (:mod:`lfd.data.fingerprint`), saved in the
+    #: checkpoint under :data:`FINGERPRINT_KEY`; None when unknown (e.g. a LeRobot dataset).
+    dataset_fingerprint: dict | None = None
+
+    def on_save_checkpoint(self, checkpoint: dict[str, Any]) -> None:
+        checkpoint[FINGERPRINT_KEY] = self.dataset_fingerprint
+
+    def on_load_checkpoint(self, checkpoint: dict[str, Any]) -> None:
+        self.dataset_fingerprint = checkpoint.get(FINGERPRINT_KEY)
+
     # ------------------------------------------------------------------ Lightning hooks
     def setup(self, stage: str) -> None:
         if stage != "fit":
@@ -184,6 +196,8 @@ class VisuomotorPolicy(L.LightningModule):
         config = getattr(dm, "config", None)
         if config is not None:
             self.check_data(config)
+        fingerprint = getattr(dm, "fingerprint", None)
+        self.dataset_fingerprint = fingerprint() if callable(fingerprint) else None
         for stat in self.stat_names:
             for moment in ("mean", "std"):
                 buffer = getattr(self, f"{stat}_{moment}")

@@ -60,7 +60,12 @@ class PyBulletArm:
         """Build one world per row of ``q0 (B, n)`` with the arm there; returns the joints ``(B, n)``."""
         self.close()
         self.reference = self.robot.clamp(torch.as_tensor(np.asarray(q0, dtype=np.float64)))
-        self.scenes = [ReachScene(self.robot, image_size=8, control_dt=self.dt, substeps=self.substeps) for _ in range(len(q0))]
+        # the Sawyer protocol's measured numbers were made with this actuation (300 N m, no
+        # velocity cap, no self-collision); the reaching scenes use the URDF limits (issue 12)
+        self.scenes = [
+            ReachScene(self.robot, image_size=8, control_dt=self.dt, substeps=self.substeps, **LEGACY_PHYSICS)
+            for _ in range(len(q0))
+        ]
         for scene, q in zip(self.scenes, self.reference.numpy()):
             scene.set_joints(q)
         return self.joints()
@@ -83,6 +88,9 @@ class PyBulletArm:
             scene.close()
         self.scenes = []
 
+
+#: Actuation of :class:`PyBulletArm` (the Sawyer protocol, SPEC 5): that of the scenes before issue 12.
+LEGACY_PHYSICS = {"max_force": 300.0, "limit_velocity": False, "self_collision": False}
 
 #: Arm class per ``simulator`` name (``configs/eval/sawyer.yaml``).
 ARMS = {"kinematic": KinematicArm, "pybullet": PyBulletArm}

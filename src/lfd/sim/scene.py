@@ -41,6 +41,10 @@ TABLE_RGBA = (0.62, 0.60, 0.56, 1.0)
 FLOOR_RGBA = (0.35, 0.35, 0.38, 1.0)
 
 
+#: Per robot URDF: the link pairs whose self-collision is off (``ReachScene._filter_overlapping_links``).
+_OVERLAPPING_PAIRS: dict[str, list[tuple[int, int]]] = {}
+
+
 def pose_matrix(position, quaternion) -> np.ndarray:
     """``(4, 4)`` pose from a position ``(3,)`` and a PyBullet quaternion ``(x, y, z, w)``."""
     pose = np.eye(4)
@@ -65,7 +69,11 @@ class ReachScene:
         wrist_camera: also render a camera riding on the wrist, looking along the gripper.
         control_dt: seconds per control step (:meth:`step`).
         substeps: physics steps per control step (timestep ``control_dt / substeps``).
-        max_force: joint motor force/torque limit (N m) of the position controller.
+        max_force: joint motor torque limit (N m) of every joint; None (default) = the
+            URDF effort limits (``robot.effort_limits``), what the real arm's motors have.
+        limit_velocity: cap every joint's commanded velocity at its URDF velocity limit
+            (``robot.velocity_limits``).
+        self_collision: collide the arm's links with each other (parent-child pairs excluded).
         position_gain, velocity_gain: PyBullet position-control gains.
         torso_height: height (m) of the torso frame above the floor.
         table_z: height of the table top in the torso frame.
@@ -80,7 +88,9 @@ class ReachScene:
         wrist_camera: bool = False,
         control_dt: float = 4.0 / 99,
         substeps: int = 10,
-        max_force: float = 300.0,
+        max_force: float | None = None,
+        limit_velocity: bool = True,
+        self_collision: bool = True,
         position_gain: float = 0.3,
         velocity_gain: float = 1.0,
         torso_height: float = 1.06,
@@ -100,13 +110,17 @@ class ReachScene:
         self.image_size = image_size
         self.control_dt = float(control_dt)
         self.substeps = substeps
-        self.max_force = float(max_force)
+        self.n_joints = len(robot.joint_names)
+        efforts = np.asarray(getattr(robot, "effort_limits", np.full(self.n_joints, 300.0)), dtype=np.float64)
+        self.forces = np.full(self.n_joints, float(max_force)) if max_force is not None else efforts
+        speeds = np.asarray(getattr(robot, "velocity_limits", np.full(self.n_joints, np.inf)), dtype=np.float64)
+        self.max_velocities = speeds if limit_velocity else np.full(self.n_joints, np.inf)
+        self.self_collision = bool(self_collision)
         self.position_gain = float(position_gain)
         self.velocity_gain = float(velocity_gain)
         self.table_z = float(table_z)
         self.base_to_world = np.eye(4)
         self.base_to_world[2, 3] = torso_height
-        self.n_joints = len(robot.joint_names)
         self._tmpdir = Path(tempfile.mkdtemp(prefix="lfd-scene-"))
         self._urdf = self._tmpdir / "robot.urdf"
         self._urdf.write_text(robot.to_urdf())
@@ -137,15 +151,44 @@ class ReachScene:
             str(self._urdf),
             basePosition=self.base_to_world[:3, 3].tolist(),
             useFixedBase=True,
-            flags=p.URDF_USE_INERTIA_FROM_FILE,
+            flags=p.URDF_USE_INERTIA_FROM_FILE
+            | ((p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT) if self.self_collision else 0),
             physicsClientId=c,
         )
         if p.getNumJoints(self.robot_id, physicsClientId=c) != self.n_joints + 1:
             raise ValueError(f"ReachScene: URDF must have {self.n_joints} movable joints then one fixed tool joint")
+        if self.self_collision:
+            self._filter_overlapping_links()
         self.set_joints(self.robot.home if q is None else q)
         self.object_spec, self.placement, self.object_id = object_spec, placement, -1
         if object_spec is not None:
             self.object_id = self._add_object(object_spec, placement)
+
+    def _filter_overlapping_links(self, n_samples: int = 200, share: float = 0.25) -> None:
+        """Switch off self-collision between link pairs whose simplified collision shapes
+        overlap by construction: non-adjacent pairs in contact in at least ``share`` of
+        ``n_samples`` uniform configurations within the joint limits (seeded, so always the
+        same pairs; for the PR2 arm the grandparent pairs around each joint and the base
+        with the shoulder links). Every other pair collides. Found once per robot model,
+        re-applied after each :meth:`reset`."""
+        c, rid = self.client, self.robot_id
+        key = self._urdf.read_text()
+        if key not in _OVERLAPPING_PAIRS:
+            import torch
+
+            q = self.robot.sample_q(n_samples, torch.Generator().manual_seed(0)).numpy()
+            links = range(-1, self.n_joints + 1)
+            pairs = [(a, b) for a in links for b in links if b > a + 1]
+            counts = dict.fromkeys(pairs, 0)
+            for sample in q:
+                for j in range(self.n_joints):
+                    p.resetJointState(rid, j, float(sample[j]), 0.0, physicsClientId=c)
+                for a, b in pairs:
+                    counts[(a, b)] += bool(p.getClosestPoints(rid, rid, 0.0, linkIndexA=a, linkIndexB=b, physicsClientId=c))
+            _OVERLAPPING_PAIRS[key] = [pair for pair, n in counts.items() if n >= share * n_samples]
+        self.overlapping_links = _OVERLAPPING_PAIRS[key]
+        for a, b in self.overlapping_links:
+            p.setCollisionFilterPair(rid, rid, a, b, 0, physicsClientId=c)
 
     def _add_static_bodies(self, client: int, *, visible: bool) -> int:
         """Floor and table in ``client``, drawn (backdrop client) or transparent, which the
@@ -202,18 +245,39 @@ class ReachScene:
         self._command(q, np.zeros(self.n_joints))
 
     def _command(self, q: np.ndarray, qd: np.ndarray) -> None:
-        n = self.n_joints
+        """Position control with velocity feed-forward, within the effort and velocity limits."""
+        qd = np.clip(qd, -self.max_velocities, self.max_velocities)
+        for j in range(self.n_joints):
+            kw = {} if not np.isfinite(self.max_velocities[j]) else {"maxVelocity": float(self.max_velocities[j])}
+            p.setJointMotorControl2(
+                self.robot_id,
+                j,
+                p.POSITION_CONTROL,
+                targetPosition=float(q[j]),
+                targetVelocity=float(qd[j]),
+                force=float(self.forces[j]),
+                positionGain=self.position_gain,
+                velocityGain=self.velocity_gain,
+                physicsClientId=self.client,
+                **kw,
+            )
+
+    def step_velocity(self, qd_target: np.ndarray) -> None:
+        """One control step of velocity control: joint velocities ``qd_target (n_joints,)``
+        rad/s (clipped to the velocity limits), within the effort limits, for
+        ``control_dt`` seconds. The velocity policy's actuation: what it commands is what
+        its labels (the demonstrations' measured joint velocities) are."""
+        qd = np.clip(_as_vector(qd_target, self.n_joints, "qd_target"), -self.max_velocities, self.max_velocities)
         p.setJointMotorControlArray(
             self.robot_id,
-            list(range(n)),
-            p.POSITION_CONTROL,
-            targetPositions=q.tolist(),
+            list(range(self.n_joints)),
+            p.VELOCITY_CONTROL,
             targetVelocities=qd.tolist(),
-            forces=[self.max_force] * n,
-            positionGains=[self.position_gain] * n,
-            velocityGains=[self.velocity_gain] * n,
+            forces=self.forces.tolist(),
             physicsClientId=self.client,
         )
+        for _ in range(self.substeps):
+            p.stepSimulation(physicsClientId=self.client)
 
     def step(self, q_target: np.ndarray, qd_target: np.ndarray | None = None) -> None:
         """One control step: position control towards ``q_target (n_joints,)`` (with
