@@ -128,6 +128,7 @@ def _episode_arrays(session, rec, dmp: DMP) -> dict:
     return {
         "index": np.array(0),
         "object_index": np.array(0),
+        "object_group": np.array("train"),  # dataset format 2: the object group of the split keys
         "placement_index": np.array(0),
         "split": np.array("train"),
         "object_name": np.array(f"teach-goal-{session.scene.name}"),
