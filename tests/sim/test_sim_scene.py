@@ -101,3 +101,38 @@ def test_argument_validation(robot, scene):
     scene.reset()
     with pytest.raises(ValueError, match="no object"):
         scene.object_pose()
+
+
+@pytest.mark.parametrize("friction", [None, 0.0])
+def test_upright_capsule_stands_through_a_demonstration_unless_pushed(robot, monkeypatch, friction):
+    """A capsule stands on its hemispherical cap: with the objects' rolling friction it stays
+    put through an expert demonstration and the hold after it (success needs the object to
+    move < 2 cm); without it (friction 0.0) the same capsule falls over by itself. A push
+    (the tool teleported into it) still moves it."""
+    import lfd.sim.scene as scene_module
+    from lfd.robots import solve_near
+    from lfd.sim.approach import plan_approach
+    from lfd.sim.expert import ScriptedExpert
+
+    if friction is not None:
+        monkeypatch.setattr(scene_module, "OBJECT_ROLLING_FRICTION", friction)
+    cap = ObjectSpec("capsule", (0.031, 0.103), (0.2, 0.6, 0.9, 1.0), 0.3, "cap")
+    expert = ScriptedExpert(robot)
+    moved = []
+    with ReachScene(robot, image_size=16) as s:
+        for pl in (Placement(0.55, -0.2, 0.0), Placement(0.6, 0.0, 0.0), Placement(0.5, 0.1, 0.0)):
+            demo = expert.run(s, cap, pl)
+            for _ in range(50):
+                s.step(demo.joints[-1])
+            moved.append(float(np.linalg.norm(s.object_pose()[:3, 3] - demo.object_poses[0][:3, 3])))
+        if friction is None:
+            assert max(moved) < 2e-3, moved
+            grasp = plan_approach(cap, Placement(0.6, 0.0, 0.0), table_z=TABLE_Z).grasp_pose
+            q = solve_near(robot, grasp[None], robot.home.numpy(), n_seeds=16).q[0].numpy()
+            s.reset(cap, Placement(0.6, 0.0, 0.0), q=q)
+            start = s.object_pose()[:3, 3].copy()
+            for _ in range(20):
+                s.step(q)
+            assert np.linalg.norm(s.object_pose()[:3, 3] - start) > 5e-3
+        else:
+            assert max(moved) > 0.05, moved

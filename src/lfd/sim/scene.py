@@ -39,6 +39,13 @@ TABLE_X = (0.35, 0.95)
 TABLE_HALF_Y = 0.45
 TABLE_RGBA = (0.62, 0.60, 0.56, 1.0)
 FLOOR_RGBA = (0.35, 0.35, 0.38, 1.0)
+#: Rolling and spinning friction of the objects (PyBullet's contact model: a resisting
+#: torque of this many metres times the normal force). Real objects touch the table over a
+#: small patch, a rigid capsule on its hemispherical cap over a point: without it an upright
+#: capsule is in unstable equilibrium and falls over by itself within seconds (39 of 57
+#: demonstration replays of the quick dataset toppled the capsule without any contact; with
+#: 1e-4 none did). Pushing still moves objects (tests/sim/test_sim_scene.py).
+OBJECT_ROLLING_FRICTION = 1e-3
 
 
 #: Per robot URDF: the link pairs whose self-collision is off (``ReachScene._filter_overlapping_links``).
@@ -223,7 +230,7 @@ class ReachScene:
         col = p.createCollisionShape(geom, physicsClientId=c, **kw_col)
         vis = p.createVisualShape(geom, rgbaColor=spec.rgba, physicsClientId=c, **kw_vis)
         position = self.to_world(np.array([placement.x, placement.y, self.table_z + spec.height / 2]))
-        return p.createMultiBody(
+        body = p.createMultiBody(
             spec.mass,
             col,
             vis,
@@ -231,6 +238,10 @@ class ReachScene:
             baseOrientation=yaw_quaternion(placement.yaw),
             physicsClientId=c,
         )
+        p.changeDynamics(
+            body, -1, rollingFriction=OBJECT_ROLLING_FRICTION, spinningFriction=OBJECT_ROLLING_FRICTION, physicsClientId=c
+        )
+        return body
 
     def to_world(self, points: np.ndarray) -> np.ndarray:
         """Torso-frame points ``(..., 3)`` -> PyBullet world."""
