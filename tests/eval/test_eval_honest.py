@@ -64,9 +64,9 @@ def test_placement_out_of_reach_is_an_error(tmp_path, robot):
 
 
 def test_objects_outside_training_ranges_warn_and_are_marked(tmp_path, capsys):
-    objects = OBJECTS + "  - {name: jar, shape: cylinder, radius: 0.044, height: 0.09, rgba: [0.9, 0.9, 0.8, 1.0]}\n"
+    objects = OBJECTS + "  - {name: jar, shape: cylinder, radius: 0.044, height: 0.05, rgba: [0.9, 0.9, 0.8, 1.0]}\n"
     path = scenario(tmp_path, "  - {x: 0.55, y: 0.0, yaw_deg: 0}\n  - {x: 0.72, y: 0.0, yaw_deg: 0}\n", objects)
-    with pytest.warns(UserWarning, match=r"objects\[2\] \(jar\): height 0.090 m outside \[0.12, 0.22\]"):
+    with pytest.warns(UserWarning, match=r"objects\[2\] \(jar\): height 0.050 m outside \[0.06, 0.24\]"):
         sc = load_scenario(path, training=GeneratorConfig())
     assert "outside the training ranges" in capsys.readouterr().out
     assert sc.ood(0, 0) == "" and sc.ood(1, 0) == ""
@@ -77,13 +77,22 @@ def test_objects_outside_training_ranges_warn_and_are_marked(tmp_path, capsys):
 
 
 def test_user_objects_scenario(robot):
+    """The hand-written user objects lie inside the generator's ranges (no warning); the OOD
+    set lies outside them, every object marked ood."""
+    import warnings
+
     path = ROOT / "configs" / "scenarios" / "user_objects.yaml"
-    with pytest.warns(UserWarning):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
         sc = load_scenario(path, robot=robot, training=GeneratorConfig())
-    assert len(sc.objects) == 4 and len(sc.placements) == 10
+    assert len(sc.objects) == 6 and len(sc.placements) == 10
+    assert {o.shape for o in sc.objects} == {"cylinder", "box", "sphere", "capsule"}
     for p in sc.placements:
         assert 0.48 <= p.x <= 0.68 and abs(p.y) <= 0.29 and abs(p.yaw) <= math.pi / 2 + 1e-9
-    assert [bool(sc.ood(i, 0)) for i in range(4)] == [False, True, True, False]
+    assert not any(sc.ood(i, 0) for i in range(6))
+    with pytest.warns(UserWarning):
+        ood = load_scenario(ROOT / "configs" / "scenarios" / "ood_objects.yaml", robot=robot, training=GeneratorConfig())
+    assert len(ood.objects) == 6 and all(ood.ood(i, 0) for i in range(6))
 
 
 def test_cluster_bootstrap_matches_the_enumerated_distribution():
@@ -123,7 +132,7 @@ def test_home_pose_is_never_approach_correct(robot, name):
     (the old definition counted them), the new definition counts none."""
     home = robot.fk(robot.home[None]).numpy()[0]
     ev = ReachEvaluator()
-    with pytest.warns(UserWarning) if name == "user_objects" else _nothing():
+    with _nothing():
         sc = load_scenario(ROOT / "configs" / "scenarios" / f"{name}.yaml", training=GeneratorConfig())
     rows = []
     for i, obj, j, pl in sc.cases():

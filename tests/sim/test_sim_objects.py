@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from lfd.sim.scene import TABLE_RGBA
 from lfd.sim.objects import SHAPES, ObjectSpec, PlacementRanges, sample_object, sample_objects
 
 
@@ -51,7 +52,23 @@ def test_sample_object_is_valid_for_every_shape():
     for shape in SHAPES:
         for _ in range(20):
             spec = sample_object(rng, shape)
-            assert spec.shape == shape and max(spec.rgba[:3]) >= 0.5
+            assert spec.shape == shape
+            assert math.dist(spec.rgba[:3], TABLE_RGBA[:3]) >= 0.2  # visible against the table
+
+
+def test_generator_covers_what_users_bring():
+    """Thin tall cans to squat jars, flat bricks to cubes, dark and pale colours."""
+    rng = np.random.default_rng(5)
+    cyl = [sample_object(rng, "cylinder") for _ in range(300)]
+    boxes = [sample_object(rng, "box") for _ in range(300)]
+    aspect = [o.dims[1] / (2 * o.dims[0]) for o in cyl]  # height / diameter
+    assert min(aspect) < 0.9 and max(aspect) > 4.0
+    assert min(o.dims[2] for o in boxes) < 0.03 and max(o.dims[2] for o in boxes) > 0.12
+    assert any(max(abs(a - b) for a, b in zip(o.dims[:2], o.dims[1:])) < 0.01 for o in boxes)  # near-cubes
+    value = [max(o.rgba[:3]) for o in cyl + boxes]
+    spread = [max(o.rgba[:3]) - min(o.rgba[:3]) for o in cyl + boxes]
+    assert min(value) < 0.25 and max(value) > 0.95  # dark and bright
+    assert any(v > 0.85 and s < 0.15 for v, s in zip(value, spread))  # pale
 
 
 def test_placement_ranges_sample_within_bounds():

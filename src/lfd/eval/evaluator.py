@@ -125,6 +125,10 @@ class ReachEvaluator:
         limit: evaluate only the first ``limit`` cases (None: all).
         torch_threads: torch intra-op threads during the closed-loop runs (a batch of one
             gains nothing from more, and loses much to thread hand-offs on a busy CPU).
+        split: without a scenario, the dataset split whose episodes are the cases:
+            ``"test"`` (the final report) or ``"val"`` (model selection and every design
+            choice: the held-out validation objects; the validation split's new placements of
+            training objects would show the policy its training objects).
     """
 
     #: :meth:`run` reads the policies' dataset (``evaluate.py`` instantiates ``cfg.data`` for it).
@@ -140,7 +144,10 @@ class ReachEvaluator:
         approach_tol_deg: float = 30.0,
         limit: int | None = None,
         torch_threads: int = 1,
+        split: str = "test",
     ) -> None:
+        if split not in ("test", "val"):
+            raise ValueError(f"ReachEvaluator.split: expected 'test' or 'val', got {split!r}")
         unknown = sorted(set(methods) - set(CONTROLLERS))
         if unknown:
             raise ValueError(f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(CONTROLLERS)}")
@@ -153,6 +160,7 @@ class ReachEvaluator:
         self.approach_tol_deg = float(approach_tol_deg)
         self.limit = limit
         self.torch_threads = int(torch_threads)
+        self.split = split
 
     # ------------------------------------------------------------------ inputs
     def resolve_checkpoints(self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None) -> dict[str, Path]:
@@ -203,9 +211,9 @@ class ReachEvaluator:
                 for i, obj, j, placement in scenario.cases()
             ]
             return cases[: self.limit], f"scenario {scenario.source}"
-        records = data.split("test")
+        records = data.split("test") if self.split == "test" else [r for r in data.split("val") if r.group == "val"]
         if not records:
-            raise ValueError(f"dataset {data.path} has no test split (n_test_objects = 0); give eval.scenario=FILE")
+            raise ValueError(f"dataset {data.path} has no {self.split} split; give eval.scenario=FILE or another eval.split")
         cases = [
             Case(
                 r.object_index,
@@ -219,7 +227,7 @@ class ReachEvaluator:
             )
             for r in records
         ]
-        return cases[: self.limit], f"test split of {data.path}"
+        return cases[: self.limit], f"{self.split} split of {data.path}"
 
     # ------------------------------------------------------------------ run
     def run(self, datamodule, checkpoints: Mapping[str, str | Path], out_dir: str | Path) -> dict[str, Any]:
@@ -277,7 +285,7 @@ class ReachEvaluator:
                 limit_violations=np.array([r["joint_limit_violations"] for r in mine]),
                 latency_ms=np.concatenate([t.latencies_ms for t in traces[kind]]),
                 displacement=np.array([r["object_displacement_m"] for r in mine]),
-                clusters=np.array([r["object_index"] for r in mine]),
+                clusters=np.array([f"{r['object_index']}:{r['object']}" for r in mine]),  # one per object (the val split has two groups)
                 object_distance=np.array([r["object_distance_m"] for r in mine]),
                 table_contact=np.array([r["arm_table_contact"] for r in mine]),
                 object_contact=np.array([r["arm_object_contact"] for r in mine]),

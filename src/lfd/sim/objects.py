@@ -97,27 +97,40 @@ class ObjectSpec:
         )
 
 
-#: Size ranges (m) per family, uniform draws; chosen so that every instance fits the
-#: PR2 gripper (opening ~9 cm) and stands stably.
+#: Size ranges (m) per family, uniform draws: what people put in front of a robot, from thin
+#: tall cans (r 2 cm, h 24 cm) to squat jars (r 4.5 cm, h 6 cm), flat bricks (2.5 cm high) to
+#: cubes, small and large spheres, short and long capsules. Every instance fits the PR2
+#: gripper (opening ~9 cm: a box is grasped across a horizontal side <= 8.5 cm) and stands
+#: stably (capsules with the objects' rolling friction, :mod:`lfd.sim.scene`).
 FAMILY_SIZES: dict[str, tuple[tuple[float, float], ...]] = {
-    "cylinder": ((0.025, 0.045), (0.12, 0.22)),
-    "capsule": ((0.02, 0.035), (0.08, 0.15)),
-    "sphere": ((0.045, 0.06),),
-    "box": ((0.04, 0.08), (0.04, 0.08), (0.04, 0.12)),
+    "cylinder": ((0.02, 0.045), (0.06, 0.24)),
+    "capsule": ((0.018, 0.035), (0.04, 0.15)),
+    "sphere": ((0.035, 0.06),),
+    "box": ((0.035, 0.085), (0.035, 0.085), (0.025, 0.13)),
 }
 #: Mass range (kg) for every family.
 MASS_RANGE = (0.1, 0.5)
+#: Colour draws (HSV): saturation from greys and pastels to full colour, value from near
+#: black to bright.
+SATURATION_RANGE, VALUE_RANGE = (0.1, 1.0), (0.15, 1.0)
+#: Colours closer than this (Euclidean RGB distance) to the table's are drawn again: an
+#: object the colour of the table is invisible to a camera (the table is
+#: ``lfd.sim.scene.TABLE_RGBA``, repeated here to keep this module free of PyBullet).
+TABLE_RGB, MIN_TABLE_CONTRAST = (0.62, 0.60, 0.56), 0.2
 
 
 def sample_object(rng: np.random.Generator, shape: str, name: str = "") -> ObjectSpec:
-    """One random instance of the family ``shape``: size from :data:`FAMILY_SIZES`, a
-    saturated random colour (HSV with saturation 0.6..1 and value 0.5..1, so it stands out
-    from the grey table), mass from :data:`MASS_RANGE`."""
+    """One random instance of the family ``shape``: size from :data:`FAMILY_SIZES`, a random
+    colour (hue uniform, saturation :data:`SATURATION_RANGE`, value :data:`VALUE_RANGE`, at
+    least :data:`MIN_TABLE_CONTRAST` from the table's colour), mass from :data:`MASS_RANGE`."""
     if shape not in FAMILY_SIZES:
         raise ValueError(f"sample_object: shape must be one of {SHAPES}, got {shape!r}")
     dims = tuple(float(rng.uniform(lo, hi)) for lo, hi in FAMILY_SIZES[shape])
-    hue, sat, val = rng.uniform(0, 1), rng.uniform(0.6, 1.0), rng.uniform(0.5, 1.0)
-    rgb = _hsv_to_rgb(float(hue), float(sat), float(val))
+    while True:
+        hue, sat, val = rng.uniform(0, 1), rng.uniform(*SATURATION_RANGE), rng.uniform(*VALUE_RANGE)
+        rgb = _hsv_to_rgb(float(hue), float(sat), float(val))
+        if math.dist(rgb, TABLE_RGB) >= MIN_TABLE_CONTRAST:
+            break
     return ObjectSpec(shape=shape, dims=dims, rgba=(*rgb, 1.0), mass=float(rng.uniform(*MASS_RANGE)), name=name)
 
 
