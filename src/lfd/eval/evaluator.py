@@ -112,8 +112,12 @@ class ReachEvaluator:
     """Closed-loop evaluation of the CNN -> DMP and velocity policies.
 
     Args:
-        scenario: scenario YAML file (:mod:`lfd.eval.scenario`); None = the test split of
+        scenario: scenario YAML file (:mod:`lfd.eval.scenario`); None = the ``split`` of
             the ``data`` config's dataset.
+        split: dataset split evaluated without a scenario: ``"test"`` (the report) or
+            ``"val"`` (model selection and tuning: the val split's held-out validation
+            objects at their placements; its training objects' other placements are left
+            out, the overlap check refuses them as training objects).
         methods: policy kinds to evaluate.
         n_gifs: rollout GIFs per method (the first cases).
         gif_every: keep every this many control steps in a GIF.
@@ -140,7 +144,10 @@ class ReachEvaluator:
         approach_tol_deg: float = 30.0,
         limit: int | None = None,
         torch_threads: int = 1,
+        split: str = "test",
     ) -> None:
+        if split not in ("test", "val"):
+            raise ValueError(f"ReachEvaluator.split: expected 'test' or 'val', got {split!r}")
         unknown = sorted(set(methods) - set(CONTROLLERS))
         if unknown:
             raise ValueError(f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(CONTROLLERS)}")
@@ -153,6 +160,7 @@ class ReachEvaluator:
         self.approach_tol_deg = float(approach_tol_deg)
         self.limit = limit
         self.torch_threads = int(torch_threads)
+        self.split = split
 
     # ------------------------------------------------------------------ inputs
     def resolve_checkpoints(self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None) -> dict[str, Path]:
@@ -203,9 +211,11 @@ class ReachEvaluator:
                 for i, obj, j, placement in scenario.cases()
             ]
             return cases[: self.limit], f"scenario {scenario.source}"
-        records = data.split("test")
+        records = data.split(self.split)
+        if self.split == "val":
+            records = [r for r in records if r.group == "val"]
         if not records:
-            raise ValueError(f"dataset {data.path} has no test split (n_test_objects = 0); give eval.scenario=FILE")
+            raise ValueError(f"dataset {data.path} has no {self.split} split (no {self.split} episodes); give eval.scenario=FILE")
         cases = [
             Case(
                 r.object_index,
@@ -219,7 +229,7 @@ class ReachEvaluator:
             )
             for r in records
         ]
-        return cases[: self.limit], f"test split of {data.path}"
+        return cases[: self.limit], f"{self.split} split of {data.path}"
 
     # ------------------------------------------------------------------ run
     def run(self, datamodule, checkpoints: Mapping[str, str | Path], out_dir: str | Path) -> dict[str, Any]:
