@@ -92,3 +92,12 @@ def test_output_statistics_are_those_of_the_labels():
     dm.datasets = {"train": SimpleNamespace(tensors={"velocity": command})}
     with pytest.raises(ValueError, match="'command'"):
         vel.setup("fit")
+
+
+def test_evaluator_split_option():
+    """Tuning reads `eval.split=val` (held-out validation objects); only test and val exist."""
+    from lfd.eval.evaluator import ReachEvaluator
+
+    assert ReachEvaluator().split == "test" and ReachEvaluator(split="val").split == "val"
+    with pytest.raises(ValueError, match="split: expected 'test' or 'val'"):
+        ReachEvaluator(split="train")
