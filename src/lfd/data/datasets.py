@@ -204,7 +204,7 @@ class VelocityReachDataset(Dataset):
         self.tensors = {
             "joints": _stack(records, "joints").reshape(-1, 7),
             "velocity": _stack(records, "velocities").reshape(-1, 7),
-            "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"], r.arrays["t"])).float() for r in records]),
+            "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
             "t": _stack(records, "t").reshape(-1),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(steps),
             "step": torch.arange(steps, dtype=torch.int64).repeat(len(records)),

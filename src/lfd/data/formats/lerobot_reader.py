@@ -222,7 +222,7 @@ def _velocity_dataset_class():
             self.tensors = {
                 "joints": cat("joints"),
                 "velocity": cat("velocities"),
-                "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"], r.arrays["t"])).float() for r in records]),
+                "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
                 "t": cat("t"),
                 "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(lengths),
                 "step": torch.cat([torch.arange(int(k), dtype=torch.int64) for k in lengths]),
