@@ -36,7 +36,7 @@ MIN_SUCCESS = 0.35
 def test_small_training_reaches_new_objects(tmp_path):
     common = [f"paths.root_dir={tmp_path}", *DATA]
     train = subprocess.run(
-        [sys.executable, str(ROOT / "train.py"), "model=cnn_dmp", "trainer.max_steps=600", "trainer.enable_progress_bar=false",
+        [sys.executable, str(ROOT / "train.py"), "model=cnn_dmp", "trainer.max_steps=600",
          f"hydra.run.dir={tmp_path}/train", *common],
         capture_output=True, text=True, cwd=ROOT, timeout=1500,
     )

@@ -160,12 +160,12 @@ def test_velocity_labels_at_perturbed_states_are_the_experts_correction(monkeypa
     vel = VelocityPolicy(name="velocity", state_noise=0.1, correction_gain=2.0, **SMALL)
     batch = {
         "image": torch.rand(4, 3, 24, 24), "joints": torch.randn(4, 7) * 0.1,
-        "velocity": torch.randn(4, 7) * 0.2, "t": torch.full((4,), 0.3),
+        "command": torch.randn(4, 7) * 0.2, "t": torch.full((4,), 0.3),
     }
     noise = torch.randn(4, 7) * 0.1
     monkeypatch.setattr(vel, "perturbation", lambda joints: noise)
     pred = vel.features(batch["image"], batch["joints"] + noise, vel.phase(batch["t"], 4))
-    expected = ((pred - vel.normalise("velocity", batch["velocity"] - 2.0 * noise)) ** 2).mean()
+    expected = ((pred - vel.normalise("velocity", batch["command"] - 2.0 * noise)) ** 2).mean()
     torch.testing.assert_close(vel.losses(batch)["loss"], expected)
     monkeypatch.undo()
     vel.train()
@@ -193,7 +193,7 @@ def test_velocity_policy_sees_the_phase_of_the_episode():
     with pytest.raises(ValueError, match="time must be finite and >= 0"):
         vel.act(frame, q, -0.1)
     # the time enters the loss through the batch's "t"
-    batch = {"image": torch.rand(4, 3, 24, 24), "joints": torch.zeros(4, 7), "velocity": torch.zeros(4, 7)}
+    batch = {"image": torch.rand(4, 3, 24, 24), "joints": torch.zeros(4, 7), "command": torch.zeros(4, 7)}
     loss0 = vel.losses({**batch, "t": torch.zeros(4)})["loss"]
     loss1 = vel.losses({**batch, "t": torch.full((4,), 0.9)})["loss"]
     assert loss0 != loss1

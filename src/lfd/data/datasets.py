@@ -106,6 +106,28 @@ def _to_image(frame: torch.Tensor, transform: Transform | None) -> torch.Tensor:
     return transform(image) if transform is not None else image
 
 
+def command_velocities(joints: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Per-step velocity commands ``(T, n)`` rad/s of one demonstration: the joints' mean
+    velocity over the control period after each sample, ``(q[k+1] - q[k]) / (t[k+1] - t[k])``,
+    and 0 at the last sample (the demonstration ends at rest).
+
+    The recorded ``velocities`` are the instantaneous joint velocities at the sample
+    instants; under the demonstrations' position control the joints move in a burst at the
+    start of each period and have nearly stopped at its end, so those are ~1/8 of the motion
+    per period and, executed as velocity commands, move the arm ~1/8 of the way.
+
+    Example:
+        >>> command_velocities(np.array([[0.0], [0.1], [0.3]]), np.array([0.0, 0.5, 1.0])).ravel().tolist()
+        [0.2, 0.4, 0.0]
+    """
+    joints, t = np.asarray(joints, dtype=np.float64), np.asarray(t, dtype=np.float64)
+    if joints.ndim != 2 or t.shape != (joints.shape[0],) or len(t) < 2 or not np.all(np.diff(t) > 0):
+        raise ValueError(f"command_velocities: need joints (T, n) and increasing times (T,), T >= 2; got {joints.shape}, {t.shape}")
+    out = np.zeros_like(joints)
+    out[:-1] = np.diff(joints, axis=0) / np.diff(t)[:, None]
+    return out
+
+
 def _stack(records: list[EpisodeRecord], key: str) -> torch.Tensor:
     return torch.from_numpy(np.stack([r.arrays[key] for r in records])).float()
 
@@ -163,7 +185,10 @@ class VelocityReachDataset(Dataset):
 
         image     (3, H, W)  frame at step t in [0, 1] (augmented if ``transform``)
         joints    (7,)       joint angles at step t, rad
-        velocity  (7,)       measured joint velocity at step t, rad/s (the command)
+        velocity  (7,)       measured joint velocity at the instant of step t, rad/s
+        command   (7,)       (q[t+1] - q[t]) / dt, rad/s: the joint velocity that, commanded for
+                             the control period after step t, moves the joints as the
+                             demonstration did (0 at the last step; :func:`command_velocities`)
         t         ()         time of step t, s
         index     ()         int64 episode index
         step      ()         int64 step t
@@ -179,6 +204,7 @@ class VelocityReachDataset(Dataset):
         self.tensors = {
             "joints": _stack(records, "joints").reshape(-1, 7),
             "velocity": _stack(records, "velocities").reshape(-1, 7),
+            "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
             "t": _stack(records, "t").reshape(-1),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(steps),
             "step": torch.arange(steps, dtype=torch.int64).repeat(len(records)),

@@ -112,8 +112,12 @@ class ReachEvaluator:
     """Closed-loop evaluation of the CNN -> DMP and velocity policies.
 
     Args:
-        scenario: scenario YAML file (:mod:`lfd.eval.scenario`); None = the test split of
+        scenario: scenario YAML file (:mod:`lfd.eval.scenario`); None = the ``split`` of
             the ``data`` config's dataset.
+        split: dataset split evaluated without a scenario: ``"test"`` (the report) or
+            ``"val"`` (model selection and tuning: the val split's held-out validation
+            objects at their placements; its training objects' other placements are left
+            out, the overlap check refuses them as training objects).
         methods: policy kinds to evaluate.
         n_gifs: rollout GIFs per method (the first cases).
         gif_every: keep every this many control steps in a GIF.
@@ -125,10 +129,6 @@ class ReachEvaluator:
         limit: evaluate only the first ``limit`` cases (None: all).
         torch_threads: torch intra-op threads during the closed-loop runs (a batch of one
             gains nothing from more, and loses much to thread hand-offs on a busy CPU).
-        split: without a scenario, the dataset split whose episodes are the cases:
-            ``"test"`` (the final report) or ``"val"`` (model selection and every design
-            choice: the held-out validation objects; the validation split's new placements of
-            training objects would show the policy its training objects).
     """
 
     #: :meth:`run` reads the policies' dataset (``evaluate.py`` instantiates ``cfg.data`` for it).

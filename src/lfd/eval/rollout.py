@@ -17,9 +17,12 @@ Controllers:
   keeps converging to its goal), and a shorter plan is held at its last sample.
 * :class:`VelocityController` (velocity baseline): ``policy.act(image, joints, time)``
   every control step, executed by *velocity control* (``scene.step_velocity``): the
-  commanded joint velocity is the velocity the joints move at, as the policy's labels are
-  the demonstrations' measured joint velocities. (Before issue 12 it was a position target
-  ``q + qd * dt`` plus ``qd`` as feed-forward, which executed ~1.3x the command.)
+  commanded joint velocity is the velocity the joints move at for the control period, as
+  the policy's labels are the demonstrations' joint motion per period,
+  ``(q[t+1] - q[t]) / dt`` (:func:`lfd.data.datasets.command_velocities`); commanding the
+  labels reproduces a demonstration (``tests/eval/test_eval_velocity_labels.py``). (Before
+  issue 12 it was a position target ``q + qd * dt`` plus ``qd`` as feed-forward, which
+  executed ~1.3x the command.)
 
 Every command is clamped into the joint limits before execution: a position target (with
 no velocity feed-forward on the clamped joints), or a velocity that would leave the limits

@@ -2,7 +2,17 @@
 
 Same trunk and head as :class:`~lfd.models.cnn_dmp.CNNDMPPolicy`; the output is the
 normalised joint velocity ``(n,)``, trained by mean squared error against the
-demonstration's velocity at that step, and executed every control step in closed loop.
+demonstration's velocity *command* at that step (the items' ``command``,
+``(q[t+1] - q[t]) / dt``: :func:`lfd.data.datasets.command_velocities`), and executed every
+control step in closed loop by velocity control for one period, so that commanding the
+labels reproduces the demonstration (about 0.1-0.3 cm from its end point).
+
+The label is not the recorded ``velocities``: those are the joints' instantaneous
+velocities at the sample instants, ~1/8 of their motion per period under the
+demonstrations' position control (the joints move in a burst at the start of each period),
+and commanding them moved the arm ~1/8 of the way (every closed-loop episode ended 25-45 cm
+from its target, as far as the start pose). The output statistics (``velocity_mean`` /
+``velocity_std``) are those of the commands over the train split, computed at fit time.
 
 By default the head also sees the phase ``min(t / duration, 1)`` (``t``: seconds since the
 episode started, the robot's own clock). Without it the baseline cannot leave the start
@@ -23,7 +33,11 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
+from lfd.data.stats import STD_FLOOR
 from lfd.models.policy import VisuomotorPolicy, joint_figure
+
+#: Item key of the training label (rad/s, the velocity to command for the next period).
+LABEL = "command"
 
 
 class VelocityPolicy(VisuomotorPolicy):
@@ -70,9 +84,25 @@ class VelocityPolicy(VisuomotorPolicy):
             return torch.zeros_like(joints)
         return torch.randn_like(joints) * self.hparams.state_noise
 
+    def setup(self, stage: str) -> None:
+        """Lightning hook: the dataset's statistics, then those of the label (the train
+        split's velocity commands) for the output normalisation."""
+        super().setup(stage)
+        if stage != "fit":
+            return
+        train = getattr(self.trainer.datamodule, "datasets", {}).get("train")
+        tensors = getattr(train, "tensors", {})
+        if LABEL not in tensors:
+            raise ValueError(f"VelocityPolicy: the train items have no '{LABEL}' (velocity command) key; got {sorted(tensors)}")
+        command = tensors[LABEL].double()
+        self.velocity_mean.copy_(command.mean(0).float())
+        self.velocity_std.copy_(command.std(0).clamp(min=STD_FLOOR).float())
+
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        if LABEL not in batch:
+            raise ValueError(f"VelocityPolicy: batches need the '{LABEL}' key (rad/s, (B, n)), got {sorted(batch)}")
         noise = self.perturbation(batch["joints"])
-        target = batch["velocity"] - self.hparams.correction_gain * noise  # the expert's correction
+        target = batch[LABEL] - self.hparams.correction_gain * noise  # the expert's correction
         pred_n = self.features(batch["image"], batch["joints"] + noise, self.phase(batch["t"], batch["image"].shape[0]))
         loss = F.mse_loss(pred_n, self.normalise("velocity", target))
         rad_s = (self.denormalise("velocity", pred_n) - target).norm(dim=-1).mean()

@@ -276,8 +276,8 @@ class ReachScene:
     def step_velocity(self, qd_target: np.ndarray) -> None:
         """One control step of velocity control: joint velocities ``qd_target (n_joints,)``
         rad/s (clipped to the velocity limits), within the effort limits, for
-        ``control_dt`` seconds. The velocity policy's actuation: what it commands is what
-        its labels (the demonstrations' measured joint velocities) are."""
+        ``control_dt`` seconds. The velocity policy's actuation: the joints move at the
+        command, as its labels are the demonstrations' joint motion per control period."""
         qd = np.clip(_as_vector(qd_target, self.n_joints, "qd_target"), -self.max_velocities, self.max_velocities)
         p.setJointMotorControlArray(
             self.robot_id,

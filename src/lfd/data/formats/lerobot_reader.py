@@ -203,7 +203,7 @@ class _Data:
 def _velocity_dataset_class():
     import torch
 
-    from lfd.data.datasets import VelocityReachDataset
+    from lfd.data.datasets import VelocityReachDataset, command_velocities
 
     class VelocityDataset(VelocityReachDataset):
         """:class:`~lfd.data.datasets.VelocityReachDataset` items from episodes of any lengths."""
@@ -222,6 +222,7 @@ def _velocity_dataset_class():
             self.tensors = {
                 "joints": cat("joints"),
                 "velocity": cat("velocities"),
+                "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
                 "t": cat("t"),
                 "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(lengths),
                 "step": torch.cat([torch.arange(int(k), dtype=torch.int64) for k in lengths]),
