@@ -49,7 +49,10 @@ def test_layout_and_attributes(tiny, hdf5):
             np.testing.assert_array_equal(demo["next_obs/robot0_joint_pos"][-1], rec.arrays["joints"][-1])
             actions = demo["actions"][()]
             assert actions.shape == (n, 7) and np.abs(actions).max() <= 1.0
-            np.testing.assert_allclose(actions * scale, rec.arrays["velocities"], rtol=1e-12, atol=1e-15)
+            # the velocity commands that reproduce the demonstration: motion per control period
+            period = np.diff(rec.arrays["joints"], axis=0) / np.diff(rec.arrays["t"])[:, None]
+            np.testing.assert_allclose((actions * scale)[:-1], period, rtol=1e-10, atol=1e-12)
+            np.testing.assert_array_equal(actions[-1], 0.0)
             np.testing.assert_array_equal(demo["dones"][()], np.eye(n)[-1])
             assert demo["rewards"][-1] == 1.0 and demo["rewards"][:-1].sum() == 0
             assert demo["states"].shape == (n, 21)

@@ -7,7 +7,7 @@ Layout (robomimic's dataset structure, ``robomimic/docs/datasets/overview``)::
     data/demo_<i>             attrs: num_samples; i = the lfd episode index
         obs/<key>             (N, ...) per step
         next_obs/<key>        obs shifted by one step (the last repeated)
-        actions               (N, 7) joint velocities / action_scale, in [-1, 1]
+        actions               (N, 7) velocity commands / action_scale, in [-1, 1]
         rewards, dones        (N,) 1 at the last step (every demonstration succeeds there)
         states                (N, 21) joints (7), joint velocities (7), object position (3)
                               and quaternion x, y, z, w (4): the simulator state
@@ -96,8 +96,11 @@ def export_robomimic(
 ) -> Path:
     """Export a verified lfd dataset folder to one robomimic HDF5 file ``out``.
 
-    Actions are the demonstrations' joint velocities divided by ``action_scale``, the
-    largest absolute velocity of each joint over the whole dataset, so they lie in
+    Actions are the velocity commands that reproduce the demonstration under velocity control,
+    the joints' mean velocity over each control period
+    (:func:`lfd.data.datasets.command_velocities`; the recorded instantaneous velocities are
+    ~1/8 of it and stay in ``obs/robot0_joint_vel``), divided by ``action_scale``, the
+    largest absolute command of each joint over the whole dataset, so they lie in
     ``[-1, 1]``; ``data.attrs["action_scale"]`` (rad/s) turns them back.
 
     Args:
@@ -118,7 +121,10 @@ def export_robomimic(
     out.parent.mkdir(parents=True, exist_ok=True)
     records = data.episodes[:limit]
     cfg = data.config
-    scale = np.max([np.abs(r.arrays["velocities"]).max(axis=0) for r in records], axis=0)
+    from lfd.data.datasets import command_velocities
+
+    commands = {r.index: command_velocities(r.arrays["joints"], r.arrays["t"]) for r in records}
+    scale = np.max([np.abs(c).max(axis=0) for c in commands.values()], axis=0)
     scale = np.where(scale > 0, scale, 1.0)
     tmp = out.with_name(f".{out.name}.tmp")
     items = records
@@ -141,7 +147,7 @@ def export_robomimic(
                 demo.create_dataset(f"obs/{key}", data=value, **kw)
                 demo.create_dataset(f"next_obs/{key}", data=np.concatenate([value[1:], value[-1:]]), **kw)
             a = r.arrays
-            demo.create_dataset("actions", data=np.asarray(a["velocities"]) / scale)
+            demo.create_dataset("actions", data=commands[r.index] / scale)
             done = np.zeros(n)
             done[-1] = 1.0
             demo.create_dataset("rewards", data=done)
