@@ -27,9 +27,10 @@ DATA = [
     "data.n_test_placements=0",
     "data.progress=false",
 ]
-#: Measured: see docs/evaluation.md ("Slow accuracy test"); thresholds leave a margin.
-MAX_MEAN_DISTANCE_M = 0.09
-MIN_SUCCESS = 0.35
+#: Measured once (2026-12-01, this machine): 6.9 cm mean, 6 of 16 successes (0.38); the
+#: thresholds leave a margin. A policy that ignores the image ends ~15 cm off on average.
+MAX_MEAN_DISTANCE_M = 0.10
+MIN_SUCCESS = 0.25
 
 
 @pytest.mark.slow
