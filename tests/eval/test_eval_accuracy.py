@@ -28,7 +28,7 @@ DATA = [
     "data.progress=false",
 ]
 #: Measured once (2026-12-01, this machine): 6.9 cm mean, 6 of 16 successes (0.38); the
-#: thresholds leave a margin. A policy that ignores the image ends ~15 cm off on average.
+#: thresholds leave a margin.
 MAX_MEAN_DISTANCE_M = 0.10
 MIN_SUCCESS = 0.25
 
