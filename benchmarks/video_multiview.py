@@ -38,7 +38,7 @@ def main() -> dict:
     ap.add_argument("--demo", required=True, type=Path)
     ap.add_argument("--cache", type=Path, default=None)
     ap.add_argument("--width", type=int, default=640)
-    ap.add_argument("--no-repair", action="store_true", help="keep MediaPipe's front/back relabelled frames")
+    ap.add_argument("--repair", action="store_true", help="undo MediaPipe's front/back relabelling (VideoKeypoints.repaired)")
     ap.add_argument("--strategy", default="greedy", choices=("subsets", "greedy"))
     ap.add_argument("--max-error-px", type=float, default=20.0)
     args = ap.parse_args()
@@ -53,7 +53,7 @@ def main() -> dict:
         if cache is not None:
             kp.save(cache)
         kps.append(kp)
-    if not args.no_repair:
+    if args.repair:
         kps = [k.repaired() for k in kps]  # MediaPipe's front/back relabelling undone (VideoKeypoints.repaired)
     T = min(k.n_frames for k in kps)
     pixels = np.stack([k.pixels[:T] for k in kps])

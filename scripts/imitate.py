@@ -195,7 +195,8 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
     kp.to_csv(out / "keypoints.csv")
     kp.save(out / "keypoints.npz")
     a = cfg.analysis
-    analysis = analyze_arm(kp.to_skeleton(float(cfg.pose.min_visibility)), side=cfg.side, body_mass=float(a.body_mass),
+    repair = bool(cfg.pose.get("repair_flips", True))
+    analysis = analyze_arm(kp.to_skeleton(float(cfg.pose.min_visibility), repair), side=cfg.side, body_mass=float(a.body_mass),
                            sex=a.sex, filter=a.filter, cutoff=float(a.cutoff), max_gap=float(a.max_gap))  # fmt: skip
     analysis.save(out, stem="arm", plots=False)
     t, positions = _fill(analysis.t, analysis.positions)
@@ -247,7 +248,7 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
         "video": str(video), "robot": cfg.robot, "side": cfg.side, "frames": kp.n_frames,
         "frames_with_person": int(kp.detected.sum()), "frames_other_person": int(kp.other_person.sum()),
         "pose_fps": kp.fps, "time_scale_factor": factor,
-        "time_scale_factor_retargeted_samples": factor_retargeted, "front_back_flips_repaired": int(kp.front_back_flips().sum()),
+        "time_scale_factor_retargeted_samples": factor_retargeted, "front_back_flips_repaired": int(kp.front_back_flips().sum()) if repair else 0,
         "base_rotation": np.asarray(rt.base_rotation).tolist(), "clamped_frames": int(rt.clamped.sum()),
         "retarget_error_max": float(rt.error.max()),
         "dmp_rmse_rad": float(np.sqrt(np.mean((q_dmp - rt.q) ** 2))),

@@ -340,13 +340,14 @@ class VideoKeypoints:
         out.world[flips, :, 2] *= -1.0
         return out
 
-    def to_skeleton(self, min_visibility: float = 0.5, repair_flips: bool = True) -> Skeleton:
+    def to_skeleton(self, min_visibility: float = 0.5, repair_flips: bool = False) -> Skeleton:
         """A :class:`Skeleton` of the world landmarks with canonical joint names.
 
         Landmarks with visibility below ``min_visibility`` are marked untracked (treated as
         missing by :func:`~lfd.human.analyze_arm`); ``up`` is ``(0, -1, 0)`` (MediaPipe's y
         points down). With ``repair_flips`` the frames MediaPipe labelled back to front are
-        repaired first (:meth:`repaired`). Raises ``ValueError`` when no frame has a person.
+        repaired first (:meth:`repaired`; reliable for a person facing the camera, not for a
+        side view of a walk, where the global labelling is ambiguous). Raises ``ValueError`` when no frame has a person.
         """
         if not 0.0 <= min_visibility <= 1.0:
             raise ValueError(f"min_visibility must be in [0, 1], got {min_visibility!r}")
