@@ -38,6 +38,9 @@ def main() -> dict:
     ap.add_argument("--demo", required=True, type=Path)
     ap.add_argument("--cache", type=Path, default=None)
     ap.add_argument("--width", type=int, default=640)
+    ap.add_argument("--repair", action="store_true", help="undo MediaPipe's front/back relabelling (VideoKeypoints.repaired)")
+    ap.add_argument("--strategy", default="greedy", choices=("subsets", "greedy"))
+    ap.add_argument("--max-error-px", type=float, default=20.0)
     args = ap.parse_args()
     calib = read_calibration(args.demo / "calibration" / "Calib.qca.txt", n_cameras=4)
     kps = []
@@ -50,21 +53,24 @@ def main() -> dict:
         if cache is not None:
             kp.save(cache)
         kps.append(kp)
+    if args.repair:
+        kps = [k.repaired() for k in kps]  # MediaPipe's front/back relabelling undone (VideoKeypoints.repaired)
     T = min(k.n_frames for k in kps)
     pixels = np.stack([k.pixels[:T] for k in kps])
     conf = np.stack([k.visibility[:T] for k in kps])
-    tri = triangulate(calib, pixels, conf)
+    tri = triangulate(calib, pixels, conf, strategy=args.strategy, max_error_px=args.max_error_px)
     arm = [CANONICAL_NAMES.index(f"{p}_{s}") for p in ("shoulder", "elbow", "wrist") for s in ("left", "right")]
     reproj = tri.error[:, arm]
     ref = Skeleton(kps[0].t[:T], CANONICAL_NAMES, tri.points, source="triangulated", up=np.array([0.0, 0.0, 1.0]))
     out = {"frames": T, "reprojection_px_median_arm": float(np.nanmedian(reproj)),
            "reprojection_px_median_all": float(np.nanmedian(tri.error)),
+           "views_per_arm_joint": float(tri.used[:, :, arm].sum(0).mean()),
            "pose_fps": [k.fps for k in kps], "rmse_deg": {}}  # fmt: skip
     rows = []
     for side in ("right", "left"):
         reference = arm_angles(ref, side)
         for name, kp in zip(calib.names, kps):
-            mono = arm_angles(kp.to_skeleton(), side)[:T]
+            mono = arm_angles(kp.to_skeleton(repair_flips=False), side)[:T]  # already repaired (or not)
             ok = np.isfinite(mono).all(1) & np.isfinite(reference).all(1)
             rmse = np.sqrt(np.mean((mono[ok] - reference[ok]) ** 2, axis=0))
             out["rmse_deg"][f"{name}_{side}"] = {"elbow_flexion": float(rmse[0]), "shoulder_elevation": float(rmse[1]),

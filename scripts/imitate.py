@@ -7,7 +7,7 @@ Usage::
 
 Chain: video -> MediaPipe pose (progress bar over frames) -> :func:`lfd.human.analyze_arm`
 (angles, torques) -> retargeting (:mod:`lfd.human.retarget`: WAM posture or 7-DoF wrist
-path), time-scaled to the velocity limits -> DMP fitted to the joint trajectory -> PyBullet
+path) -> DMP fitted to the joint trajectory, time-scaled so its rollout keeps the velocity limits -> PyBullet
 rollout under position control with the URDF limits -> side-by-side video (the frame with
 the detected arm drawn, the robot in simulation). With ``goal=`` (tool position in the robot
 base frame) the DMP is rolled out towards the IK solution of that goal as well.
@@ -50,7 +50,7 @@ def retarget(cfg: DictConfig, t: np.ndarray, positions: np.ndarray):
 
     s, e, w = positions[:, 0], positions[:, 1], positions[:, 2]
     if cfg.robot == "wam4":
-        return retarget_wam4(s, e, w, side=cfg.side)
+        return retarget_wam4(s, e, w, side=cfg.side, mount=str(cfg.get("wam_mount", "auto")), t=t)
     return retarget_wrist_path(s, e, w, robot=cfg.robot)
 
 
@@ -195,14 +195,21 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
     kp.to_csv(out / "keypoints.csv")
     kp.save(out / "keypoints.npz")
     a = cfg.analysis
-    analysis = analyze_arm(kp.to_skeleton(float(cfg.pose.min_visibility)), side=cfg.side, body_mass=float(a.body_mass),
+    repair = bool(cfg.pose.get("repair_flips", True))
+    analysis = analyze_arm(kp.to_skeleton(float(cfg.pose.min_visibility), repair), side=cfg.side, body_mass=float(a.body_mass),
                            sex=a.sex, filter=a.filter, cutoff=float(a.cutoff), max_gap=float(a.max_gap))  # fmt: skip
     analysis.save(out, stem="arm", plots=False)
     t, positions = _fill(analysis.t, analysis.positions)
     frame_of = kp.frame_index[np.searchsorted(kp.t, t)]
     rt = retarget(cfg, t, positions)
     robot = load_robot(cfg.robot)
-    t_robot, factor = time_scale(t, rt.q, robot.velocity_limits.numpy())
+    # The robot executes the DMP, so its rollout (not the frame-to-frame retargeted samples, whose
+    # single-frame pose glitches the DMP smooths away) must respect the velocity limits; a DMP is
+    # invariant to a uniform time stretch, so the factor found in video time holds after it.
+    _, factor_retargeted = time_scale(t, rt.q, robot.velocity_limits.numpy())
+    q_video = np.clip(np.asarray(DMP(n_basis=int(cfg.dmp.n_basis)).fit(t, rt.q).rollout(t)), robot.lower.numpy(),
+                      robot.upper.numpy())  # fmt: skip
+    t_robot, factor = time_scale(t, q_video, robot.velocity_limits.numpy())
     dmp = DMP(n_basis=int(cfg.dmp.n_basis)).fit(t_robot, rt.q)
     dmp.save(out / "dmp.npz")
     q_dmp = np.asarray(dmp.rollout(t_robot))
@@ -240,7 +247,9 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
     summary = {
         "video": str(video), "robot": cfg.robot, "side": cfg.side, "frames": kp.n_frames,
         "frames_with_person": int(kp.detected.sum()), "frames_other_person": int(kp.other_person.sum()),
-        "pose_fps": kp.fps, "time_scale_factor": factor, "clamped_frames": int(rt.clamped.sum()),
+        "pose_fps": kp.fps, "time_scale_factor": factor,
+        "time_scale_factor_retargeted_samples": factor_retargeted, "front_back_flips_repaired": int(kp.front_back_flips().sum()) if repair else 0,
+        "base_rotation": np.asarray(rt.base_rotation).tolist(), "clamped_frames": int(rt.clamped.sum()),
         "retarget_error_max": float(rt.error.max()),
         "dmp_rmse_rad": float(np.sqrt(np.mean((q_dmp - rt.q) ** 2))),
         "executed_rmse_rad": rmse,

@@ -103,24 +103,32 @@ def _check_points(**points) -> int:
     return shape[0]
 
 
-def retarget_wam4(shoulder, elbow, wrist, side: str = "right", *, singular_deg: float = 10.0) -> RetargetResult:
-    """WAM 4-DoF joint angles reproducing the arm posture (see module docstring).
+def _fibonacci_sphere(n: int) -> np.ndarray:
+    """(n, 3) nearly uniform unit vectors."""
+    i = np.arange(n) + 0.5
+    z = 1 - 2 * i / n
+    phi = np.pi * (1 + 5**0.5) * i
+    r = np.sqrt(1 - z * z)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], 1)
 
-    Args:
-        shoulder, elbow, wrist: (T, 3) m in the trunk frame.
-        side: ``"right"`` or ``"left"`` (the left arm is mirrored onto a right-side mount).
-        singular_deg: upper arm within this angle of the mount axis = singular (q1 interpolated).
 
-    Returns:
-        :class:`RetargetResult` with ``q`` (T, 4) rad; ``error`` is the angle (rad) between
-        the robot's and the person's forearm direction after clamping (0 when in range).
-    """
-    n = _check_points(shoulder=shoulder, elbow=elbow, wrist=wrist)
-    s, e, w = (mirror(np.asarray(x, float), side) for x in (shoulder, elbow, wrist))
-    robot = load_robot("wam4")
+def _mount_about(axis: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Mount with base ``z = axis`` and ``x`` towards the mean azimuth of ``u`` (q1 centred on 0)."""
+    z = axis / np.linalg.norm(axis)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    x0 = _unit(helper - z * (helper @ z))
+    y0 = np.cross(z, x0)
+    az = np.arctan2(u @ y0, u @ x0)
+    mean = np.arctan2(np.sin(az).mean(), np.cos(az).mean())
+    x = np.cos(mean) * x0 + np.sin(mean) * y0
+    return np.stack([x, np.cross(z, x), z], 1)
+
+
+def _wam_posture(s, e, w, mount, singular_deg, robot):
+    n = len(s)
     lo, hi = robot.lower.numpy(), robot.upper.numpy()
-    u = _unit(e - s) @ WAM_MOUNT  # mount-frame coordinates
-    f = _unit(w - e) @ WAM_MOUNT
+    u = _unit(e - s) @ mount  # mount-frame coordinates
+    f = _unit(w - e) @ mount
     q2a = np.arccos(np.clip(u[:, 2], -1.0, 1.0))
     q1a = np.arctan2(u[:, 1], u[:, 0])
     singular = np.sin(q2a) < np.sin(np.deg2rad(singular_deg))
@@ -164,8 +172,70 @@ def retarget_wam4(shoulder, elbow, wrist, side: str = "right", *, singular_deg: 
     q = limited
     tool = robot.fk(torch.from_numpy(q)).numpy()[:, :3, 2]
     err = np.arccos(np.clip((tool * f).sum(1), -1.0, 1.0))
-    return RetargetResult(q, clamped, singular | straight, f, err, 1.0, "wam4", WAM_MOUNT if side == "right" else
-                          np.diag([1.0, -1.0, 1.0]) @ WAM_MOUNT)  # fmt: skip
+    return q, clamped, singular | straight, f, err
+
+
+def _speed_ratio(q: np.ndarray, t: np.ndarray | None, vmax: np.ndarray) -> float:
+    """Largest |dq/dt| / velocity limit (per frame when ``t`` is None)."""
+    if len(q) < 2:
+        return 0.0
+    qd = np.gradient(q, axis=0) if t is None else np.gradient(q, t, axis=0)
+    return float(np.max(np.abs(qd) / vmax))
+
+
+def retarget_wam4(
+    shoulder, elbow, wrist, side: str = "right", *, singular_deg: float = 10.0, mount="side", t=None,
+    n_mounts: int = 300,
+) -> RetargetResult:
+    """WAM 4-DoF joint angles reproducing the arm posture (see module docstring).
+
+    Args:
+        shoulder, elbow, wrist: (T, 3) m in the trunk frame.
+        side: ``"right"`` or ``"left"`` (the left arm is mirrored onto a right-side mount).
+        singular_deg: upper arm within this angle of the mount axis = singular (q1 interpolated).
+        mount: orientation of the WAM base at the person's shoulder (columns: base axes in the
+            right-arm trunk frame). ``"side"`` = :data:`WAM_MOUNT` (base ``z`` laterally outward);
+            a (3, 3) rotation; or ``"auto"``: of ``n_mounts`` base ``z`` directions spread over the
+            sphere (``x`` turned so that ``q1`` is centred on the motion's mean azimuth), the one
+            whose posture mapping clamps the fewest frames and, among those, needs the least time
+            scaling (smallest peak joint speed / velocity limit). A motion that sweeps the arm through
+            the side mount's singular direction (arm straight out sideways) then gets a mount whose
+            singular axis lies away from the demonstrated upper-arm directions.
+        t: (T,) s, frame times for ``mount="auto"`` (uniform frames when None).
+        n_mounts: candidates of ``mount="auto"``.
+
+    Returns:
+        :class:`RetargetResult` with ``q`` (T, 4) rad; ``error`` is the angle (rad) between
+        the robot's and the person's forearm direction after clamping (0 when in range);
+        ``base_rotation`` is the mount used (mirrored for the left arm).
+    """
+    n = _check_points(shoulder=shoulder, elbow=elbow, wrist=wrist)
+    s, e, w = (mirror(np.asarray(x, float), side) for x in (shoulder, elbow, wrist))
+    robot = load_robot("wam4")
+    if isinstance(mount, str):
+        if mount == "side":
+            mount = WAM_MOUNT
+        elif mount == "auto":
+            if t is not None and np.shape(t) != (n,):
+                raise ValueError(f"t must have shape ({n},) (frame times in s), got {np.shape(t)}")
+            vmax = robot.velocity_limits.numpy()
+            u = _unit(e - s)
+            best = None
+            for axis in np.concatenate([WAM_MOUNT[:, 2:].T, _fibonacci_sphere(int(n_mounts))]):
+                m = WAM_MOUNT if best is None else _mount_about(axis, u)
+                q, clamped = _wam_posture(s, e, w, m, singular_deg, robot)[:2]
+                key = (int(clamped.sum()), _speed_ratio(q, None if t is None else np.asarray(t, float), vmax))
+                if best is None or key < best[0]:
+                    best = (key, m)
+            mount = best[1]
+        else:
+            raise ValueError(f"mount must be 'side', 'auto' or a (3, 3) rotation, got {mount!r}")
+    mount = np.asarray(mount, float)
+    if mount.shape != (3, 3) or not np.allclose(mount.T @ mount, np.eye(3), atol=1e-6) or np.linalg.det(mount) < 0:
+        raise ValueError(f"mount must be a (3, 3) rotation matrix (columns = base axes), got {mount.tolist()}")
+    q, clamped, singular, f, err = _wam_posture(s, e, w, mount, singular_deg, robot)
+    return RetargetResult(q, clamped, singular, f, err, 1.0, "wam4", mount if side == "right" else
+                          np.diag([1.0, -1.0, 1.0]) @ mount)  # fmt: skip
 
 
 def _shoulder_and_reach(robot) -> tuple[np.ndarray, float]:

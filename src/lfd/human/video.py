@@ -59,6 +59,12 @@ MEDIAPIPE_LANDMARKS = (
 )  # fmt: skip
 _CANONICAL_OVERRIDES = {"left_index": "hand_tip_left", "right_index": "hand_tip_right", "nose": "head"}
 CANONICAL_NAMES = tuple(_CANONICAL_OVERRIDES.get(n, canonical_joint_name(n)) for n in MEDIAPIPE_LANDMARKS)
+# Left/right landmark pairs (index into the 33) that decide a front/back relabelling.
+# The trunk (shoulders, hips): arms move fast and legs cross in a side view of a walk.
+_LEFT = [MEDIAPIPE_LANDMARKS.index(f"left_{n}") for n in ("shoulder", "hip")]
+_RIGHT = [MEDIAPIPE_LANDMARKS.index(MEDIAPIPE_LANDMARKS[i].replace("left", "right")) for i in _LEFT]
+_ALL_LEFT = [i for i, n in enumerate(MEDIAPIPE_LANDMARKS) if "left" in n]
+_ALL_RIGHT = [MEDIAPIPE_LANDMARKS.index(MEDIAPIPE_LANDMARKS[i].replace("left", "right")) for i in _ALL_LEFT]
 _TORSO = [MEDIAPIPE_LANDMARKS.index(n) for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 # Connections drawn on the video frame (arm and torso).
 ARM_EDGES = ((11, 13), (13, 15), (12, 14), (14, 16), (11, 12), (11, 23), (12, 24), (23, 24), (15, 19), (16, 20))
@@ -279,19 +285,77 @@ class VideoKeypoints:
         """Frames processed per second of wall time (estimation speed)."""
         return self.n_frames / self.seconds if self.seconds > 0 else float("nan")
 
-    def to_skeleton(self, min_visibility: float = 0.5) -> Skeleton:
+    def front_back_flips(self, switch: float = 0.5) -> np.ndarray:
+        """(T,) bool: frames whose left/right labels MediaPipe swapped (front/back confusion).
+
+        BlazePose sometimes decides in one frame that a person facing the camera has turned
+        their back to it (or the reverse): every left landmark takes the right one's place in
+        the image. A real turn moves the landmarks continuously, so the labelling of each
+        detected frame (as given, or swapped) is chosen by dynamic programming to minimise the
+        summed pixel distance of the trunk landmarks (shoulders, hips) from one detected frame to
+        the next, plus ``switch`` torso lengths for every change of labelling (so ambiguous,
+        side-on frames do not toggle it); of the two global labellings the one MediaPipe gave
+        for most frames is kept. Returns the frames to swap.
+        """
+        if switch < 0:
+            raise ValueError(f"switch must be >= 0 (torso lengths per change of labelling), got {switch!r}")
+        frames = np.nonzero(self.detected)[0]
+        flips = np.zeros(self.n_frames, bool)
+        if len(frames) == 0:
+            return flips
+        px = self.pixels[frames]
+        torso = np.median([_torso(p)[1] for p in px])
+        direct = (np.linalg.norm(px[1:, _LEFT] - px[:-1, _LEFT], axis=-1)
+                  + np.linalg.norm(px[1:, _RIGHT] - px[:-1, _RIGHT], axis=-1)).sum(1)  # fmt: skip
+        cross = (np.linalg.norm(px[1:, _RIGHT] - px[:-1, _LEFT], axis=-1)
+                 + np.linalg.norm(px[1:, _LEFT] - px[:-1, _RIGHT], axis=-1)).sum(1)  # fmt: skip
+        direct, cross = np.nan_to_num(direct, nan=0.0), np.nan_to_num(cross, nan=0.0)
+        n = len(frames)
+        cost = np.zeros(2)  # state 0: labels as given, 1: swapped
+        back = np.zeros((n, 2), int)
+        for i in range(1, n):
+            stay = cost + direct[i - 1]  # same state as the previous frame
+            move = cost[::-1] + cross[i - 1] + switch * torso  # the other state
+            back[i] = np.where(stay <= move, [0, 1], [1, 0])
+            cost = np.minimum(stay, move)
+        state = np.zeros(n, int)
+        state[-1] = int(np.argmin(cost))
+        for i in range(n - 1, 0, -1):
+            state[i - 1] = back[i, state[i]]
+        flips[frames] = state.astype(bool)
+        if flips[frames].mean() > 0.5:
+            flips[frames] = ~flips[frames]
+        return flips
+
+    def repaired(self, switch: float = 0.5) -> VideoKeypoints:
+        """A copy with the :meth:`front_back_flips` undone: left/right landmarks swapped back and
+        the world landmarks' depth mirrored (``z -> -z`` about the hips: the relabelled estimate
+        is the mirror image of the person through the image plane)."""
+        flips = self.front_back_flips(switch)
+        out = dataclasses.replace(self, pixels=self.pixels.copy(), visibility=self.visibility.copy(), world=self.world.copy())
+        for arr in (out.pixels, out.visibility, out.world):
+            sub = arr[flips]
+            sub[:, _ALL_LEFT], sub[:, _ALL_RIGHT] = arr[flips][:, _ALL_RIGHT], arr[flips][:, _ALL_LEFT]
+            arr[flips] = sub
+        out.world[flips, :, 2] *= -1.0
+        return out
+
+    def to_skeleton(self, min_visibility: float = 0.5, repair_flips: bool = False) -> Skeleton:
         """A :class:`Skeleton` of the world landmarks with canonical joint names.
 
         Landmarks with visibility below ``min_visibility`` are marked untracked (treated as
         missing by :func:`~lfd.human.analyze_arm`); ``up`` is ``(0, -1, 0)`` (MediaPipe's y
-        points down). Raises ``ValueError`` when no frame has a person.
+        points down). With ``repair_flips`` the frames MediaPipe labelled back to front are
+        repaired first (:meth:`repaired`; reliable for a person facing the camera, not for a
+        side view of a walk, where the global labelling is ambiguous). Raises ``ValueError`` when no frame has a person.
         """
         if not 0.0 <= min_visibility <= 1.0:
             raise ValueError(f"min_visibility must be in [0, 1], got {min_visibility!r}")
         if not self.detected.any():
             raise ValueError(f"no person found in any of the {self.n_frames} frames of {self.source or 'the video'}")
-        tracked = (self.visibility >= min_visibility) & self.detected[:, None]
-        return Skeleton(self.t, CANONICAL_NAMES, self.world, tracked, source=f"{self.source} (mediapipe)",
+        kp = self.repaired() if repair_flips else self
+        tracked = (kp.visibility >= min_visibility) & kp.detected[:, None]
+        return Skeleton(kp.t, CANONICAL_NAMES, kp.world, tracked, source=f"{kp.source} (mediapipe)",
                         up=np.array([0.0, -1.0, 0.0]))  # fmt: skip
 
     def points(self, names) -> tuple[np.ndarray, np.ndarray]:

@@ -86,3 +86,33 @@ def test_time_scale_respects_velocity_limits():
     qd = np.gradient(q, ts, axis=0)
     assert np.abs(qd).max() <= 2.0 + 1e-9
     assert time_scale(t, 0.1 * q, [2.0, 2.0])[1] == 1.0
+
+
+def test_wam_auto_mount_avoids_the_side_mounts_singularity():
+    # Jumping-jack-like sweep in the frontal plane: the upper arm goes from overhead, through
+    # straight out sideways (the side mount's singular axis), to hanging, elbow bent 30 deg.
+    t = np.arange(60) / 30.0
+    a = np.linspace(0.2, np.pi - 0.2, len(t))  # angle from straight up
+    upper = np.stack([np.zeros_like(a), -np.sin(a), np.cos(a)], 1) * 0.3
+    fore_dir = np.stack([np.full_like(a, np.sin(np.pi / 6)), -np.sin(a) * np.cos(np.pi / 6),
+                         np.cos(a) * np.cos(np.pi / 6)], 1)  # fmt: skip
+    s = np.tile([0.0, -0.18, 0.0], (len(t), 1))
+    e = s + upper
+    w = e + 0.26 * fore_dir / np.linalg.norm(fore_dir, axis=1, keepdims=True)
+    robot = load_robot("wam4")
+    vmax = robot.velocity_limits.numpy()
+    side = retarget_wam4(s, e, w)
+    auto = retarget_wam4(s, e, w, mount="auto", t=t)
+    f_side, f_auto = time_scale(t, side.q, vmax)[1], time_scale(t, auto.q, vmax)[1]
+    assert f_auto < 0.5 * f_side, (f_auto, f_side)
+    assert f_auto < 2.0 and not auto.clamped.any() and not auto.singular.any()
+    rot = auto.base_rotation
+    np.testing.assert_allclose(rot.T @ rot, np.eye(3), atol=1e-9)
+    assert np.linalg.det(rot) > 0
+    frames = robot.fk(torch.from_numpy(auto.q), all_links=True).numpy()
+    up_dir = frames[:, 2, :3, 2] @ rot.T
+    assert np.degrees(np.arccos(np.clip((up_dir * upper / 0.3).sum(1), -1, 1))).max() < 0.01
+    with pytest.raises(ValueError, match="mount must be"):
+        retarget_wam4(s, e, w, mount="upside")
+    with pytest.raises(ValueError, match="rotation matrix"):
+        retarget_wam4(s, e, w, mount=np.eye(3) * 2)
