@@ -72,7 +72,7 @@ def test_trajectory_loss_covers_rest_samples_after_the_demonstration(dmp_policy,
     ~1e-4 rad here), and for a wrong goal it counts the rest samples too."""
     batch = dmp_batch()
     pred = {"goal": batch["goal"], "weights": batch["weights"]}
-    monkeypatch.setattr(dmp_policy, "predict_params", lambda image, joints: (pred["goal"], pred["weights"]))
+    monkeypatch.setattr(dmp_policy, "head_outputs", lambda image, joints, top=None: (torch.cat([pred["goal"], pred["weights"].flatten(1)], 1), torch.zeros(len(joints), 0)))
     dmp_policy.hparams.ee_weight = 0.0
     for rest in (0, 8):
         dmp_policy.hparams.rest_steps = rest
@@ -201,6 +201,69 @@ def test_velocity_policy_sees_the_phase_of_the_episode():
     blind = VelocityPolicy(name="velocity", phase_input=False, **SMALL)
     assert blind.head[0].in_features == vel.head[0].in_features - 1
     np.testing.assert_allclose(blind.act(frame, q), blind.act(frame, q, 0.5))
+
+
+def test_auxiliary_labels_train_the_shared_features_and_are_checked():
+    """aux_weight > 0: the head's extra outputs learn the approach mode and target point,
+    their loss reaches the trunk, and the policy's outputs keep their shape."""
+    torch.manual_seed(0)
+    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=1.0, global_pool=True, **SMALL)
+    assert policy.n_aux == 4 and "target_point" in policy.stat_names
+    batch = dmp_batch()
+    with pytest.raises(ValueError, match="'top'"):
+        policy.losses(batch)
+    batch["top"] = torch.tensor([1.0, 0.0, 1.0])
+    batch["target_point"] = torch.tensor([[0.5, 0.0, -0.2], [0.6, 0.1, -0.3], [0.55, -0.1, -0.25]])
+    policy.target_point_mean.copy_(batch["target_point"].mean(0))
+    policy.target_point_std.copy_(batch["target_point"].std(0))
+    policy.train()
+    losses = policy.losses(batch)
+    no_aux = losses["loss"] - policy.hparams.aux_weight * losses["aux_loss"]
+    assert losses["aux_loss"] > 0 and losses["loss"] > no_aux
+    losses["aux_loss"].backward()
+    assert policy.encoder.convs[0].weight.grad.abs().sum() > 0
+    # a few steps on the auxiliary loss alone bring the mode error to 0
+    opt = torch.optim.Adam(policy.parameters(), lr=1e-2)
+    for _ in range(60):
+        opt.zero_grad()
+        policy.losses(batch)["aux_loss"].backward()
+        opt.step()
+    assert policy.losses(batch)["aux_mode_error"] == 0
+    assert policy(batch["image"], batch["joints"]).shape == (3, 12, 7)
+    with pytest.raises(ValueError, match="aux_weight"):
+        CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=-1.0, **SMALL)
+    velocity = VelocityPolicy(name="velocity", aux_weight=0.5, **SMALL)
+    assert velocity.head[-1].out_features == 7 + 4
+
+
+def test_mode_heads_follow_the_demonstrated_mode_in_training_and_the_logit_at_run_time():
+    torch.manual_seed(0)
+    with pytest.raises(ValueError, match="mode_heads"):
+        CNNDMPPolicy(name="cnn_dmp", n_basis=5, mode_heads=True, **SMALL)
+    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=1.0, mode_heads=True, **SMALL).eval()
+    k = 7 + 7 * 5
+    assert policy.head[-1].out_features == 2 * k + 4
+    batch = dmp_batch()
+    raw = {}
+    policy.head.register_forward_hook(lambda mod, inp, out: raw.update(out=out))
+    side, aux = policy.head_outputs(batch["image"], batch["joints"], top=torch.zeros(3))
+    torch.testing.assert_close(side, raw["out"][:, :k])
+    top, _ = policy.head_outputs(batch["image"], batch["joints"], top=torch.ones(3))
+    torch.testing.assert_close(top, raw["out"][:, k : 2 * k])
+    chosen, aux = policy.head_outputs(batch["image"], batch["joints"])
+    for i in range(3):
+        torch.testing.assert_close(chosen[i], (top if aux[i, 0] > 0 else side)[i])
+    # the losses train the head of each demonstration's own mode
+    batch["top"] = torch.tensor([1.0, 0.0, 1.0])
+    batch["target_point"] = torch.zeros(3, 3)
+    policy.train()
+    policy.losses(batch)["loss"].backward()
+    grad = policy.head[-1].weight.grad
+    assert grad[:k].abs().sum() > 0 and grad[k : 2 * k].abs().sum() > 0
+    policy.zero_grad()
+    batch["top"] = torch.zeros(3)
+    policy.losses(batch)["loss"].backward()
+    assert policy.head[-1].weight.grad[k : 2 * k].abs().sum() == 0
 
 
 def test_kinds_and_item_modes():

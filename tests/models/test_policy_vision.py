@@ -49,6 +49,27 @@ def test_keypoint_encoder_shapes_and_range():
     assert out.abs().max() <= 1.0
 
 
+def test_global_pool_appends_each_channels_maximum():
+    torch.manual_seed(0)
+    enc = KeypointEncoder(channels=(4, 8), global_pool=True)
+    image = torch.rand(2, 3, 20, 20)
+    out = enc(image)
+    assert out.shape == (2, 24) and enc.out_dim == 24
+    maps = enc.convs(image - 0.5)
+    torch.testing.assert_close(out[:, 16:], maps.flatten(2).max(dim=2).values)
+    torch.testing.assert_close(out[:, :16], enc.softargmax(maps))
+    # the keypoints alone cannot tell a faint feature from a strong one at the same place; the maxima can
+    with torch.no_grad():
+        scaled = KeypointEncoder(channels=(4, 8), global_pool=True)
+        scaled.load_state_dict(enc.state_dict())
+        scaled.convs[-1].weight.mul_(3.0)
+        scaled.convs[-1].bias.mul_(3.0)
+        scaled.softargmax.log_temperature.add_(np.log(3.0))
+    other = scaled(image)
+    torch.testing.assert_close(other[:, :16], out[:, :16])
+    torch.testing.assert_close(other[:, 16:], 3.0 * out[:, 16:])
+
+
 def test_image_to_tensor_accepts_rendered_and_dataset_layouts():
     frame = np.random.default_rng(0).integers(0, 256, size=(12, 10, 3), dtype=np.uint8)
     t = image_to_tensor(frame)

@@ -128,6 +128,11 @@ def command_velocities(joints: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
+def _top(records: list[EpisodeRecord]) -> torch.Tensor:
+    """``(N,)`` float32: 1 for the episodes approached from the top, 0 from the side."""
+    return torch.tensor([str(r.arrays["approach_mode"]) == "top" for r in records], dtype=torch.float32)
+
+
 def _stack(records: list[EpisodeRecord], key: str) -> torch.Tensor:
     return torch.from_numpy(np.stack([r.arrays[key] for r in records])).float()
 
@@ -147,6 +152,7 @@ class DMPReachDataset(Dataset):
         trajectory    (T, 7)     demonstrated joint angles, rad
         ee_path       (T, 3)     demonstrated tool positions, m (torso frame)
         target_point  (3,)       grasp target point, m (torso frame)
+        top           ()         1 if the demonstration approaches from the top, else 0
         index         ()         int64 episode index
     """
 
@@ -166,6 +172,7 @@ class DMPReachDataset(Dataset):
             "trajectory": _stack(records, "joints"),
             "ee_path": _stack(records, "ee_poses")[:, :, :3, 3],
             "target_point": _stack(records, "target_point"),
+            "top": _top(records),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64),
         }
 
@@ -190,6 +197,8 @@ class VelocityReachDataset(Dataset):
                              the control period after step t, moves the joints as the
                              demonstration did (0 at the last step; :func:`command_velocities`)
         t         ()         time of step t, s
+        target_point  (3,)   the episode's grasp target point, m (training-only label)
+        top       ()         1 if the episode approaches from the top, else 0 (training-only label)
         index     ()         int64 episode index
         step      ()         int64 step t
     """
@@ -206,6 +215,8 @@ class VelocityReachDataset(Dataset):
             "velocity": _stack(records, "velocities").reshape(-1, 7),
             "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
             "t": _stack(records, "t").reshape(-1),
+            "target_point": _stack(records, "target_point").repeat_interleave(steps, dim=0),
+            "top": _top(records).repeat_interleave(steps),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(steps),
             "step": torch.arange(steps, dtype=torch.int64).repeat(len(records)),
         }

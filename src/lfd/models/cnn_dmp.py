@@ -104,7 +104,9 @@ class CNNDMPPolicy(VisuomotorPolicy):
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         joints = batch["joints"]
-        goal_n, weights_n = self.predict_params(batch["image"], joints)
+        out, aux = self.head_outputs(batch["image"], joints, top=batch.get("top") if self.n_heads > 1 else None)
+        n = self.hparams.n_joints
+        goal_n, weights_n = out[:, :n], out[:, n:].reshape(-1, n, self.hparams.n_basis)
         goal_err = F.mse_loss(goal_n, self.normalise("goal", batch["goal"]))
         weights_err = F.mse_loss(weights_n, self.normalise("weights", batch["weights"]))
         rest = self.hparams.rest_steps
@@ -128,6 +130,9 @@ class CNNDMPPolicy(VisuomotorPolicy):
             out["loss"] = (sq * weights).mean() / weights.mean()
             if self.hparams.ee_weight > 0:
                 out["loss"] = out["loss"] + self.hparams.ee_weight * out["ee_mse"]
+        out.update(self.aux_losses(aux, batch))
+        if "aux_loss" in out:
+            out["loss"] = out["loss"] + self.hparams.aux_weight * out["aux_loss"]
         return out
 
     def time_weights(self) -> torch.Tensor:

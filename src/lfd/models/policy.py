@@ -18,6 +18,7 @@ import lightning as L
 import numpy as np
 import torch
 from torch import nn
+from torch.nn import functional as F
 
 from lfd.models.training import SCHEDULERS, make_optimizer
 from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_colour_channels
@@ -26,6 +27,8 @@ from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_col
 ONECYCLE_PCT_START = 0.3
 #: Hyper-parameters that must equal the dataset's (``GeneratorConfig``) ones.
 DATA_KEYS = ("image_size", "duration", "n_steps", "robot")
+#: Auxiliary head outputs with ``aux_weight > 0``: the top-approach logit, the normalised target point (3).
+AUX_DIM = 4
 #: Checkpoint key of the training dataset's fingerprint.
 FINGERPRINT_KEY = "lfd_dataset_fingerprint"
 
@@ -52,6 +55,18 @@ class VisuomotorPolicy(L.LightningModule):
         n_joints: arm degrees of freedom.
         colour_augment: shuffle the RGB channels of each training image
             (:func:`~lfd.models.vision.permute_colour_channels`).
+        global_pool: the encoder also gives each channel's spatial maximum
+            (:class:`~lfd.models.vision.KeypointEncoder`).
+        aux_weight: weight of the auxiliary losses on training-only labels (0: none). The
+            head gets :data:`AUX_DIM` more outputs, trained to give the demonstration's
+            approach mode (logit of "top", binary cross-entropy) and its grasp target point
+            (normalised, mean squared error). They are never used at run time: they make the
+            shared features encode *what* the object is and *where* its target lies.
+        mode_heads: one output head per approach mode (side, top) instead of one for both
+            (needs ``aux_weight > 0``: the auxiliary mode logit picks the head at run time;
+            in training the demonstration's own mode does). A single regression head
+            blends the two modes' very different postures where it is unsure of the mode,
+            which is wrong for both; two heads each learn one mode's smooth mapping.
         plot_every_n_val: a validation sample plot goes to TensorBoard at every this many
             validation runs (0: never).
         kind: when given (from a checkpoint), must equal the class's :attr:`kind` (checked
@@ -86,6 +101,9 @@ class VisuomotorPolicy(L.LightningModule):
         n_joints: int = 7,
         plot_every_n_val: int = 5,
         colour_augment: bool = False,
+        global_pool: bool = False,
+        aux_weight: float = 0.0,
+        mode_heads: bool = False,
         kind: str | None = None,
         **unknown,
     ) -> None:
@@ -96,12 +114,16 @@ class VisuomotorPolicy(L.LightningModule):
             raise TypeError(f"{type(self).__name__}: unexpected arguments {sorted(unknown)}")
         if scheduler not in SCHEDULERS:
             raise ValueError(f"{type(self).__name__}.scheduler: expected one of {SCHEDULERS}, got {scheduler!r}")
+        if not aux_weight >= 0:
+            raise ValueError(f"{type(self).__name__}.aux_weight: expected a number >= 0, got {aux_weight}")
+        if mode_heads and not aux_weight > 0:
+            raise ValueError(f"{type(self).__name__}.mode_heads: needs aux_weight > 0 (the mode logit picks the head), got aux_weight={aux_weight}")
         if n_steps < 2 or not duration > 0:
             raise ValueError(f"{type(self).__name__}: need n_steps >= 2 and duration > 0, got {n_steps}, {duration}")
         self.save_hyperparameters(ignore=["name"])
         self.hparams["kind"] = self.kind
         self.config_name = name or self.kind
-        self.encoder = KeypointEncoder(channels, temperature)
+        self.encoder = KeypointEncoder(channels, temperature, global_pool=global_pool)
         self.bias_input = nn.Parameter(torch.zeros(bias_dim))
         self._robot = None
         self._val_runs = 0
@@ -112,7 +134,12 @@ class VisuomotorPolicy(L.LightningModule):
         and bias, see :meth:`features`), and one persistent (mean, std) buffer pair per
         statistic."""
         hp = self.hparams
-        self.head = mlp(self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs, hp.hidden, output_dim)
+        self.output_dim = output_dim
+        self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
+        self.n_heads = 2 if hp.get("mode_heads", False) else 1
+        self.head = mlp(self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs, hp.hidden, self.n_heads * output_dim + self.n_aux)
+        if self.n_aux:
+            stat_shapes = {**stat_shapes, "target_point": (3,)}
         self.stat_names = tuple(stat_shapes)
         for stat, shape in stat_shapes.items():
             self.register_buffer(f"{stat}_mean", torch.zeros(shape))
@@ -139,15 +166,47 @@ class VisuomotorPolicy(L.LightningModule):
     def denormalise(self, stat: str, x: torch.Tensor) -> torch.Tensor:
         return x * getattr(self, f"{stat}_std") + getattr(self, f"{stat}_mean")
 
-    def features(self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
-        """Head output ``(B, output_dim)`` for images ``(B, 3, H, W)`` in [0, 1], joints
-        ``(B, n)`` rad and, when the head was built with ``extra_inputs``, those inputs ``(B, e)``."""
+    def head_outputs(
+        self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None, top: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Head outputs for images ``(B, 3, H, W)`` in [0, 1], joints ``(B, n)`` rad and, when
+        the head was built with ``extra_inputs``, those inputs ``(B, e)``: the policy's
+        ``(B, output_dim)`` and the auxiliary ``(B, n_aux)`` (``n_aux = 0`` without ``aux_weight``).
+
+        With ``mode_heads`` the policy's output is that of the head of mode ``top`` (``(B,)``,
+        1 = top; training passes the demonstrations' modes) or, when ``top`` is None, of the
+        mode the auxiliary logit predicts."""
         keypoints = self.encoder(image)
         bias = self.bias_input.expand(image.shape[0], -1)
         parts = [keypoints, self.normalise("joints", joints), bias]
         if extra is not None:
             parts.append(extra)
-        return self.head(torch.cat(parts, dim=1))
+        out = self.head(torch.cat(parts, dim=1))
+        k = self.n_heads * self.output_dim
+        main, aux = out[:, :k], out[:, k:]
+        if self.n_heads == 1:
+            return main, aux
+        pick = (aux[:, 0] > 0) if top is None else (top > 0.5)
+        heads = main.view(-1, self.n_heads, self.output_dim)
+        return heads[torch.arange(len(heads), device=heads.device), pick.long()], aux
+
+    def features(self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
+        """The policy's head output ``(B, output_dim)`` (see :meth:`head_outputs`)."""
+        return self.head_outputs(image, joints, extra)[0]
+
+    def aux_losses(self, aux: torch.Tensor, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """Auxiliary losses of the ``(B, AUX_DIM)`` outputs against the batch's ``top`` (1 for
+        a top approach, ``(B,)``) and ``target_point`` (``(B, 3)`` m); ``{}`` without them.
+        ``aux_loss`` (unweighted sum) is added to the policy loss times ``aux_weight``."""
+        if not self.n_aux:
+            return {}
+        for key in ("top", "target_point"):
+            if key not in batch:
+                raise ValueError(f"{type(self).__name__}(aux_weight > 0): batches need the '{key}' key, got {sorted(batch)}")
+        mode = F.binary_cross_entropy_with_logits(aux[:, 0], batch["top"].to(aux))
+        point = F.mse_loss(aux[:, 1:4], self.normalise("target_point", batch["target_point"]))
+        wrong = ((aux[:, 0] > 0) != (batch["top"] > 0.5)).float().mean()
+        return {"aux_loss": mode + point, "aux_mode_error": wrong}
 
     def _observation(self, image, joints) -> tuple[torch.Tensor, torch.Tensor, bool]:
         """Closed-loop inputs as batched tensors on this module's device; ``batched`` says

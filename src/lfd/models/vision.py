@@ -71,9 +71,16 @@ class KeypointEncoder(nn.Module):
         channels: output channels per conv layer, e.g. ``(32, 32, 32, 32)``. The number of
             keypoints is ``channels[-1]``.
         temperature: initial soft-argmax temperature.
+        global_pool: also output each channel's spatial maximum of the last (raw) feature map,
+            ``(B, C)`` after the keypoints: *whether* and how strongly a feature is present,
+            which keypoints (only *where*) cannot say. It lets the head tell object kinds
+            apart (e.g. a box, approached from the top, from a cylinder, from the side).
+
+    Output: ``(B, 2C)`` keypoints ``[x_0, y_0, ...]`` in ``[-1, 1]``, then with
+    ``global_pool`` the ``(B, C)`` maxima (:attr:`out_dim` is the total).
     """
 
-    def __init__(self, channels: tuple[int, ...] | list[int] = (32, 32, 32, 32), temperature: float = 1.0) -> None:
+    def __init__(self, channels: tuple[int, ...] | list[int] = (32, 32, 32, 32), temperature: float = 1.0, global_pool: bool = False) -> None:
         super().__init__()
         channels = [int(c) for c in channels]
         if not channels or min(channels) < 1:
@@ -88,10 +95,15 @@ class KeypointEncoder(nn.Module):
             c_in = c_out
         self.convs = nn.Sequential(*layers)
         self.softargmax = SpatialSoftmax(temperature)
-        self.out_dim = 2 * channels[-1]
+        self.global_pool = bool(global_pool)
+        self.out_dim = (3 if self.global_pool else 2) * channels[-1]
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        return self.softargmax(self.convs(image - 0.5))
+        maps = self.convs(image - 0.5)
+        keypoints = self.softargmax(maps)
+        if not self.global_pool:
+            return keypoints
+        return torch.cat([keypoints, maps.amax(dim=(2, 3))], dim=1)
 
 
 def mlp(in_dim: int, hidden: tuple[int, ...] | list[int], out_dim: int) -> nn.Sequential:
