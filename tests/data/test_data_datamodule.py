@@ -52,8 +52,12 @@ def test_dmp_items(root):
         "trajectory": (4, 30, 7),
         "ee_path": (4, 30, 3),
         "target_point": (4, 3),
+        "top": (4,),
         "index": (4,),
     }
+    # the approach-mode label matches each episode's record
+    modes = [str(dm.data.episodes[int(i)].arrays["approach_mode"]) for i in batch["index"]]
+    assert batch["top"].tolist() == [float(m == "top") for m in modes]
     assert batch["image"].dtype == torch.float32 and 0.0 <= batch["image"].min() and batch["image"].max() <= 1.0
     torch.testing.assert_close(batch["joints"], batch["trajectory"][:, 0])
     torch.testing.assert_close(batch["goal"], batch["trajectory"][:, -1])
@@ -68,6 +72,8 @@ def test_velocity_items_and_augmentation(root):
     assert len(dm.datasets["train"]) == 4 * 30 and len(dm.datasets["test"]) == 30
     item = dm.datasets["train"][31]
     assert item["step"] == 1 and item["image"].shape == (3, 32, 32)
+    assert item["target_point"].shape == (3,) and item["top"].shape == ()
+    torch.testing.assert_close(item["target_point"], dm.datasets["train"][30]["target_point"])  # one per episode
     torch.manual_seed(0)
     augmented = torch.stack([dm.datasets["train"][31]["image"] for _ in range(2)])
     assert not torch.equal(augmented[0], augmented[1])
