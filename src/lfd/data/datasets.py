@@ -197,8 +197,9 @@ class VelocityReachDataset(Dataset):
                              the control period after step t, moves the joints as the
                              demonstration did (0 at the last step; :func:`command_velocities`)
         t         ()         time of step t, s
-        target_point  (3,)   the episode's grasp target point, m (training-only label)
-        top       ()         1 if the episode approaches from the top, else 0 (training-only label)
+        target_point  (3,)   the episode's grasp target point, m (training-only label; when
+                             the records have it, as generated datasets do)
+        top       ()         1 if the episode approaches from the top, else 0 (likewise)
         index     ()         int64 episode index
         step      ()         int64 step t
     """
@@ -215,11 +216,12 @@ class VelocityReachDataset(Dataset):
             "velocity": _stack(records, "velocities").reshape(-1, 7),
             "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
             "t": _stack(records, "t").reshape(-1),
-            "target_point": _stack(records, "target_point").repeat_interleave(steps, dim=0),
-            "top": _top(records).repeat_interleave(steps),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(steps),
             "step": torch.arange(steps, dtype=torch.int64).repeat(len(records)),
         }
+        if all("target_point" in r.arrays and "approach_mode" in r.arrays for r in records):
+            self.tensors["target_point"] = _stack(records, "target_point").repeat_interleave(steps, dim=0)
+            self.tensors["top"] = _top(records).repeat_interleave(steps)
 
     def __len__(self) -> int:
         return self.frames.shape[0]
