@@ -72,7 +72,10 @@ class CNNDMPPolicy(VisuomotorPolicy):
 
     def predict_params(self, image: torch.Tensor, joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Normalised DMP goal ``(B, n)`` and weights ``(B, n, K)``."""
-        out = self.features(image, joints)
+        return self._split_params(self.features(image, joints))
+
+    def _split_params(self, out: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Head output ``(B, n + n K)`` -> normalised goal ``(B, n)`` and weights ``(B, n, K)``."""
         n = self.hparams.n_joints
         return out[:, :n], out[:, n:].reshape(-1, n, self.hparams.n_basis)
 
@@ -104,9 +107,8 @@ class CNNDMPPolicy(VisuomotorPolicy):
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         joints = batch["joints"]
-        out, aux = self.head_outputs(batch["image"], joints, top=batch.get("top") if self.n_heads > 1 else None)
-        n = self.hparams.n_joints
-        goal_n, weights_n = out[:, :n], out[:, n:].reshape(-1, n, self.hparams.n_basis)
+        params, aux = self.head_outputs(batch["image"], joints, top=batch.get("top"))
+        goal_n, weights_n = self._split_params(params)
         goal_err = F.mse_loss(goal_n, self.normalise("goal", batch["goal"]))
         weights_err = F.mse_loss(weights_n, self.normalise("weights", batch["weights"]))
         rest = self.hparams.rest_steps
@@ -130,10 +132,7 @@ class CNNDMPPolicy(VisuomotorPolicy):
             out["loss"] = (sq * weights).mean() / weights.mean()
             if self.hparams.ee_weight > 0:
                 out["loss"] = out["loss"] + self.hparams.ee_weight * out["ee_mse"]
-        out.update(self.aux_losses(aux, batch))
-        if "aux_loss" in out:
-            out["loss"] = out["loss"] + self.hparams.aux_weight * out["aux_loss"]
-        return out
+        return self.add_aux_losses(out, aux, batch)
 
     def time_weights(self) -> torch.Tensor:
         """``(T + rest_steps,)`` weights of the trajectory loss over time: ``1 + final_weight``

@@ -136,7 +136,7 @@ class VisuomotorPolicy(L.LightningModule):
         hp = self.hparams
         self.output_dim = output_dim
         self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
-        self.n_heads = 2 if hp.get("mode_heads", False) else 1
+        self.n_heads = 2 if hp.mode_heads else 1
         self.head = mlp(self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs, hp.hidden, self.n_heads * output_dim + self.n_aux)
         if self.n_aux:
             stat_shapes = {**stat_shapes, "target_point": (3,)}
@@ -175,7 +175,7 @@ class VisuomotorPolicy(L.LightningModule):
 
         With ``mode_heads`` the policy's output is that of the head of mode ``top`` (``(B,)``,
         1 = top; training passes the demonstrations' modes) or, when ``top`` is None, of the
-        mode the auxiliary logit predicts."""
+        mode the auxiliary logit predicts; with one head ``top`` is ignored."""
         keypoints = self.encoder(image)
         bias = self.bias_input.expand(image.shape[0], -1)
         parts = [keypoints, self.normalise("joints", joints), bias]
@@ -194,19 +194,20 @@ class VisuomotorPolicy(L.LightningModule):
         """The policy's head output ``(B, output_dim)`` (see :meth:`head_outputs`)."""
         return self.head_outputs(image, joints, extra)[0]
 
-    def aux_losses(self, aux: torch.Tensor, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-        """Auxiliary losses of the ``(B, AUX_DIM)`` outputs against the batch's ``top`` (1 for
-        a top approach, ``(B,)``) and ``target_point`` (``(B, 3)`` m); ``{}`` without them.
-        ``aux_loss`` (unweighted sum) is added to the policy loss times ``aux_weight``."""
+    def add_aux_losses(self, out: dict[str, torch.Tensor], aux: torch.Tensor, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+        """``out`` (a policy's losses) with the auxiliary losses of the ``(B, AUX_DIM)`` outputs
+        against the batch's ``top`` (1 for a top approach, ``(B,)``) and ``target_point``
+        (``(B, 3)`` m): ``aux_loss`` (unweighted sum, added to ``out["loss"]`` times
+        ``aux_weight``) and ``aux_mode_error``; ``out`` unchanged without ``aux_weight``."""
         if not self.n_aux:
-            return {}
+            return out
         for key in ("top", "target_point"):
             if key not in batch:
                 raise ValueError(f"{type(self).__name__}(aux_weight > 0): batches need the '{key}' key, got {sorted(batch)}")
         mode = F.binary_cross_entropy_with_logits(aux[:, 0], batch["top"].to(aux))
         point = F.mse_loss(aux[:, 1:4], self.normalise("target_point", batch["target_point"]))
         wrong = ((aux[:, 0] > 0) != (batch["top"] > 0.5)).float().mean()
-        return {"aux_loss": mode + point, "aux_mode_error": wrong}
+        return {**out, "loss": out["loss"] + self.hparams.aux_weight * (mode + point), "aux_loss": mode + point, "aux_mode_error": wrong}
 
     def _observation(self, image, joints) -> tuple[torch.Tensor, torch.Tensor, bool]:
         """Closed-loop inputs as batched tensors on this module's device; ``batched`` says

@@ -103,14 +103,10 @@ class VelocityPolicy(VisuomotorPolicy):
             raise ValueError(f"VelocityPolicy: batches need the '{LABEL}' key (rad/s, (B, n)), got {sorted(batch)}")
         noise = self.perturbation(batch["joints"])
         target = batch[LABEL] - self.hparams.correction_gain * noise  # the expert's correction
-        top = batch.get("top") if self.n_heads > 1 else None
-        pred_n, aux = self.head_outputs(batch["image"], batch["joints"] + noise, self.phase(batch["t"], batch["image"].shape[0]), top=top)
+        pred_n, aux = self.head_outputs(batch["image"], batch["joints"] + noise, self.phase(batch["t"], batch["image"].shape[0]), top=batch.get("top"))
         loss = F.mse_loss(pred_n, self.normalise("velocity", target))
         rad_s = (self.denormalise("velocity", pred_n) - target).norm(dim=-1).mean()
-        out = {"loss": loss, "velocity_err": rad_s, **self.aux_losses(aux, batch)}
-        if "aux_loss" in out:
-            out["loss"] = out["loss"] + self.hparams.aux_weight * out["aux_loss"]
-        return out
+        return self.add_aux_losses({"loss": loss, "velocity_err": rad_s}, aux, batch)
 
     def sample_figure(self, batch: dict[str, torch.Tensor]):
         """Open-loop integral of the predicted velocities along the first episode of the
