@@ -29,7 +29,7 @@ from lfd.data.generate import code_version
 from lfd.data.manifest import STATS, verify_dataset
 from lfd.data.storage import DatasetError, read_json
 
-__all__ = ["DMPReachDataset", "ReachData", "VelocityReachDataset", "image_augmentation", "load_dataset"]
+__all__ = ["DMPReachDataset", "ReachData", "VelocityReachDataset", "image_augmentation", "load_dataset", "mode_labels"]
 
 Transform = Callable[[torch.Tensor], torch.Tensor]
 
@@ -128,9 +128,15 @@ def command_velocities(joints: np.ndarray, t: np.ndarray) -> np.ndarray:
     return out
 
 
-def _top(records: list[EpisodeRecord]) -> torch.Tensor:
-    """``(N,)`` float32: 1 for the episodes approached from the top, 0 from the side."""
-    return torch.tensor([str(r.arrays["approach_mode"]) == "top" for r in records], dtype=torch.float32)
+def mode_labels(records: list[EpisodeRecord], steps: int | torch.Tensor) -> dict[str, torch.Tensor]:
+    """Training-only labels, each repeated ``steps`` times per episode (an int, or ``(N,)``
+    int64 per episode): ``top`` ``(S,)`` float32 (1 for a top approach) and ``target_point``
+    ``(S, 3)`` m, ``S`` the total number of items; ``{}`` unless every
+    record has its ``approach_mode`` and ``target_point`` (a foreign LeRobot dataset has not)."""
+    if not all("approach_mode" in r.arrays and "target_point" in r.arrays for r in records):
+        return {}
+    top = torch.tensor([str(r.arrays["approach_mode"]) == "top" for r in records], dtype=torch.float32)
+    return {"top": top.repeat_interleave(steps), "target_point": _stack(records, "target_point").repeat_interleave(steps, dim=0)}
 
 
 def _stack(records: list[EpisodeRecord], key: str) -> torch.Tensor:
@@ -152,8 +158,9 @@ class DMPReachDataset(Dataset):
         trajectory    (T, 7)     demonstrated joint angles, rad
         ee_path       (T, 3)     demonstrated tool positions, m (torso frame)
         target_point  (3,)       grasp target point, m (torso frame)
-        top           ()         1 if the demonstration approaches from the top, else 0
         index         ()         int64 episode index
+        top           ()         1 if the demonstration approaches from the top, else 0
+                                 (training-only label; when the records have their mode)
     """
 
     def __init__(self, data: ReachData, split: str, transform: Transform | None = None) -> None:
@@ -172,8 +179,8 @@ class DMPReachDataset(Dataset):
             "trajectory": _stack(records, "joints"),
             "ee_path": _stack(records, "ee_poses")[:, :, :3, 3],
             "target_point": _stack(records, "target_point"),
-            "top": _top(records),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64),
+            **mode_labels(records, 1),
         }
 
     def __len__(self) -> int:
@@ -219,9 +226,7 @@ class VelocityReachDataset(Dataset):
             "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(steps),
             "step": torch.arange(steps, dtype=torch.int64).repeat(len(records)),
         }
-        if all("target_point" in r.arrays and "approach_mode" in r.arrays for r in records):
-            self.tensors["target_point"] = _stack(records, "target_point").repeat_interleave(steps, dim=0)
-            self.tensors["top"] = _top(records).repeat_interleave(steps)
+        self.tensors.update(mode_labels(records, steps))
 
     def __len__(self) -> int:
         return self.frames.shape[0]

@@ -203,7 +203,7 @@ class _Data:
 def _velocity_dataset_class():
     import torch
 
-    from lfd.data.datasets import VelocityReachDataset, command_velocities
+    from lfd.data.datasets import VelocityReachDataset, command_velocities, mode_labels
 
     class VelocityDataset(VelocityReachDataset):
         """:class:`~lfd.data.datasets.VelocityReachDataset` items from episodes of any lengths."""
@@ -226,6 +226,7 @@ def _velocity_dataset_class():
                 "t": cat("t"),
                 "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(lengths),
                 "step": torch.cat([torch.arange(int(k), dtype=torch.int64) for k in lengths]),
+                **mode_labels(records, lengths),
             }
 
     return VelocityDataset
@@ -342,6 +343,8 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
             else:
                 vel = np.gradient(joints, t, axis=0) if len(t) > 1 else np.zeros_like(joints)
             arrays = {"joints": joints, "velocities": vel, "t": t, "index": row.get("lfd/index", e)}
+            if "lfd/approach_mode" in row:  # our own export: the training-only mode label survives
+                arrays["approach_mode"] = np.str_(row["lfd/approach_mode"])
             if self.mode == "dmp":
                 if "lfd/dmp_goal" in row:
                     k = int(row["lfd/n_basis"])
