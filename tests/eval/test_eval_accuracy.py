@@ -28,10 +28,10 @@ DATA = [
     "data.n_test_placements=0",
     "data.progress=false",
 ]
-#: Measured once (2026-12-01, this machine): 6.9 cm mean, 6 of 16 successes (0.38); the
-#: thresholds leave a margin.
-MAX_MEAN_DISTANCE_M = 0.10
-MIN_SUCCESS = 0.25
+#: Measured once with this setting (2026-12-02, this machine): 4.3 cm mean, 8 of 16
+#: successes (0.50); the thresholds leave a margin for run-to-run spread (~2 cm, docs/evaluation.md).
+MAX_MEAN_DISTANCE_M = 0.075
+MIN_SUCCESS = 0.30
 
 
 @pytest.mark.slow
