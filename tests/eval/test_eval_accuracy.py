@@ -1,8 +1,8 @@
 """Slow accuracy test (issue 12): a small CNN -> DMP training must reach *new* objects.
 
 The quick experiment shrunk to a few minutes of CPU (64 px, 150 training objects x 2
-placements, 600 steps; the CNN -> DMP options of the quick experiment), trained with ``train.py`` and evaluated closed loop in PyBullet
-with ``evaluate.py eval.split=val`` on the 8 held-out validation objects (2 placements
+placements, 600 steps; the quick experiment's CNN -> DMP options), trained with ``train.py``
+and evaluated closed loop in PyBullet with ``evaluate.py eval.split=val`` on the 8 held-out validation objects (2 placements
 each), exactly as a user runs them. The thresholds were set from one measured run (numbers
 in the assertion messages and in docs/evaluation.md) with a margin: CI notices when
 generalisation to new objects breaks, not a 1 cm fluctuation.
