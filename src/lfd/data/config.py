@@ -34,6 +34,8 @@ class GeneratorConfig:
         x_range, y_range: placement ranges (m, torso frame); yaw_range_deg: degrees.
         image_size: side of the square camera images (px).
         wrist_camera: also record wrist-camera frames.
+        depth: also record the fixed camera's depth images (``depth``, uint16 mm); policies
+            trained on such a dataset see RGB-D (:func:`lfd.sim.camera.rgbd_image`).
         duration, n_steps: demonstration length (s) and number of samples.
         substeps: physics steps per sample interval.
         approach_fraction: fraction of ``duration`` at which the approach pose is reached.
@@ -57,6 +59,7 @@ class GeneratorConfig:
     yaw_range_deg: tuple[float, float] = (-90.0, 90.0)
     image_size: int = 128
     wrist_camera: bool = False
+    depth: bool = False
     duration: float = 4.0
     n_steps: int = 100
     substeps: int = 10
@@ -115,8 +118,9 @@ class GeneratorConfig:
             raise ValueError(
                 f"GeneratorConfig.approach_fraction: expected a value in (0, 1), got {self.approach_fraction}"
             )
-        if not isinstance(self.wrist_camera, bool):
-            raise ValueError(f"GeneratorConfig.wrist_camera: expected a bool, got {self.wrist_camera!r}")
+        for name in ("wrist_camera", "depth"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"GeneratorConfig.{name}: expected a bool, got {getattr(self, name)!r}")
 
     @property
     def n_val_placements(self) -> int:
@@ -140,8 +144,14 @@ class GeneratorConfig:
         return self.duration / (self.n_steps - 1)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dict (tuples as lists)."""
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+        """JSON-ready dict (tuples as lists). Options added after format 2 are left out
+        while at their default (:data:`_LATER_OPTIONS`), so datasets made before them keep
+        their hash."""
+        out = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+        for key, default in _LATER_OPTIONS.items():
+            if out[key] == default:
+                del out[key]
+        return out
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> GeneratorConfig:
@@ -155,3 +165,7 @@ class GeneratorConfig:
     def sha256(self) -> str:
         """Hash of the canonical JSON of :meth:`to_dict` and the on-disk format version."""
         return hashlib.sha256(json_bytes({"format_version": FORMAT_VERSION, "config": self.to_dict()})).hexdigest()
+
+
+#: Options added after :data:`~lfd.data.storage.FORMAT_VERSION` 2, with their defaults.
+_LATER_OPTIONS = {"depth": False}

@@ -66,6 +66,7 @@ class ReachDataModule(L.LightningDataModule):
         yaw_range_deg: Sequence[float] = (-90.0, 90.0),
         image_size: int = 128,
         wrist_camera: bool = False,
+        depth: bool = False,
         duration: float = 4.0,
         n_steps: int = 100,
         substeps: int = 10,
@@ -102,6 +103,7 @@ class ReachDataModule(L.LightningDataModule):
             yaw_range_deg=tuple(yaw_range_deg),
             image_size=image_size,
             wrist_camera=wrist_camera,
+            depth=depth,
             duration=duration,
             n_steps=n_steps,
             substeps=substeps,
@@ -111,6 +113,8 @@ class ReachDataModule(L.LightningDataModule):
             max_attempts=max_attempts,
             robot=robot,
         )
+        if augment and depth:
+            raise ValueError("ReachDataModule: augment (colour jitter + shifts of RGB images) does not support depth: true; set augment: false")
         self.name, self.mode = name, mode
         self.path = dataset_dir(root, name, shard, num_shards)
         self.shard, self.num_shards = shard, num_shards

@@ -7,8 +7,9 @@
 * :class:`VelocityReachDataset` ("velocity" mode): one item per time step of every
   episode, the frame and joints at that step and the joint velocity to command.
 
-Frames are kept as uint8 tensors ``(N, H, W, 3)`` and turned into float images
-``(3, H, W)`` in ``[0, 1]`` per item, optionally through an augmentation callable.
+Frames are kept as uint8 tensors ``(N, H, W, C)`` and turned into float images
+``(C, H, W)`` in ``[0, 1]`` per item, optionally through an augmentation callable; ``C = 3``
+(RGB), or 4 (RGB-D, :func:`lfd.sim.camera.rgbd_image`) for a dataset made with ``depth: true``.
 """
 
 from __future__ import annotations
@@ -28,8 +29,17 @@ from lfd.data.episodes import SPLITS, EpisodeRecord, episode_path
 from lfd.data.generate import code_version
 from lfd.data.manifest import STATS, verify_dataset
 from lfd.data.storage import DatasetError, read_json
+from lfd.sim.camera import rgbd_image
 
-__all__ = ["DMPReachDataset", "ReachData", "VelocityReachDataset", "image_augmentation", "load_dataset", "mode_labels"]
+__all__ = [
+    "DMPReachDataset",
+    "ReachData",
+    "VelocityReachDataset",
+    "image_augmentation",
+    "load_dataset",
+    "mode_labels",
+    "policy_frames",
+]
 
 Transform = Callable[[torch.Tensor], torch.Tensor]
 
@@ -100,8 +110,20 @@ def image_augmentation(image_size: int, max_shift_px: float = 4.0) -> Transform:
     )
 
 
+def policy_frames(record: EpisodeRecord, depth: bool) -> np.ndarray:
+    """The policy inputs of an episode: uint8 ``(T, H, W, 3)`` RGB frames, or with ``depth``
+    ``(T, H, W, 4)`` RGB-D (:func:`lfd.sim.camera.rgbd_image`) from its ``depth`` images."""
+    rgb = record.frames()
+    return rgbd_image(rgb, record.frames("depth")) if depth else rgb
+
+
+def _depth(data) -> bool:
+    """Whether ``data`` (a :class:`ReachData`, or a foreign reader's) has depth images."""
+    return bool(getattr(getattr(data, "config", None), "depth", False))
+
+
 def _to_image(frame: torch.Tensor, transform: Transform | None) -> torch.Tensor:
-    """uint8 ``(H, W, 3)`` -> float32 ``(3, H, W)`` in ``[0, 1]`` (then ``transform``)."""
+    """uint8 ``(H, W, C)`` -> float32 ``(C, H, W)`` in ``[0, 1]`` (then ``transform``)."""
     image = frame.permute(2, 0, 1).float().div_(255.0)
     return transform(image) if transform is not None else image
 
@@ -148,7 +170,8 @@ class DMPReachDataset(Dataset):
 
     Items (float32 unless noted; ``T`` steps, ``K`` bases)::
 
-        image         (3, H, W)  first frame in [0, 1] (augmented if ``transform``)
+        image         (C, H, W)  first frame in [0, 1] (augmented if ``transform``); C = 3,
+                                 or 4 (RGB-D) for a dataset made with ``depth: true``
         joints        (7,)       start joint angles, rad
         goal          (7,)       DMP goal (= final joint angles), rad
         weights       (7, K)     DMP forcing weights
@@ -168,7 +191,7 @@ class DMPReachDataset(Dataset):
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
-        self.frames = torch.from_numpy(np.stack([r.frames()[0] for r in records]))
+        self.frames = torch.from_numpy(np.stack([policy_frames(r, _depth(data))[0] for r in records]))
         self.tensors = {
             "joints": _stack(records, "joints")[:, 0],
             "goal": _stack(records, "dmp_goal"),
@@ -197,7 +220,7 @@ class VelocityReachDataset(Dataset):
 
     Items (float32 unless noted)::
 
-        image     (3, H, W)  frame at step t in [0, 1] (augmented if ``transform``)
+        image     (C, H, W)  frame at step t in [0, 1] (augmented if ``transform``; C as above)
         joints    (7,)       joint angles at step t, rad
         velocity  (7,)       measured joint velocity at the instant of step t, rad/s
         command   (7,)       (q[t+1] - q[t]) / dt, rad/s: the joint velocity that, commanded for
@@ -216,7 +239,7 @@ class VelocityReachDataset(Dataset):
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
-        self.frames = torch.from_numpy(np.concatenate([r.frames() for r in records]))
+        self.frames = torch.from_numpy(np.concatenate([policy_frames(r, _depth(data)) for r in records]))
         steps = records[0].arrays["t"].shape[0]
         self.tensors = {
             "joints": _stack(records, "joints").reshape(-1, 7),

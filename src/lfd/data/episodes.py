@@ -28,6 +28,8 @@ from lfd.sim.expert import DISCARD_REASONS
 from lfd.sim.objects import ObjectSpec, Placement, sample_object
 
 SPLITS = ("train", "val", "test")
+#: Image arrays of an episode file, read only on demand (:meth:`EpisodeRecord.frames`).
+IMAGE_KEYS = ("frames", "wrist_frames", "depth")
 EPISODE_DIR = "episodes"
 # Independent random streams derived from the seed (0, 1: retired streams of format 1).
 SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM = 2, 3, 4
@@ -101,7 +103,7 @@ class EpisodeRecord:
         index, split, object_index: from the plan.
         group: the object group (``train``, ``val`` or ``test``; :data:`GROUP_KEYS`).
         obj, placement: the object and where it stood (torso frame).
-        arrays: every numeric array of the file except ``frames``/``wrist_frames``
+        arrays: every numeric array of the file except the images (:data:`IMAGE_KEYS`)
             (``data/README.md`` lists the keys and shapes).
         path: the ``.npz`` file.
     """
@@ -126,7 +128,8 @@ class EpisodeRecord:
         return dict(zip(DISCARD_REASONS, self.arrays["discarded"].tolist(), strict=True))
 
     def frames(self, key: str = "frames") -> np.ndarray:
-        """``(T, H, W, 3)`` uint8 frames (``key="wrist_frames"`` for the wrist camera)."""
+        """``(T, H, W, 3)`` uint8 frames (``key="wrist_frames"`` for the wrist camera,
+        ``key="depth"`` for the fixed camera's ``(T, H, W)`` uint16 depth in mm)."""
         with np.load(self.path, allow_pickle=False) as z:
             if key not in z.files:
                 raise DatasetError(f"{self.path}: no '{key}' in the episode file")
@@ -137,7 +140,7 @@ class EpisodeRecord:
         """Read an episode file (without decompressing its frames)."""
         try:
             with np.load(path, allow_pickle=False) as z:
-                arrays = {k: z[k] for k in z.files if k not in ("frames", "wrist_frames")}
+                arrays = {k: z[k] for k in z.files if k not in IMAGE_KEYS}
         except FileNotFoundError as e:
             raise DatasetError(f"missing episode file {path}") from e
         except Exception as e:  # zipfile/numpy raise several types for damaged archives

@@ -122,6 +122,7 @@ class EpisodeWriter:
             n_steps=cfg.n_steps,
             approach_fraction=cfg.approach_fraction,
             tolerance=cfg.tolerance,
+            record_depth=cfg.depth,
         )
         self.scene = ReachScene(
             robot,
@@ -197,6 +198,8 @@ class EpisodeWriter:
         }
         if demo.wrist_frames is not None:
             out["wrist_frames"] = demo.wrist_frames
+        if demo.depth is not None:
+            out["depth"] = demo.depth
         return out
 
     def close(self) -> None:

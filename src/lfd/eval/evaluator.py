@@ -36,7 +36,7 @@ from lfd.data.storage import json_bytes, write_bytes_atomic
 from lfd.eval.lerobot_report import write_lerobot_eval
 from lfd.eval.metrics import MAX_DISPLACEMENT_M, SUCCESS_RADIUS_M, approach_angle_deg, integrated_squared_jerk, summarise
 from lfd.eval.plots import distance_bars, paths_3d, write_gif
-from lfd.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, run_episode
+from lfd.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, observe, run_episode
 from lfd.eval.scenario import load_scenario
 from lfd.models import checkpoint_kind, load_policy
 from lfd.robots import load_robot
@@ -323,7 +323,7 @@ class ReachEvaluator:
         """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
         scene.reset(case.obj, case.placement, q=scene.robot.home.numpy())
         controller.start(steps)
-        controller.command(Observation(image=scene.render(), joints=scene.joint_state()[0]), 0, [])
+        controller.command(Observation(image=observe(scene, controller), joints=scene.joint_state()[0]), 0, [])
 
     @staticmethod
     def _subset(rows: list[dict[str, Any]]) -> dict[str, Any]:

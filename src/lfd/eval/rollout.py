@@ -45,14 +45,17 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from lfd.sim.camera import rgbd_image
+
 
 @dataclass(frozen=True)
 class Observation:
     """What a policy may see at one control step.
 
     Attributes:
-        image: ``(H, W, 3)`` uint8 RGB frame of the fixed camera (None at steps where the
-            controller said it does not look, to save rendering).
+        image: ``(H, W, 3)`` uint8 RGB frame of the fixed camera, or ``(H, W, 4)`` RGB-D
+            (:func:`lfd.sim.camera.rgbd_image`) for a policy trained on depth (None at steps
+            where the controller said it does not look, to save rendering).
         joints: ``(n,)`` float64 measured joint angles, rad.
         time: seconds since the episode started (control step x control period).
     """
@@ -122,6 +125,14 @@ class VelocityController:
 CONTROLLERS = {"cnn_dmp": PlanController, "velocity": VelocityController}
 
 
+def observe(scene, controller) -> np.ndarray:
+    """The fixed camera's image in the form ``controller``'s policy takes: RGB ``(H, W, 3)``,
+    or RGB-D ``(H, W, 4)`` uint8 when the policy has 4 input channels (one render call)."""
+    if getattr(getattr(controller, "policy", None), "input_channels", 3) == 4:
+        return rgbd_image(*scene.render(with_depth=True))
+    return scene.render()
+
+
 @dataclass
 class EpisodeTrace:
     """What happened in one closed-loop episode.
@@ -175,9 +186,9 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
             table_contacts += int(scene.arm_touches("table"))
             object_contacts += int(has_object and scene.arm_touches("object"))
         recording = record_every and step % record_every == 0
-        image = scene.render() if controller.needs_image or recording else None
+        image = observe(scene, controller) if controller.needs_image or recording else None
         if recording:
-            frames.append(image)
+            frames.append(image[..., :3])
         if step == steps:
             break
         obs = Observation(image=image, joints=q, time=step * controller.dt)

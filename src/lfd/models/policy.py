@@ -26,7 +26,7 @@ from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_col
 #: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
 ONECYCLE_PCT_START = 0.3
 #: Hyper-parameters that must equal the dataset's (``GeneratorConfig``) ones.
-DATA_KEYS = ("image_size", "duration", "n_steps", "robot")
+DATA_KEYS = ("image_size", "depth", "duration", "n_steps", "robot")
 #: Auxiliary head outputs with ``aux_weight > 0``: the top-approach logit, the normalised target point (3).
 AUX_DIM = 4
 #: Checkpoint key of the training dataset's fingerprint.
@@ -49,6 +49,8 @@ class VisuomotorPolicy(L.LightningModule):
         scheduler: ``"cosine"`` (per step, to 0), ``"onecycle"`` (per step, peak ``lr``)
             or ``"none"``.
         image_size: side (px) of the square camera images of the training data.
+        depth: the input is RGB-D (4 channels, :func:`lfd.sim.camera.rgbd_image`) instead of
+            RGB; the training data must have been made with ``depth: true``.
         duration, n_steps: demonstration duration (s) and number of samples; the control
             period is ``duration / (n_steps - 1)``.
         robot: robot model name (:func:`lfd.robots.load_robot`).
@@ -95,6 +97,7 @@ class VisuomotorPolicy(L.LightningModule):
         weight_decay: float = 1e-4,
         scheduler: str = "cosine",
         image_size: int = 128,
+        depth: bool = False,
         duration: float = 4.0,
         n_steps: int = 100,
         robot: str = "pr2_right_arm",
@@ -123,10 +126,17 @@ class VisuomotorPolicy(L.LightningModule):
         self.save_hyperparameters(ignore=["name"])
         self.hparams["kind"] = self.kind
         self.config_name = name or self.kind
-        self.encoder = KeypointEncoder(channels, temperature, global_pool=global_pool)
+        if not isinstance(depth, bool):
+            raise ValueError(f"{type(self).__name__}.depth: expected a bool, got {depth!r}")
+        self.encoder = KeypointEncoder(channels, temperature, global_pool=global_pool, in_channels=4 if depth else 3)
         self.bias_input = nn.Parameter(torch.zeros(bias_dim))
         self._robot = None
         self._val_runs = 0
+
+    @property
+    def input_channels(self) -> int:
+        """Image channels the policy takes: 3 (RGB) or 4 (RGB-D, ``depth``)."""
+        return self.encoder.in_channels
 
     def _build(self, output_dim: int, stat_shapes: dict[str, tuple[int, ...]], extra_inputs: int = 0) -> None:
         """Subclasses call this at the end of ``__init__``: the fully connected head with
@@ -214,7 +224,7 @@ class VisuomotorPolicy(L.LightningModule):
         whether the caller gave a batch. Closed-loop calls switch the module to eval mode
         (batch-norm running statistics)."""
         self.eval()
-        img = image_to_tensor(image)
+        img = image_to_tensor(image, self.encoder.in_channels)
         q = torch.as_tensor(np.asarray(joints), dtype=torch.float32)
         batched = q.ndim == 2
         q = q.reshape(-1, self.hparams.n_joints)
@@ -229,8 +239,9 @@ class VisuomotorPolicy(L.LightningModule):
         """Raise ``ValueError`` unless a dataset's generator ``config`` (rendering, timing,
         robot: :data:`DATA_KEYS`) matches what this policy was built for."""
         for key in DATA_KEYS:
-            if getattr(config, key) != self.hparams[key]:
-                raise ValueError(f"{type(self).__name__} was built with {key}={self.hparams[key]!r}, the dataset has {key}={getattr(config, key)!r}")
+            built = self.hparams.get(key, False)  # only "depth" can be missing (older checkpoints)
+            if getattr(config, key) != built:
+                raise ValueError(f"{type(self).__name__} was built with {key}={built!r}, the dataset has {key}={getattr(config, key)!r}")
 
     #: Dataset fingerprint of the training run (:mod:`lfd.data.fingerprint`), saved in the
     #: checkpoint under :data:`FINGERPRINT_KEY`; None when unknown (e.g. a LeRobot dataset).

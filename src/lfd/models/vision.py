@@ -61,7 +61,7 @@ class SpatialSoftmax(nn.Module):
 
 
 class KeypointEncoder(nn.Module):
-    """Conv trunk + spatial soft-argmax: image ``(B, 3, H, W)`` in [0, 1] -> keypoints ``(B, 2C)``.
+    """Conv trunk + spatial soft-argmax: image ``(B, in_channels, H, W)`` in [0, 1] -> keypoints ``(B, 2C)``.
 
     Layer ``0`` has a 5x5 kernel with stride 2 (halves the resolution, as in the visuomotor
     policy papers); the following ones are 3x3, stride 1, padded. Each conv is followed by
@@ -75,18 +75,27 @@ class KeypointEncoder(nn.Module):
             ``(B, C)`` after the keypoints: *whether* and how strongly a feature is present,
             which keypoints (only *where*) cannot say. It lets the head tell object kinds
             apart (e.g. a box, approached from the top, from a cylinder, from the side).
+        in_channels: 3 (RGB) or 4 (RGB-D, :func:`lfd.sim.camera.rgbd_image`).
 
     Output: ``(B, 2C)`` keypoints ``[x_0, y_0, ...]`` in ``[-1, 1]``, then with
     ``global_pool`` the ``(B, C)`` maxima (:attr:`out_dim` is the total).
     """
 
-    def __init__(self, channels: tuple[int, ...] | list[int] = (32, 32, 32, 32), temperature: float = 1.0, global_pool: bool = False) -> None:
+    def __init__(
+        self,
+        channels: tuple[int, ...] | list[int] = (32, 32, 32, 32),
+        temperature: float = 1.0,
+        global_pool: bool = False,
+        in_channels: int = 3,
+    ) -> None:
         super().__init__()
         channels = [int(c) for c in channels]
         if not channels or min(channels) < 1:
             raise ValueError(f"KeypointEncoder: channels must be a non-empty list of positive ints, got {channels}")
+        if in_channels not in (3, 4):
+            raise ValueError(f"KeypointEncoder.in_channels: expected 3 (RGB) or 4 (RGB-D), got {in_channels!r}")
         layers: list[nn.Module] = []
-        c_in = 3
+        c_in = self.in_channels = int(in_channels)
         for i, c_out in enumerate(channels):
             first = i == 0
             layers.append(nn.Conv2d(c_in, c_out, kernel_size=5 if first else 3, stride=2 if first else 1, padding=2 if first else 1))
@@ -116,29 +125,37 @@ def mlp(in_dim: int, hidden: tuple[int, ...] | list[int], out_dim: int) -> nn.Se
     return nn.Sequential(*layers)
 
 
-def image_to_tensor(image: np.ndarray | torch.Tensor) -> torch.Tensor:
-    """Camera image(s) -> float tensor ``(B, 3, H, W)`` in [0, 1].
+def image_to_tensor(image: np.ndarray | torch.Tensor, channels: int = 3) -> torch.Tensor:
+    """Camera image(s) -> float tensor ``(B, channels, H, W)`` in [0, 1].
 
-    Accepts uint8 ``(H, W, 3)`` / ``(B, H, W, 3)`` (as rendered) or float ``(3, H, W)`` /
-    ``(B, 3, H, W)`` already in [0, 1] (as stored in the datasets). An alpha channel is dropped.
+    Accepts uint8 ``(H, W, C)`` / ``(B, H, W, C)`` (as rendered) or float ``(C, H, W)`` /
+    ``(B, C, H, W)`` already in [0, 1] (as stored in the datasets). With ``channels=3`` (RGB)
+    a 4th uint8 channel (alpha) is dropped; with ``channels=4`` (RGB-D,
+    :func:`lfd.sim.camera.rgbd_image`) the image must have it.
     """
+    if channels not in (3, 4):
+        raise ValueError(f"image_to_tensor.channels: expected 3 (RGB) or 4 (RGB-D), got {channels!r}")
     t = torch.as_tensor(image)
     if t.ndim == 3:
         t = t.unsqueeze(0)
     if t.ndim != 4:
-        raise ValueError(f"image must be (H, W, 3), (B, H, W, 3), (3, H, W) or (B, 3, H, W); got shape {tuple(t.shape)}")
+        raise ValueError(f"image must be (H, W, C), (B, H, W, C), (C, H, W) or (B, C, H, W); got shape {tuple(t.shape)}")
+    what = "RGB-D images with 4 channels (lfd.sim.camera.rgbd_image)" if channels == 4 else "RGB images"
     if t.dtype == torch.uint8:
-        if t.shape[-1] not in (3, 4):
-            raise ValueError(f"uint8 images must be channels-last (..., H, W, 3); got shape {tuple(t.shape)}")
-        return t[..., :3].permute(0, 3, 1, 2).float().div_(255.0)
-    if t.shape[1] != 3:
-        raise ValueError(f"float images must be channels-first (B, 3, H, W); got shape {tuple(t.shape)}")
+        if t.shape[-1] not in (channels, 4):
+            raise ValueError(f"expected uint8 {what}, channels-last (..., H, W, {channels}); got shape {tuple(t.shape)}")
+        return t[..., :channels].permute(0, 3, 1, 2).float().div_(255.0)
+    if t.shape[1] != channels:
+        raise ValueError(f"expected float {what}, channels-first (B, {channels}, H, W); got shape {tuple(t.shape)}")
     return t.float()
 
 
 def permute_colour_channels(image: torch.Tensor) -> torch.Tensor:
-    """Training-time colour augmentation: each image of ``(B, 3, H, W)`` gets its RGB
-    channels in a random order (grey surfaces stay grey, object colours change), so a
-    network cannot tell object families apart by the colours of the training instances."""
+    """Training-time colour augmentation: each image of ``(B, C, H, W)`` gets its RGB
+    channels (the first 3) in a random order (grey surfaces stay grey, object colours
+    change), so a network cannot tell object families apart by the colours of the training
+    instances. A depth channel (``C = 4``) stays where it is."""
+    rgb = image[:, :3]
     order = torch.argsort(torch.rand(image.shape[0], 3, device=image.device), dim=1)
-    return torch.gather(image, 1, order[:, :, None, None].expand_as(image))
+    rgb = torch.gather(rgb, 1, order[:, :, None, None].expand_as(rgb))
+    return torch.cat([rgb, image[:, 3:]], dim=1)

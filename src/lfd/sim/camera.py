@@ -17,6 +17,46 @@ import pybullet as p
 #: Direction towards the light (world frame) used for every rendering.
 LIGHT_DIRECTION = (0.4, -0.3, 1.0)
 
+#: Metric depth range (m, along the optical axis) mapped onto the 0..255 depth channel of
+#: :func:`rgbd_image`: 4.9 mm per level; nearer is 0, farther (and "nothing") is 255.
+DEPTH_RANGE_M = (0.25, 1.5)
+
+
+def linear_depth(buffer: np.ndarray, near: float, far: float) -> np.ndarray:
+    """Metric depth (m, along the optical axis) from an OpenGL depth buffer in ``[0, 1]``
+    (PyBullet's ``getCameraImage`` depth) of a perspective camera with ``near``/``far``
+    clip planes (m); a buffer value of 1 (nothing drawn) gives ``far``."""
+    d = np.asarray(buffer, dtype=np.float64)
+    return far * near / (far - (far - near) * d)
+
+
+def depth_to_mm(depth_m: np.ndarray) -> np.ndarray:
+    """Metric depth (m) -> uint16 millimetres, the usual depth-image format of RGB-D
+    cameras (clipped to 0..65535)."""
+    return np.clip(np.rint(np.asarray(depth_m, dtype=np.float64) * 1000.0), 0, 65535).astype(np.uint16)
+
+
+def rgbd_image(rgb: np.ndarray, depth_mm: np.ndarray) -> np.ndarray:
+    """RGB-D policy input: uint8 ``(..., H, W, 3)`` colour and uint16 ``(..., H, W)`` depth
+    (mm) -> uint8 ``(..., H, W, 4)``, the 4th channel the depth mapped linearly from
+    :data:`DEPTH_RANGE_M` onto 0..255 (clipped). Datasets and closed-loop evaluation both
+    build policy inputs with this function, so training and execution see the same encoding.
+
+    Example:
+        >>> rgbd_image(np.zeros((1, 2, 3), np.uint8), np.array([[250, 1500]], np.uint16))[..., 3].tolist()
+        [[0, 255]]
+    """
+    rgb, depth_mm = np.asarray(rgb), np.asarray(depth_mm)
+    if rgb.dtype != np.uint8 or rgb.shape[-1] != 3 or depth_mm.shape != rgb.shape[:-1]:
+        raise ValueError(
+            f"rgbd_image: need uint8 rgb (..., H, W, 3) and depth (..., H, W) of the same H, W; "
+            f"got {rgb.dtype} {rgb.shape} and {depth_mm.shape}"
+        )
+    low, high = DEPTH_RANGE_M
+    scaled = (depth_mm.astype(np.float32) / 1000.0 - low) / (high - low)
+    channel = np.rint(np.clip(scaled, 0.0, 1.0) * 255.0).astype(np.uint8)
+    return np.concatenate([rgb, channel[..., None]], axis=-1)
+
 
 def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
     """OpenGL view matrix ``(4, 4)`` (same as ``pybullet.computeViewMatrix``): maps points
@@ -107,14 +147,26 @@ class Camera:
         """Pixel coordinates ``(..., 2)`` of torso-frame ``points (..., 3)``."""
         return project_points(points, self.view_matrix, self.projection_matrix, self.width, self.height)
 
-    def render(self, client: int, base_to_world: np.ndarray, backdrop: np.ndarray | None = None) -> np.ndarray:
-        """RGB image ``(height, width, 3)`` uint8 from PyBullet's TinyRenderer.
+    def render(
+        self,
+        client: int,
+        base_to_world: np.ndarray,
+        backdrop: np.ndarray | None = None,
+        *,
+        backdrop_depth: np.ndarray | None = None,
+        with_depth: bool = False,
+    ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """RGB image ``(height, width, 3)`` uint8 from PyBullet's TinyRenderer, and with
+        ``with_depth`` also the depth image ``(height, width)`` uint16 mm (same render call).
 
         Args:
             client: PyBullet physics client id.
             base_to_world: ``(4, 4)`` pose of the torso frame in the PyBullet world.
             backdrop: ``(height, width, 3)`` uint8 image shown where nothing of ``client``
                 was drawn (see :class:`~lfd.sim.scene.ReachScene`), else white.
+            backdrop_depth: ``(height, width)`` uint16 mm depth of the backdrop, used where
+                nothing of ``client`` was drawn (else ``far``).
+            with_depth: return ``(rgb, depth_mm)``.
         """
         view = self.view_matrix @ np.linalg.inv(base_to_world)
         _, _, rgba, depth, _ = p.getCameraImage(
@@ -129,10 +181,15 @@ class Camera:
             physicsClientId=client,
         )
         rgb = np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[..., :3]
-        if backdrop is None:
-            return rgb.copy()
-        empty = np.asarray(depth).reshape(self.height, self.width, 1) >= 1.0
-        return np.where(empty, backdrop, rgb)
+        buffer = np.asarray(depth, dtype=np.float64).reshape(self.height, self.width)
+        empty = buffer >= 1.0
+        rgb = rgb.copy() if backdrop is None else np.where(empty[..., None], backdrop, rgb)
+        if not with_depth:
+            return rgb
+        depth_mm = depth_to_mm(linear_depth(buffer, self.near, self.far))
+        if backdrop_depth is not None:
+            depth_mm = np.where(empty, backdrop_depth, depth_mm)
+        return rgb, depth_mm
 
 
 def third_person_camera(width: int = 640, height: int = 480) -> Camera:

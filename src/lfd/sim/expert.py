@@ -52,6 +52,7 @@ class Demonstration:
         object_poses: ``(T, 4, 4)`` object poses (torso frame).
         frames: ``(T, H, W, 3)`` uint8 fixed-camera RGB frames.
         wrist_frames: ``(T, H, W, 3)`` uint8 wrist-camera frames, or None.
+        depth: ``(T, H, W)`` uint16 fixed-camera depth (mm), or None (``record_depth``).
         plan: the approach plan; ``plan.target_point`` is the demonstration's target.
         q_approach, q_pregrasp: ``(7,)`` IK solutions for the two target poses.
         final_error: distance (m) from the final tool position to ``plan.target_point``.
@@ -68,6 +69,7 @@ class Demonstration:
     q_approach: np.ndarray
     q_pregrasp: np.ndarray
     final_error: float
+    depth: np.ndarray | None = None
 
 
 #: PR2 right-arm postures (degrees, chain order) near which the IK of each approach mode
@@ -108,6 +110,7 @@ class ScriptedExpert:
         via_fraction, via_lift: timing (fraction of ``duration``) and shoulder raise (rad)
             of the via posture (:meth:`trajectory`).
         tolerance: maximum final tool distance (m) to the target point.
+        record_depth: also record the fixed camera's depth (``Demonstration.depth``).
     """
 
     def __init__(
@@ -120,6 +123,7 @@ class ScriptedExpert:
         via_fraction: float = 0.375,
         via_lift: float = 0.3,
         tolerance: float = 0.01,
+        record_depth: bool = False,
     ) -> None:
         if n_steps < 2 or not 0 < via_fraction < approach_fraction < 1 or not duration > 0:
             raise ValueError(
@@ -131,6 +135,7 @@ class ScriptedExpert:
         self.approach_fraction = float(approach_fraction)
         self.via_fraction, self.via_lift = float(via_fraction), float(via_lift)
         self.tolerance = float(tolerance)
+        self.record_depth = bool(record_depth)
         self.home = _numpy(robot.home)
         self.continuous = _numpy(robot.continuous).astype(bool)
         self.seeds = {}
@@ -195,7 +200,7 @@ class ScriptedExpert:
         q_app, q_pre = self.joint_targets(plan)
         q_plan, qd_plan = self.trajectory(q_app, q_pre)
         scene.reset(spec, placement, q=self.home)
-        keys = ("joints", "velocities", "ee_poses", "object_poses", "frames", "wrist_frames")
+        keys = ("joints", "velocities", "ee_poses", "object_poses", "frames", "wrist_frames", "depth")
         rec: dict[str, list] = {k: [] for k in keys}
         t = self.t
         for k in range(self.n_steps):
@@ -209,7 +214,12 @@ class ScriptedExpert:
             rec["velocities"].append(qd)
             rec["ee_poses"].append(scene.ee_pose())
             rec["object_poses"].append(scene.object_pose())
-            rec["frames"].append(scene.render())
+            if self.record_depth:
+                rgb, depth = scene.render(with_depth=True)
+                rec["frames"].append(rgb)
+                rec["depth"].append(depth)
+            else:
+                rec["frames"].append(scene.render())
             if scene.wrist_camera:
                 rec["wrist_frames"].append(scene.render_wrist())
         arrays = {k: np.stack(v) if v else None for k, v in rec.items()}

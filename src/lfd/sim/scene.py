@@ -134,7 +134,9 @@ class ReachScene:
         self.client = p.connect(p.DIRECT)
         self._backdrop_client = p.connect(p.DIRECT)
         self._add_static_bodies(self._backdrop_client, visible=True)
-        self._backdrop = self.camera.render(self._backdrop_client, self.base_to_world)
+        self._backdrop, self._backdrop_depth = self.camera.render(
+            self._backdrop_client, self.base_to_world, with_depth=True
+        )
         self.robot_id = self.table_id = self.object_id = -1
         self.object_spec: ObjectSpec | None = None
         self.placement: Placement | None = None
@@ -334,9 +336,13 @@ class ReachScene:
         return len(pts) > 0
 
     # ------------------------------------------------------------------ images
-    def render(self) -> np.ndarray:
-        """RGB frame ``(H, W, 3)`` uint8 of the fixed camera."""
-        return self.camera.render(self.client, self.base_to_world, self._backdrop)
+    def render(self, with_depth: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+        """RGB frame ``(H, W, 3)`` uint8 of the fixed camera; with ``with_depth`` the pair
+        ``(rgb, depth)``, depth ``(H, W)`` uint16 mm along the optical axis (one render call;
+        :func:`lfd.sim.camera.rgbd_image` turns the pair into a policy's RGB-D input)."""
+        return self.camera.render(
+            self.client, self.base_to_world, self._backdrop, backdrop_depth=self._backdrop_depth, with_depth=with_depth
+        )
 
     def render_wrist(self) -> np.ndarray:
         """RGB frame ``(H, W, 3)`` uint8 of a camera 12 cm behind and 5 cm above the tool

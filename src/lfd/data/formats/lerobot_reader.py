@@ -176,6 +176,7 @@ class LeRobotDataConfig:
     duration: float
     n_steps: int
     robot: str
+    depth: bool = False  # the reader serves the RGB video frames
 
 
 class _Episode:
@@ -258,6 +259,7 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         image_size, duration, n_steps, robot: expected values (the model configs read them
             from ``data.*``); each given one must equal the folder's (square image side,
             ``(T - 1) / fps``, longest episode ``T``, ``robot_type``), else ``ValueError``.
+        depth: must be False (RGB only); the model configs read ``data.depth``.
     """
 
     def __init__(
@@ -277,8 +279,11 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         duration: float | None = None,
         n_steps: int | None = None,
         robot: str | None = None,
+        depth: bool = False,
     ) -> None:
         super().__init__()
+        if depth:
+            raise ValueError("LeRobotDataModule.depth: the reader serves RGB video frames only; set depth: false")
         self.expected = {"image_size": image_size, "duration": duration, "n_steps": n_steps, "robot": robot}
         from lfd.data.datamodule import MODES
 
