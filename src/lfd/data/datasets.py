@@ -191,7 +191,8 @@ class DMPReachDataset(Dataset):
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
-        self.frames = torch.from_numpy(np.stack([policy_frames(r, _depth(data))[0] for r in records]))
+        depth = _depth(data)
+        self.frames = torch.from_numpy(np.stack([policy_frames(r, depth)[0] for r in records]))
         self.tensors = {
             "joints": _stack(records, "joints")[:, 0],
             "goal": _stack(records, "dmp_goal"),
@@ -239,7 +240,8 @@ class VelocityReachDataset(Dataset):
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
-        self.frames = torch.from_numpy(np.concatenate([policy_frames(r, _depth(data)) for r in records]))
+        depth = _depth(data)
+        self.frames = torch.from_numpy(np.concatenate([policy_frames(r, depth) for r in records]))
         steps = records[0].arrays["t"].shape[0]
         self.tensors = {
             "joints": _stack(records, "joints").reshape(-1, 7),
