@@ -33,9 +33,12 @@ def test_every_experiment_is_covered():
 @pytest.mark.parametrize("name", EXPERIMENTS)
 def test_experiment_fast_dev_run(compose, tiny_reaching, tmp_path_factory, capsys, name):
     root = tmp_path_factory.getbasetemp() / "experiments"  # shared: the reaching experiments reuse one tiny dataset
-    target = compose("train", f"experiment={name}").data._target_
+    data = compose("train", f"experiment={name}").data
+    target = data._target_
     assert target in SHRINK, f"experiment={name}: no shrinking overrides for data {target}"
     shrink = [*SHRINK[target], *(tiny_reaching if target == "lfd.data.ReachDataModule" else ())]
+    if data.get("depth"):  # an RGB-D dataset cannot share the RGB one's folder
+        shrink.append("data.name=tiny_rgbd")
     run = root / f"run-{name}"
     cfg = compose("train", f"experiment={name}", f"paths.root_dir={root}", f"paths.output_dir={run}", "++trainer.fast_dev_run=true", *shrink)
     train.main(cfg)  # instantiates datamodule, model, callbacks, loggers, trainer; fits one batch

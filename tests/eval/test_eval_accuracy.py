@@ -45,7 +45,8 @@ def test_small_training_reaches_new_objects(tmp_path):
     assert train.returncode == 0, train.stderr[-3000:]
     ckpt = tmp_path / "train" / "checkpoints" / "last.ckpt"
     ev = subprocess.run(
-        [sys.executable, str(ROOT / "evaluate.py"), "eval.split=val", "eval.methods=[cnn_dmp]", "eval.n_gifs=0",
+        # data.depth=true: the dataset quick's CNN -> DMP input made (evaluate.py has no model to pick it)
+        [sys.executable, str(ROOT / "evaluate.py"), "eval.split=val", "eval.methods=[cnn_dmp]", "eval.n_gifs=0", "data.depth=true",
          f"ckpt_dmp={ckpt}", f"hydra.run.dir={tmp_path}/eval", *common],
         capture_output=True, text=True, cwd=ROOT, timeout=900,
     )

@@ -5,6 +5,7 @@ refusals a user would hit when mixing RGB and RGB-D checkpoints, data and images
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -185,11 +186,35 @@ def test_observe_gives_each_policy_its_input(depth_checkpoints, scene):
     np.testing.assert_array_equal(rgbd[..., :3], scene.render())
 
 
-def test_rgb_and_rgbd_do_not_mix(depth_checkpoints, compose, workspace):
-    """A depth checkpoint on an RGB dataset of the same size is refused, naming the key."""
-    cfg = compose(
-        "evaluate", f"paths.root_dir={workspace}", *TINY, "data.depth=false", "data.name=tinyrgb", "eval.limit=1",
-        f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]",
-    )
+def test_rgb_and_rgbd_do_not_mix_in_training(depth_checkpoints, workspace):
+    """Training data must match the checkpoint's input: an RGB dataset is refused, naming the key."""
+    policy = load_policy(depth_checkpoints["cnn_dmp"])
+    config = load_dataset(workspace / "data" / "tinyd").config
+    policy.check_data(config)
     with pytest.raises(ValueError, match="built with depth=True, the dataset has depth=False"):
+        policy.check_data(dataclasses.replace(config, depth=False))
+
+
+def test_evaluation_renders_each_policy_its_input(depth_checkpoints, compose, workspace):
+    """An RGB dataset's cases serve an RGB-D checkpoint (the evaluator renders each policy
+    its own input, as experiment=quick does for CNN -> DMP); any other mismatch is refused."""
+    common = ["evaluate", f"paths.root_dir={workspace}", *TINY, "data.depth=false", "data.name=tinyrgb", "eval.n_gifs=0"]
+    cfg = compose(*common, "eval.max_steps=4", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]")
+    metrics = evaluate.evaluate(cfg, workspace / "eval-rgb-cases")
+    assert metrics["cnn_dmp"]["episodes"] == 2 and "tinyrgb" in metrics["cnn_dmp"]["cases"]
+    assert not load_dataset(workspace / "data" / "tinyrgb").config.depth
+    cfg = compose(*common, "data.image_size=24", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]")
+    with pytest.raises(ValueError, match="built with image_size=32, the dataset has image_size=24"):
         evaluate.evaluate(cfg, workspace / "eval-mix")
+
+
+def test_quick_gives_cnn_dmp_depth_and_velocity_rgb(compose):
+    """experiment=quick: each policy trains on its validated input; evaluate.py reads the RGB
+    dataset's cases (the same objects and placements)."""
+    seen = {}
+    for model in ("cnn_dmp", "velocity"):
+        cfg = compose("train", "experiment=quick", f"model={model}", "seed=5")
+        seen[model] = (cfg.data.depth, cfg.data.name)
+    assert seen == {"cnn_dmp": (True, "quick96o300d_s5"), "velocity": (False, "quick96o300_s5")}
+    cfg = compose("evaluate", "experiment=quick", "seed=5")
+    assert (cfg.data.depth, cfg.data.name) == (False, "quick96o300_s5")
