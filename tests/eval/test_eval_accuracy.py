@@ -3,9 +3,9 @@
 The quick experiment shrunk to a few minutes of CPU (64 px, 150 training objects x 2
 placements, 600 steps; the quick experiment's CNN -> DMP options, RGB-D input included),
 trained with ``train.py`` and evaluated closed loop in PyBullet with ``evaluate.py
-eval.split=val`` on the 8 held-out validation objects (2 placements each), exactly as a user runs them. The thresholds were set
-from one measured run (numbers in the assertion messages and in docs/evaluation.md) with a
-margin: CI notices when generalisation to new objects breaks, not a 1 cm fluctuation.
+eval.split=val`` on the 8 held-out validation objects (2 placements each), exactly as a user
+runs them. The thresholds were set from one measured run (numbers in the assertion messages
+and in docs/evaluation.md) with a margin: CI notices when generalisation to new objects breaks, not a 1 cm fluctuation.
 """
 
 import json
