@@ -287,3 +287,31 @@ def test_checkpoint_carries_fingerprint_and_own_training_items_are_refused(check
     cfg = tiny("evaluate", f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=2")
     with pytest.raises(ValueError, match=rf"checkpoint .* was trained on items of the evaluation cases .*object 'mine' is training object '{obj.name}'"):
         evaluate.evaluate(cfg, workspace / "eval-own")
+
+
+def test_colour_tta_is_set_per_method_and_refused_without_colour_augment(checkpoints, tiny, workspace):
+    """`eval.colour_tta` switches the test-time colour averaging on for the methods it names,
+    records it in metrics.json, and refuses a checkpoint that never saw permuted colours."""
+    cfg = tiny("evaluate", "eval.colour_tta=[cnn_dmp]", "eval.n_gifs=0", "eval.max_steps=4", "eval.limit=1")
+    with pytest.raises(ValueError, match=r"eval.colour_tta: cnn_dmp checkpoint .*colour_augment"):
+        evaluate.evaluate(cfg, workspace / "eval-tta-refused")
+    run_dir = workspace / "outputs" / "train-tta" / "run-cnn_dmp"
+    train_cfg = tiny(
+        "train", "model=cnn_dmp", "model.colour_augment=true", "++trainer.max_steps=2", "++trainer.limit_val_batches=1",
+        f"paths.output_dir={run_dir}", *TINY_MODEL,
+    )
+    ckpt = Path(train.main(train_cfg))
+    cfg = tiny(
+        "evaluate", "eval.colour_tta=[cnn_dmp]", "eval.n_gifs=0", "eval.max_steps=4", "eval.limit=1",
+        f"ckpt_dmp={ckpt}", f"ckpt_velocity={checkpoints['velocity']}",
+    )
+    metrics = evaluate.evaluate(cfg, workspace / "eval-tta")
+    assert metrics["cnn_dmp"]["colour_tta"] is True and metrics["velocity"]["colour_tta"] is False
+    with pytest.raises(ValueError, match="colour_tta: unknown methods"):
+        hydra_instantiate_evaluator(colour_tta=["cnn"])
+
+
+def hydra_instantiate_evaluator(**kwargs):
+    from lfd.eval.evaluator import ReachEvaluator
+
+    return ReachEvaluator(**kwargs)

@@ -272,3 +272,43 @@ def test_kinds_and_item_modes():
     assert vel.hparams.kind == "velocity"
     with pytest.raises(ValueError, match="holds 'cnn_dmp' policies"):
         CNNDMPPolicy(name="x", kind="velocity", **SMALL)
+
+
+def test_colour_tta_is_the_mean_over_the_six_channel_orders_and_ignores_colour_order():
+    """Test-time colour averaging: the head output (each head and the mode logit) is the mean
+    of the plain outputs of the 6 RGB orders, so permuting the input's colours changes
+    nothing; the depth channel is never moved, and training batches are not averaged."""
+    torch.manual_seed(0)
+    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=1.0, mode_heads=True, colour_augment=True, depth=True, **SMALL).eval()
+    g = torch.Generator().manual_seed(3)
+    image, joints = torch.rand(4, 4, 24, 24, generator=g), torch.randn(4, 7, generator=g) * 0.1
+    orders = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
+    with torch.no_grad():
+        plain = [policy._head_raw(image[:, [*o, 3]], joints, None) for o in orders]
+        policy.colour_tta = True
+        averaged = policy._head_raw(image, joints, None)
+        main, aux = policy.head_outputs(image, joints)
+        swapped, swapped_aux = policy.head_outputs(image[:, [2, 0, 1, 3]], joints)
+        depth_moved = policy.head_outputs(image[:, [3, 1, 2, 0]], joints)[0]
+    torch.testing.assert_close(averaged, torch.stack(plain).mean(0))
+    k = policy.output_dim
+    heads = averaged[:, : 2 * k].view(4, 2, k)
+    torch.testing.assert_close(aux, averaged[:, 2 * k :])
+    torch.testing.assert_close(main, heads[torch.arange(4), (aux[:, 0] > 0).long()])
+    torch.testing.assert_close(swapped, main, rtol=1e-5, atol=1e-5)
+    torch.testing.assert_close(swapped_aux, aux, rtol=1e-5, atol=1e-5)
+    assert (depth_moved - main).abs().max() > 1e-6  # the depth channel is not averaged over
+    policy.train()  # training batches are never averaged (batch-norm uses the batch's statistics here)
+    with torch.no_grad():
+        on = policy._head_raw(image, joints, None)
+        policy.colour_tta = False
+        torch.testing.assert_close(on, policy._head_raw(image, joints, None))
+    assert on.shape == (4, averaged.shape[1])
+
+
+def test_colour_tta_needs_a_colour_augmented_policy():
+    policy = VelocityPolicy(name="velocity", **SMALL)
+    with pytest.raises(ValueError, match="colour_tta.*colour_augment"):
+        policy.colour_tta = True
+    assert policy.colour_tta is False
+    policy.colour_tta = False  # switching it off is always allowed

@@ -119,6 +119,9 @@ class ReachEvaluator:
             objects at their placements; its training objects' other placements are left
             out, the overlap check refuses them as training objects).
         methods: policy kinds to evaluate.
+        colour_tta: methods whose policies average their output over the 6 orders of the
+            RGB channels (:attr:`lfd.models.policy.VisuomotorPolicy.colour_tta`; only for
+            checkpoints trained with ``colour_augment``).
         n_gifs: rollout GIFs per method (the first cases).
         gif_every: keep every this many control steps in a GIF.
         max_steps: control steps per episode; None = twice the demonstrations' length
@@ -145,6 +148,7 @@ class ReachEvaluator:
         limit: int | None = None,
         torch_threads: int = 1,
         split: str = "test",
+        colour_tta: tuple[str, ...] | list[str] = (),
     ) -> None:
         if split not in ("test", "val"):
             raise ValueError(f"ReachEvaluator.split: expected 'test' or 'val', got {split!r}")
@@ -153,6 +157,10 @@ class ReachEvaluator:
             raise ValueError(f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(CONTROLLERS)}")
         if max_steps is not None and max_steps < 1:
             raise ValueError(f"ReachEvaluator.max_steps: expected an int >= 1 or null, got {max_steps}")
+        bad = sorted(set(colour_tta) - set(CONTROLLERS))
+        if bad:
+            raise ValueError(f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(CONTROLLERS)}")
+        self.colour_tta = tuple(colour_tta)
         self.scenario = scenario
         self.methods = tuple(methods)
         self.n_gifs, self.gif_every = int(n_gifs), max(1, int(gif_every))
@@ -247,6 +255,11 @@ class ReachEvaluator:
         out_dir.mkdir(parents=True, exist_ok=True)
         checkpoints = {kind: Path(path) for kind, path in checkpoints.items()}
         policies = {kind: load_policy(path) for kind, path in checkpoints.items()}
+        for kind in set(self.colour_tta) & set(policies):
+            try:
+                policies[kind].colour_tta = True
+            except ValueError as e:
+                raise ValueError(f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}") from e
         gen = datamodule.config
         for kind, policy in policies.items():
             try:
@@ -296,7 +309,9 @@ class ReachEvaluator:
             if ood and len(ood) < len(mine):  # reported separately, never mixed into one number silently
                 metrics[kind]["in_distribution"] = self._subset([r for r in mine if not r["ood"]])
                 metrics[kind]["out_of_distribution"] = self._subset(ood)
-            metrics[kind].update({"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps})
+            metrics[kind].update(
+                {"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps, "colour_tta": kind in self.colour_tta}
+            )
         self._write(out_dir, metrics, rows, cases, traces)
         # the same episodes in LeRobot's layout: <out_dir>/<method>/eval_info.json and videos/eval_episode_<i>.mp4
         write_lerobot_eval(out_dir, rows, cases, traces, gen, seed=gen.seed, eval_s=time.perf_counter() - t0, n_videos=self.n_gifs, frame_every=self.gif_every)

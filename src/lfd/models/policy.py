@@ -11,6 +11,7 @@ carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
@@ -29,6 +30,8 @@ ONECYCLE_PCT_START = 0.3
 DATA_KEYS = ("image_size", "depth", "duration", "n_steps", "robot")
 #: Auxiliary head outputs with ``aux_weight > 0``: the top-approach logit, the normalised target point (3).
 AUX_DIM = 4
+#: The 6 orders of the RGB channels (test-time colour averaging, :attr:`VisuomotorPolicy.colour_tta`).
+COLOUR_ORDERS = tuple(itertools.permutations(range(3)))
 #: Checkpoint key of the training dataset's fingerprint.
 FINGERPRINT_KEY = "lfd_dataset_fingerprint"
 
@@ -186,12 +189,7 @@ class VisuomotorPolicy(L.LightningModule):
         With ``mode_heads`` the policy's output is that of the head of mode ``top`` (``(B,)``,
         1 = top; training passes the demonstrations' modes) or, when ``top`` is None, of the
         mode the auxiliary logit predicts; with one head ``top`` is ignored."""
-        keypoints = self.encoder(image)
-        bias = self.bias_input.expand(image.shape[0], -1)
-        parts = [keypoints, self.normalise("joints", joints), bias]
-        if extra is not None:
-            parts.append(extra)
-        out = self.head(torch.cat(parts, dim=1))
+        out = self._head_raw(image, joints, extra)
         k = self.n_heads * self.output_dim
         main, aux = out[:, :k], out[:, k:]
         if self.n_heads == 1:
@@ -199,6 +197,41 @@ class VisuomotorPolicy(L.LightningModule):
         pick = (aux[:, 0] > 0) if top is None else (top > 0.5)
         heads = main.view(-1, self.n_heads, self.output_dim)
         return heads[torch.arange(len(heads), device=heads.device), pick.long()], aux
+
+    def _head_raw(self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None) -> torch.Tensor:
+        """Raw head output ``(B, n_heads * output_dim + n_aux)``; with :attr:`colour_tta`
+        (outside training) the mean over the 6 orders of the RGB channels."""
+        tta = self.colour_tta and not self.training
+        b = image.shape[0]
+        if tta:  # (6 B, C, H, W): permutation-major, the depth channel untouched
+            image = torch.cat([torch.cat([image[:, list(order)], image[:, 3:]], dim=1) for order in COLOUR_ORDERS])
+            joints = joints.repeat(len(COLOUR_ORDERS), 1)
+            extra = None if extra is None else extra.repeat(len(COLOUR_ORDERS), 1)
+        keypoints = self.encoder(image)
+        bias = self.bias_input.expand(image.shape[0], -1)
+        parts = [keypoints, self.normalise("joints", joints), bias]
+        if extra is not None:
+            parts.append(extra)
+        out = self.head(torch.cat(parts, dim=1))
+        return out.view(len(COLOUR_ORDERS), b, -1).mean(dim=0) if tta else out
+
+    @property
+    def colour_tta(self) -> bool:
+        """Test-time colour averaging: outside training, the head output is the mean over
+        the 6 orders of the RGB channels (each head's output and the mode logit averaged
+        before the logit picks the head), so the decision does not hang on the colour the
+        object happens to have. Only for a policy trained with ``colour_augment`` (it saw
+        every order); off by default, the evaluator sets it (``eval.colour_tta``)."""
+        return getattr(self, "_colour_tta", False)
+
+    @colour_tta.setter
+    def colour_tta(self, on: bool) -> None:
+        if on and not self.hparams.get("colour_augment", False):
+            raise ValueError(
+                f"{type(self).__name__}.colour_tta: needs a policy trained with colour_augment=true "
+                "(it never saw permuted colours otherwise)"
+            )
+        self._colour_tta = bool(on)
 
     def features(self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
         """The policy's head output ``(B, output_dim)`` (see :meth:`head_outputs`)."""
