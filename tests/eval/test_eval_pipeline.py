@@ -307,11 +307,7 @@ def test_colour_tta_is_set_per_method_and_refused_without_colour_augment(checkpo
     )
     metrics = evaluate.evaluate(cfg, workspace / "eval-tta")
     assert metrics["cnn_dmp"]["colour_tta"] is True and metrics["velocity"]["colour_tta"] is False
-    with pytest.raises(ValueError, match="colour_tta: unknown methods"):
-        hydra_instantiate_evaluator(colour_tta=["cnn"])
-
-
-def hydra_instantiate_evaluator(**kwargs):
     from lfd.eval.evaluator import ReachEvaluator
 
-    return ReachEvaluator(**kwargs)
+    with pytest.raises(ValueError, match="colour_tta: unknown methods"):
+        ReachEvaluator(colour_tta=["cnn"])

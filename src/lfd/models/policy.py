@@ -11,7 +11,6 @@ carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
 
 from __future__ import annotations
 
-import itertools
 import math
 from typing import Any
 
@@ -22,7 +21,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from lfd.models.training import SCHEDULERS, make_optimizer
-from lfd.models.vision import KeypointEncoder, image_to_tensor, mlp, permute_colour_channels
+from lfd.models.vision import COLOUR_ORDERS, KeypointEncoder, all_colour_orders, image_to_tensor, mlp, permute_colour_channels
 
 #: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
 ONECYCLE_PCT_START = 0.3
@@ -30,8 +29,6 @@ ONECYCLE_PCT_START = 0.3
 DATA_KEYS = ("image_size", "depth", "duration", "n_steps", "robot")
 #: Auxiliary head outputs with ``aux_weight > 0``: the top-approach logit, the normalised target point (3).
 AUX_DIM = 4
-#: The 6 orders of the RGB channels (test-time colour averaging, :attr:`VisuomotorPolicy.colour_tta`).
-COLOUR_ORDERS = tuple(itertools.permutations(range(3)))
 #: Checkpoint key of the training dataset's fingerprint.
 FINGERPRINT_KEY = "lfd_dataset_fingerprint"
 
@@ -135,6 +132,7 @@ class VisuomotorPolicy(L.LightningModule):
         self.bias_input = nn.Parameter(torch.zeros(bias_dim))
         self._robot = None
         self._val_runs = 0
+        self._colour_tta = False
 
     @property
     def input_channels(self) -> int:
@@ -203,8 +201,8 @@ class VisuomotorPolicy(L.LightningModule):
         (outside training) the mean over the 6 orders of the RGB channels."""
         tta = self.colour_tta and not self.training
         b = image.shape[0]
-        if tta:  # (6 B, C, H, W): permutation-major, the depth channel untouched
-            image = torch.cat([torch.cat([image[:, list(order)], image[:, 3:]], dim=1) for order in COLOUR_ORDERS])
+        if tta:
+            image = all_colour_orders(image)
             joints = joints.repeat(len(COLOUR_ORDERS), 1)
             extra = None if extra is None else extra.repeat(len(COLOUR_ORDERS), 1)
         keypoints = self.encoder(image)
@@ -222,7 +220,7 @@ class VisuomotorPolicy(L.LightningModule):
         before the logit picks the head), so the decision does not hang on the colour the
         object happens to have. Only for a policy trained with ``colour_augment`` (it saw
         every order); off by default, the evaluator sets it (``eval.colour_tta``)."""
-        return getattr(self, "_colour_tta", False)
+        return self._colour_tta
 
     @colour_tta.setter
     def colour_tta(self, on: bool) -> None:

@@ -8,6 +8,7 @@ expected image coordinates.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -159,3 +160,14 @@ def permute_colour_channels(image: torch.Tensor) -> torch.Tensor:
     order = torch.argsort(torch.rand(image.shape[0], 3, device=image.device), dim=1)
     rgb = torch.gather(rgb, 1, order[:, :, None, None].expand_as(rgb))
     return torch.cat([rgb, image[:, 3:]], dim=1)
+
+
+#: The 6 orders of the RGB channels (:func:`all_colour_orders`).
+COLOUR_ORDERS = tuple(itertools.permutations(range(3)))
+
+
+def all_colour_orders(image: torch.Tensor) -> torch.Tensor:
+    """Test-time counterpart of :func:`permute_colour_channels`: ``(B, C, H, W)`` ->
+    ``(6 B, C, H, W)``, the batch once per order of :data:`COLOUR_ORDERS` (order-major). A
+    depth channel (``C = 4``) stays where it is."""
+    return torch.cat([torch.cat([image[:, list(order)], image[:, 3:]], dim=1) for order in COLOUR_ORDERS])
