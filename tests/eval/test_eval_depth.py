@@ -169,7 +169,7 @@ def test_depth_policies_evaluate_in_closed_loop(depth_checkpoints, compose, work
         with pytest.raises(ValueError, match="RGB-D images with 4 channels"):
             (policy.plan if kind == "cnn_dmp" else policy.act)(np.zeros((32, 32, 3), np.uint8), np.zeros(7))
     cfg = compose(
-        "evaluate", f"paths.root_dir={workspace}", *TINY, "eval.max_steps=8", "eval.n_gifs=1",
+        "evaluate", f"paths.root_dir={workspace}", *TINY, "eval.colour_tta=[]", "eval.max_steps=8", "eval.n_gifs=1",
         f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", f"ckpt_velocity={depth_checkpoints['velocity']}",
     )
     out_dir = workspace / "eval"
@@ -198,7 +198,7 @@ def test_rgb_and_rgbd_do_not_mix_in_training(depth_checkpoints, workspace):
 def test_evaluation_renders_each_policy_its_input(depth_checkpoints, compose, workspace):
     """An RGB dataset's cases serve an RGB-D checkpoint (the evaluator renders each policy
     its own input, as experiment=quick does for CNN -> DMP); any other mismatch is refused."""
-    common = ["evaluate", f"paths.root_dir={workspace}", *TINY, "data.depth=false", "data.name=tinyrgb", "eval.n_gifs=0"]
+    common = ["evaluate", f"paths.root_dir={workspace}", *TINY, "eval.colour_tta=[]", "data.depth=false", "data.name=tinyrgb", "eval.n_gifs=0"]
     cfg = compose(*common, "eval.max_steps=4", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]")
     metrics = evaluate.evaluate(cfg, workspace / "eval-rgb-cases")
     assert metrics["cnn_dmp"]["episodes"] == 2 and "tinyrgb" in metrics["cnn_dmp"]["cases"]

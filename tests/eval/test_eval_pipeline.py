@@ -48,7 +48,9 @@ def tiny(compose, workspace):
     """``compose`` rooted in this module's workspace, on the tiny dataset."""
 
     def _compose(name: str, *overrides: str):
-        return compose(name, f"paths.root_dir={workspace}", *TINY_DATA, *overrides)
+        # the tiny checkpoints train without colour_augment: no colour averaging unless a test asks
+        plain = ["eval.colour_tta=[]"] if name == "evaluate" else []
+        return compose(name, f"paths.root_dir={workspace}", *TINY_DATA, *plain, *overrides)
 
     return _compose
 
@@ -311,3 +313,11 @@ def test_colour_tta_is_set_per_method_and_refused_without_colour_augment(checkpo
 
     with pytest.raises(ValueError, match="colour_tta: unknown methods"):
         ReachEvaluator(colour_tta=["cnn"])
+
+
+def test_quick_evaluates_cnn_dmp_with_colour_averaging_and_nothing_else_does(compose):
+    """experiment=quick (evaluate.py's default) turns colour averaging on for CNN -> DMP only,
+    as chosen on validation; the original scale and an explicit override leave it off."""
+    assert list(compose("evaluate", "experiment=quick").eval.colour_tta) == ["cnn_dmp"]
+    assert list(compose("evaluate", "experiment=quick", "eval.colour_tta=[]").eval.colour_tta) == []
+    assert list(compose("evaluate", "experiment=original").eval.colour_tta) == []

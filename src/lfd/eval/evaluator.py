@@ -259,7 +259,7 @@ class ReachEvaluator:
             try:
                 policies[kind].colour_tta = True
             except ValueError as e:
-                raise ValueError(f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}") from e
+                raise ValueError(f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: eval.colour_tta=[]") from e
         gen = datamodule.config
         for kind, policy in policies.items():
             try:
