@@ -13,6 +13,8 @@ def test_validation_names_the_field():
         ({"val_fraction": 1.0}, "val_fraction"),
         ({"n_train_placements": 2, "val_fraction": 0.9}, "val_fraction"),
         ({"families": ("cylinder", "cone")}, "families"),
+        ({"train_families": ()}, "train_families"),
+        ({"train_families": ("box", "cube")}, "train_families"),
         ({"x_range": (0.7, 0.4)}, "x_range"),
         ({"duration": 0.0}, "duration"),
         ({"approach_fraction": 1.5}, "approach_fraction"),
@@ -48,3 +50,18 @@ def test_plan_splits_by_placement_and_new_test_objects():
     assert [p.obj.shape for p in plans[::10][:4]] == ["cylinder", "capsule", "sphere", "box"]
     other = plan_episodes(GeneratorConfig(**{**cfg.to_dict(), "seed": 5}))
     assert [p.split for p in other] != [p.split for p in plans] or other[0].obj != plans[0].obj
+
+
+def test_train_families_change_only_the_training_objects():
+    """A training data mix (two boxes per round object here) leaves the held-out validation
+    and test objects as they are, and a config without it keeps its old hash."""
+    base = GeneratorConfig(seed=3, n_train_objects=6, n_train_placements=2, val_fraction=0.0, n_val_objects=4, n_val_object_placements=1, n_test_objects=4, n_test_placements=1)
+    mixed = GeneratorConfig(**{**base.to_dict(), "train_families": ["box", "cylinder", "box"]})
+    assert "train_families" not in base.to_dict() and base.sha256() != mixed.sha256()
+    assert GeneratorConfig.from_dict(mixed.to_dict()) == mixed
+    plans, mixed_plans = plan_episodes(base), plan_episodes(mixed)
+    for group in ("val", "test"):
+        assert [p.obj for p in plans if p.group == group] == [p.obj for p in mixed_plans if p.group == group]
+    shapes = [p.obj.shape for p in mixed_plans if p.group == "train"][::2]
+    assert shapes == ["box", "cylinder", "box"] * 2
+    assert [p.obj.shape for p in plans if p.group == "train"][::2] == ["cylinder", "capsule", "sphere", "box", "cylinder", "capsule"]

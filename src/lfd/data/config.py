@@ -31,6 +31,10 @@ class GeneratorConfig:
     Attributes:
         seed: drives objects, placements and splits (with the episode index).
         families: object shapes cycled through when sampling objects.
+        train_families: the training objects' cycle instead (``None`` = ``families``): a
+            data mix for training, e.g. one box per round object; the validation and test
+            objects keep ``families``. Object ``j`` of a group is drawn from its own keyed
+            stream either way, so the held-out objects do not change with it.
         x_range, y_range: placement ranges (m, torso frame); yaw_range_deg: degrees.
         image_size: side of the square camera images (px).
         wrist_camera: also record wrist-camera frames.
@@ -54,6 +58,7 @@ class GeneratorConfig:
     n_val_objects: int = 0
     n_val_object_placements: int = 0
     families: tuple[str, ...] = SHAPES
+    train_families: tuple[str, ...] | None = None
     x_range: tuple[float, float] = (0.45, 0.70)
     y_range: tuple[float, float] = (-0.30, 0.30)
     yaw_range_deg: tuple[float, float] = (-90.0, 90.0)
@@ -72,6 +77,8 @@ class GeneratorConfig:
     def __post_init__(self) -> None:
         # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
         object.__setattr__(self, "families", tuple(str(f) for f in self.families))
+        if self.train_families is not None:
+            object.__setattr__(self, "train_families", tuple(str(f) for f in self.train_families))
         for name in ("x_range", "y_range", "yaw_range_deg"):
             object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
         for name in ("val_fraction", "duration", "approach_fraction", "tolerance"):
@@ -101,11 +108,12 @@ class GeneratorConfig:
                 f"GeneratorConfig.val_fraction: {self.val_fraction} leaves no training placement "
                 f"out of {self.n_train_placements}"
             )
-        bad = [f for f in self.families if f not in SHAPES]
-        if not self.families or bad:
-            raise ValueError(
-                f"GeneratorConfig.families: expected a non-empty subset of {SHAPES}, got {list(self.families)}"
-            )
+        for name in ("families", "train_families"):
+            value = getattr(self, name)
+            if name == "train_families" and value is None:
+                continue
+            if not value or any(f not in SHAPES for f in value):
+                raise ValueError(f"GeneratorConfig.{name}: expected a non-empty list of {SHAPES} (repeats allowed), got {list(value)}")
         for name in ("x_range", "y_range", "yaw_range_deg"):
             low_high = getattr(self, name)
             if len(low_high) != 2 or not all(math.isfinite(v) for v in low_high) or low_high[0] > low_high[1]:
@@ -139,6 +147,10 @@ class GeneratorConfig:
     def placement_ranges(self) -> PlacementRanges:
         return PlacementRanges(self.x_range, self.y_range, self.yaw_range_deg)
 
+    def group_families(self, group: str) -> tuple[str, ...]:
+        """The shape cycle of object group ``group`` (``train``, ``val`` or ``test``)."""
+        return self.train_families if group == "train" and self.train_families is not None else self.families
+
     @property
     def control_dt(self) -> float:
         return self.duration / (self.n_steps - 1)
@@ -168,4 +180,4 @@ class GeneratorConfig:
 
 
 #: Options added after :data:`~lfd.data.storage.FORMAT_VERSION` 2, with their defaults.
-_LATER_OPTIONS = {"depth": False}
+_LATER_OPTIONS = {"depth": False, "train_families": None}

@@ -58,12 +58,11 @@ class EpisodePlan:
 
 def group_objects(cfg: GeneratorConfig, group: str, n: int) -> list[ObjectSpec]:
     """The first ``n`` objects of ``group``, object ``j`` from its own keyed stream (family
-    ``families[j % len(families)]``), named ``f"{group}-{j:02d}-{shape}"``."""
-    key = GROUP_KEYS[group]
-    return [
-        sample_object(np.random.default_rng([cfg.seed, OBJECT_STREAM, key, j]), cfg.families[j % len(cfg.families)], f"{group}-{j:02d}-{cfg.families[j % len(cfg.families)]}")
-        for j in range(n)
-    ]
+    ``families[j % len(families)]``, :meth:`GeneratorConfig.group_families`), named
+    ``f"{group}-{j:02d}-{shape}"``."""
+    key, families = GROUP_KEYS[group], cfg.group_families(group)
+    shapes = [families[j % len(families)] for j in range(n)]
+    return [sample_object(np.random.default_rng([cfg.seed, OBJECT_STREAM, key, j]), shape, f"{group}-{j:02d}-{shape}") for j, shape in enumerate(shapes)]
 
 
 def plan_episodes(cfg: GeneratorConfig) -> list[EpisodePlan]:

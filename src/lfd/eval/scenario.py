@@ -294,7 +294,7 @@ def load_scenario(
         _check_reach(objects, placements, robot, table_z, path)
     object_ood = placement_ood = ()
     if training is not None:
-        object_ood = tuple(object_ood_reason(o, tuple(training.families)) for o in objects)
+        object_ood = tuple(object_ood_reason(o, training.group_families("train")) for o in objects)
         placement_ood = tuple(placement_ood_reason(p, training.x_range, training.y_range, training.yaw_range_deg) for p in placements)
         notes = [f"objects[{i}] ({o.name}): {r}" for i, (o, r) in enumerate(zip(objects, object_ood)) if r]
         notes += [f"placements[{j}]: {r}" for j, r in enumerate(placement_ood) if r]
