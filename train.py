@@ -48,11 +48,18 @@ def main(cfg: DictConfig) -> str | None:
     if cfg.get("test"):
         trainer.test(model=model, datamodule=datamodule, ckpt_path="best" if not cfg.trainer.get("fast_dev_run") else None)
 
-    ckpt = trainer.checkpoint_callback.last_model_path if trainer.checkpoint_callback else None
+    callback = trainer.checkpoint_callback
+    ckpt = callback.last_model_path if callback else None
     if trainer.is_global_zero:
         print(f"[lfd] run directory: {cfg.paths.output_dir}")
         if ckpt:
             print(f"[lfd] checkpoint: {ckpt}")
+            if callback.monitor and callback.best_model_score is not None:
+                # Lightning >= 2.6 writes last.ckpt only beside a new best monitored checkpoint
+                import torch
+
+                step = torch.load(ckpt, map_location="cpu", weights_only=False).get("global_step")
+                print(f"[lfd]   the best {callback.monitor} on validation ({float(callback.best_model_score):.4g}), at step {step} of {trainer.global_step}")
     return ckpt
 
 

@@ -1,0 +1,34 @@
+"""Which weights ``last.ckpt`` holds: every evaluation scores it (``evaluate.py`` picks the
+newest ``last.ckpt``), so its meaning is pinned here."""
+
+import torch
+from hydra.utils import instantiate
+
+import lightning as L
+from lightning.pytorch.demos.boring_classes import BoringModel
+
+
+class RisingValLoss(BoringModel):
+    """A validation loss that gets worse at every check: the best is the first."""
+
+    def validation_step(self, batch, batch_idx):
+        self.log("val/loss", float(self.global_step))
+
+
+def test_last_ckpt_is_the_best_monitored_checkpoint_not_the_final_weights(compose, tmp_path):
+    """With the project's checkpoint callback (configs/callbacks/default.yaml: top-1 by the
+    monitor, save_last) Lightning >= 2.6 writes last.ckpt only beside a new best checkpoint,
+    so last.ckpt is the best step by the validation monitor, not the last step. Every number
+    in docs/ was made so; under Lightning < 2.6 this fails."""
+    cfg = compose("train", f"callbacks.model_checkpoint.dirpath={tmp_path}")
+    callback = instantiate(cfg.callbacks.model_checkpoint)
+    assert callback.monitor == "val/loss" and callback.save_top_k == 1 and callback.save_last
+    trainer = L.Trainer(
+        max_steps=6, val_check_interval=2, check_val_every_n_epoch=None, limit_val_batches=1,
+        callbacks=[callback], logger=False, enable_progress_bar=False, enable_model_summary=False,
+    )
+    trainer.fit(RisingValLoss())
+    assert trainer.global_step == 6
+    last = torch.load(tmp_path / "last.ckpt", map_location="cpu", weights_only=False)
+    assert last["global_step"] == 2  # the first validation, the best val/loss
+    assert float(callback.best_model_score) == 2.0  # the val/loss logged at that check
