@@ -15,6 +15,7 @@ import torch
 
 import evaluate
 import train
+from lfd.data import ReachDataModule
 from lfd.data.datasets import DMPReachDataset, VelocityReachDataset, load_dataset
 from lfd.eval.rollout import PlanController, observe
 from lfd.models import POLICIES, load_policy
@@ -214,7 +215,28 @@ def test_quick_gives_cnn_dmp_depth_and_velocity_rgb(compose):
     seen = {}
     for model in ("cnn_dmp", "velocity"):
         cfg = compose("train", "experiment=quick", f"model={model}", "seed=5")
-        seen[model] = (cfg.data.depth, cfg.data.name)
-    assert seen == {"cnn_dmp": (True, "quick96o300d_s5"), "velocity": (False, "quick96o300_s5")}
+        seen[model] = (cfg.model.depth, cfg.data.name)
+    assert seen == {"cnn_dmp": (True, "quick96o300d_s5"), "velocity": (False, "quick96o300d_s5")}
+    train_cfg = compose("train", "experiment=quick", "model=velocity", "seed=5")
+    assert train_cfg.data.depth and train_cfg.model.depth is False  # one RGB-D dataset, RGB input
     cfg = compose("evaluate", "experiment=quick", "seed=5")
-    assert (cfg.data.depth, cfg.data.name) == (False, "quick96o300_s5")
+    assert (cfg.data.depth, cfg.data.name) == (True, "quick96o300d_s5")
+
+
+def test_an_rgb_policy_trains_on_an_rgbd_datasets_colour_frames(depth_checkpoints, compose, workspace):
+    """data.input_depth=false: the items of an RGB-D dataset are its RGB frames (the same
+    bytes), an RGB policy trains on them, and RGB-D items from an RGB dataset are refused."""
+    data = load_dataset(workspace / "data" / "tinyd")
+    rgb_items, rgbd_items = DMPReachDataset(data, "train", depth=False), DMPReachDataset(data, "train")
+    assert rgb_items[0]["image"].shape == (3, 32, 32)
+    np.testing.assert_array_equal(rgb_items[0]["image"].numpy(), rgbd_items[0]["image"][:3].numpy())
+    assert VelocityReachDataset(data, "train", depth=False)[5]["image"].shape == (3, 32, 32)
+    run = workspace / "outputs" / "run-velocity-rgb"
+    cfg = compose(
+        "train", f"paths.root_dir={workspace}", *TINY, *TINY_MODEL, "model=velocity", "data.input_depth=false",
+        "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run}",
+    )
+    policy = load_policy(train.main(cfg))
+    assert policy.input_channels == 3 and not policy.hparams.depth
+    with pytest.raises(ValueError, match="input_depth: true needs a dataset recorded with depth: true"):
+        ReachDataModule(name="x", root=workspace / "data", depth=False, input_depth=True)

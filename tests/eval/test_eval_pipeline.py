@@ -33,7 +33,8 @@ TINY_DATA = [
     "data.val_fraction=0.34",
     "data.n_test_objects=1",
     "data.n_test_placements=2",
-    "data.n_val_objects=4",  # explicit: experiment=quick (evaluate.py's default) sets its own
+    "data.depth=false",  # explicit, like the next: experiment=quick (evaluate.py's default) sets its own
+    "data.n_val_objects=4",
     "data.n_val_object_placements=3",
     "data.image_size=32",
     "data.n_steps=30",

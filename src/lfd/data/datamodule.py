@@ -38,7 +38,11 @@ class ReachDataModule(L.LightningDataModule):
         root: folder holding datasets.
         mode: ``"dmp"`` (one item per episode) or ``"velocity"`` (one item per step).
         batch_size, num_workers: DataLoader settings (``num_workers`` loader processes).
-        augment: colour jitter + small random shifts on training images.
+        augment: colour jitter + small random shifts on training images (RGB input only).
+        input_depth: what the policies see: RGB-D (``True``; the dataset must be made with
+            ``depth: true``) or RGB (``False``), ``None`` = ``depth``. So an RGB policy can
+            train on an RGB-D dataset's colour frames: ``experiment=quick`` generates one
+            dataset for both of its policies.
         num_gen_workers: generation processes (default: all CPU cores).
         shard, num_shards: generate only shard ``shard`` of ``num_shards`` into
             ``<root>/<name>.shard-<i>-of-<N>`` (join with :func:`lfd.data.merge_shards`);
@@ -79,6 +83,7 @@ class ReachDataModule(L.LightningDataModule):
         batch_size: int = 32,
         num_workers: int = 0,
         augment: bool = False,
+        input_depth: bool | None = None,
         num_gen_workers: int | None = None,
         shard: int | None = None,
         num_shards: int = 1,
@@ -115,8 +120,11 @@ class ReachDataModule(L.LightningDataModule):
             max_attempts=max_attempts,
             robot=robot,
         )
-        if augment and depth:
-            raise ValueError("ReachDataModule: augment (colour jitter + shifts of RGB images) does not support depth: true; set augment: false")
+        self.input_depth = bool(depth if input_depth is None else input_depth)
+        if self.input_depth and not depth:
+            raise ValueError("ReachDataModule.input_depth: true needs a dataset recorded with depth: true (it has depth: false)")
+        if augment and self.input_depth:
+            raise ValueError("ReachDataModule: augment (colour jitter + shifts of RGB images) does not support RGB-D input (input_depth / depth: true); set augment: false")
         self.name, self.mode = name, mode
         self.path = dataset_dir(root, name, shard, num_shards)
         self.shard, self.num_shards = shard, num_shards
@@ -152,7 +160,7 @@ class ReachDataModule(L.LightningDataModule):
         )
         for split in wanted:
             if split not in self.datasets and self.data.manifest["episodes"][split] > 0:
-                self.datasets[split] = view(self.data, split, augment if split == "train" else None)
+                self.datasets[split] = view(self.data, split, augment if split == "train" else None, depth=self.input_depth)
 
     def fingerprint(self) -> dict:
         """The loaded dataset's fingerprint (:func:`lfd.data.fingerprint.dataset_fingerprint`),

@@ -9,7 +9,8 @@
 
 Frames are kept as uint8 tensors ``(N, H, W, C)`` and turned into float images
 ``(C, H, W)`` in ``[0, 1]`` per item, optionally through an augmentation callable; ``C = 3``
-(RGB), or 4 (RGB-D, :func:`lfd.sim.camera.rgbd_image`) for a dataset made with ``depth: true``.
+(RGB), or 4 (RGB-D, :func:`lfd.sim.camera.rgbd_image`) for a dataset made with ``depth: true``
+unless the dataset class is given ``depth=False`` (RGB items from an RGB-D dataset).
 """
 
 from __future__ import annotations
@@ -122,6 +123,15 @@ def _depth(data) -> bool:
     return bool(getattr(getattr(data, "config", None), "depth", False))
 
 
+def _input_depth(data, depth: bool | None) -> bool:
+    """Whether the items carry RGB-D images: ``depth`` (``None`` = whatever ``data`` has);
+    RGB-D from a dataset without depth images is an error."""
+    recorded = _depth(data)
+    if depth and not recorded:
+        raise DatasetError(f"{getattr(data, 'path', data)}: RGB-D items need a dataset made with depth: true")
+    return recorded if depth is None else bool(depth)
+
+
 def _to_image(frame: torch.Tensor, transform: Transform | None) -> torch.Tensor:
     """uint8 ``(H, W, C)`` -> float32 ``(C, H, W)`` in ``[0, 1]`` (then ``transform``)."""
     image = frame.permute(2, 0, 1).float().div_(255.0)
@@ -186,12 +196,12 @@ class DMPReachDataset(Dataset):
                                  (training-only label; when the records have their mode)
     """
 
-    def __init__(self, data: ReachData, split: str, transform: Transform | None = None) -> None:
+    def __init__(self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None) -> None:
         records = data.split(split)
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
-        depth = _depth(data)
+        depth = _input_depth(data, depth)
         self.frames = torch.from_numpy(np.stack([policy_frames(r, depth)[0] for r in records]))
         self.tensors = {
             "joints": _stack(records, "joints")[:, 0],
@@ -235,12 +245,12 @@ class VelocityReachDataset(Dataset):
         step      ()         int64 step t
     """
 
-    def __init__(self, data: ReachData, split: str, transform: Transform | None = None) -> None:
+    def __init__(self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None) -> None:
         records = data.split(split)
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
-        depth = _depth(data)
+        depth = _input_depth(data, depth)
         self.frames = torch.from_numpy(np.concatenate([policy_frames(r, depth) for r in records]))
         steps = records[0].arrays["t"].shape[0]
         self.tensors = {

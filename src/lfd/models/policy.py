@@ -11,6 +11,7 @@ carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Any
 
@@ -297,6 +298,8 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {mode!r}")
         config = getattr(dm, "config", None)
         if config is not None:
+            if hasattr(dm, "input_depth"):  # the input it serves: an RGB policy may train on an RGB-D dataset
+                config = dataclasses.replace(config, depth=bool(dm.input_depth))
             self.check_data(config)
         fingerprint = getattr(dm, "fingerprint", None)
         self.dataset_fingerprint = fingerprint() if callable(fingerprint) else None
