@@ -58,7 +58,7 @@ def main(cfg: DictConfig) -> str | None:
                 # Lightning >= 2.6 writes last.ckpt only beside a new best monitored checkpoint
                 import torch
 
-                step = torch.load(ckpt, map_location="cpu", weights_only=False).get("global_step")
+                step = torch.load(ckpt, map_location="cpu", weights_only=False, mmap=True).get("global_step")  # no tensor is read
                 print(f"[lfd]   the best {callback.monitor} on validation ({float(callback.best_model_score):.4g}), at step {step} of {trainer.global_step}")
     return ckpt
 

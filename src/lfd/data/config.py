@@ -108,11 +108,9 @@ class GeneratorConfig:
                 f"GeneratorConfig.val_fraction: {self.val_fraction} leaves no training placement "
                 f"out of {self.n_train_placements}"
             )
-        for name in ("families", "train_families"):
-            value = getattr(self, name)
-            if name == "train_families" and value is None:
-                continue
-            if not value or any(f not in SHAPES for f in value):
+        cycles = {"families": self.families, "train_families": self.train_families}
+        for name, value in cycles.items():
+            if value is not None and (not value or any(f not in SHAPES for f in value)):
                 raise ValueError(f"GeneratorConfig.{name}: expected a non-empty list of {SHAPES} (repeats allowed), got {list(value)}")
         for name in ("x_range", "y_range", "yaw_range_deg"):
             low_high = getattr(self, name)

@@ -23,7 +23,7 @@ import math
 import time
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -265,7 +265,7 @@ class ReachEvaluator:
             try:
                 # the dataset gives the cases, and each policy gets its own input rendered
                 # (observe): RGB or RGB-D need not match the dataset, everything else must
-                policy.check_data(replace(gen, depth=bool(policy.hparams.get("depth", False))))
+                policy.check_data(gen, depth=bool(policy.hparams.get("depth", False)))
             except ValueError as e:
                 raise ValueError(f"{kind} checkpoint {checkpoints[kind]}: {e}; evaluate with the data config it was trained on") from e
         datamodule.prepare_data()

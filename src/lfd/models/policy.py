@@ -11,7 +11,6 @@ carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any
 
@@ -267,13 +266,16 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__}: trained on {size}x{size} images, got {tuple(img.shape[-2:])}")
         return img.to(self.device), q.to(self.device), batched
 
-    def check_data(self, config) -> None:
+    def check_data(self, config, depth: bool | None = None) -> None:
         """Raise ``ValueError`` unless a dataset's generator ``config`` (rendering, timing,
-        robot: :data:`DATA_KEYS`) matches what this policy was built for."""
+        robot: :data:`DATA_KEYS`) matches what this policy was built for. ``depth``: whether
+        the images served are RGB-D, when that differs from what the dataset recorded
+        (``None`` = ``config.depth``; an RGB policy may read an RGB-D dataset's colour frames)."""
         for key in DATA_KEYS:
             built = self.hparams.get(key, False)  # only "depth" can be missing (older checkpoints)
-            if getattr(config, key) != built:
-                raise ValueError(f"{type(self).__name__} was built with {key}={built!r}, the dataset has {key}={getattr(config, key)!r}")
+            given = depth if key == "depth" and depth is not None else getattr(config, key)
+            if given != built:
+                raise ValueError(f"{type(self).__name__} was built with {key}={built!r}, the dataset has {key}={given!r}")
 
     #: Dataset fingerprint of the training run (:mod:`lfd.data.fingerprint`), saved in the
     #: checkpoint under :data:`FINGERPRINT_KEY`; None when unknown (e.g. a LeRobot dataset).
@@ -298,9 +300,7 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {mode!r}")
         config = getattr(dm, "config", None)
         if config is not None:
-            if hasattr(dm, "input_depth"):  # the input it serves: an RGB policy may train on an RGB-D dataset
-                config = dataclasses.replace(config, depth=bool(dm.input_depth))
-            self.check_data(config)
+            self.check_data(config, depth=getattr(dm, "input_depth", None))
         fingerprint = getattr(dm, "fingerprint", None)
         self.dataset_fingerprint = fingerprint() if callable(fingerprint) else None
         for stat in self.stat_names:
