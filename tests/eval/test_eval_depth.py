@@ -22,7 +22,7 @@ from lfd.models import POLICIES, load_policy
 from lfd.models.vision import image_to_tensor, permute_colour_channels
 from lfd.robots import load_robot
 from lfd.sim.approach import TABLE_Z
-from lfd.sim.camera import DEPTH_RANGE_M, linear_depth, rgbd_image
+from lfd.sim.camera import DEPTH_RANGE_M, RELIEF_DEADBAND_MM, RELIEF_RANGE_MM, linear_depth, plane_depth_mm, rgbd_image
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.scene import ReachScene
 
@@ -215,8 +215,8 @@ def test_quick_gives_cnn_dmp_depth_and_velocity_rgb(compose):
     seen = {}
     for model in ("cnn_dmp", "velocity"):
         cfg = compose("train", "experiment=quick", f"model={model}", "seed=5")
-        seen[model] = (cfg.model.depth, cfg.data.name)
-    assert seen == {"cnn_dmp": (True, "quick96o300d_s5"), "velocity": (False, "quick96o300d_s5")}
+        seen[model] = (cfg.model.depth, cfg.model.depth_encoding, cfg.data.depth_encoding, cfg.data.name)
+    assert seen == {"cnn_dmp": (True, "relief", "relief", "quick96o300d_s5"), "velocity": (False, "range", "range", "quick96o300d_s5")}
     train_cfg = compose("train", "experiment=quick", "model=velocity", "seed=5")
     assert train_cfg.data.depth and train_cfg.model.depth is False  # one RGB-D dataset, RGB input
     cfg = compose("evaluate", "experiment=quick", "seed=5")
@@ -240,3 +240,99 @@ def test_an_rgb_policy_trains_on_an_rgbd_datasets_colour_frames(depth_checkpoint
     assert policy.input_channels == 3 and not policy.hparams.depth
     with pytest.raises(ValueError, match="input_depth: true needs a dataset recorded with depth: true"):
         ReachDataModule(name="x", root=workspace / "data", depth=False, input_depth=True)
+
+
+
+def test_plane_depth_is_the_pinhole_geometry_and_the_rendered_table(scene):
+    """The relief reference: the table plane's depth per pixel centre is the plain pinhole
+    ray of ``_ray_to_plane``. The TinyRenderer's table top lies a few mm nearer than the
+    plane (its depth interpolation across the table's two big triangles; the offset shrinks
+    with resolution): at 96 px, the quick experiment's, within RELIEF_DEADBAND_MM, so the
+    table encodes as 0."""
+    cam = scene.camera
+    plane = cam.plane_depth_mm(TABLE_Z)
+    assert plane.shape == (64, 64)
+    for u, v in ((5, 40), (32, 32), (60, 50), (20, 25)):
+        assert plane[v, u] == pytest.approx(_ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z) * 1000, rel=1e-9)
+    np.testing.assert_array_equal(plane, plane_depth_mm(cam.view_matrix, cam.projection_matrix, 64, 64, TABLE_Z))
+    with ReachScene(load_robot("pr2_right_arm"), image_size=96) as big:
+        cam, plane = big.camera, big.camera.plane_depth_mm(TABLE_Z)
+        rgb, depth = big.render(with_depth=True)
+    table = np.zeros_like(plane, dtype=bool)
+    for x in np.linspace(0.40, 0.90, 11):  # pixels well inside the table top
+        for y in np.linspace(-0.4, 0.4, 11):
+            u, w = np.floor(cam.project(np.array([x, y, TABLE_Z]))).astype(int)
+            if 0 <= u < 96 and 0 <= w < 96:
+                table[w, u] = True
+    gap = plane[table] - depth[table].astype(float)
+    assert table.sum() > 80 and gap.min() > 0 and gap.max() < RELIEF_DEADBAND_MM, (gap.min(), gap.max())
+    relief = rgbd_image(rgb, depth, plane)[..., 3]
+    assert relief[table].max() == 0  # the table is 0 in the relief encoding
+    with pytest.raises(ValueError, match=r"relief_reference: expected \(H, W\) = \(96, 96\)"):
+        rgbd_image(rgb, depth, plane[:10])
+
+
+def test_relief_encoding_measures_height_in_front_of_the_table(scene):
+    """A box's top face stands in front of the table plane by the ray length its height
+    gives; a taller box encodes brighter; the colour channels are unchanged."""
+    cam = scene.camera
+    plane = cam.plane_depth_mm(TABLE_Z)
+    levels = {}
+    for height in (0.06, 0.12):
+        box = ObjectSpec(shape="box", dims=(0.08, 0.08, height), rgba=(0.2, 0.6, 0.2, 1.0), mass=0.2, name="b")
+        scene.reset(box, Placement(0.58, 0.0, 0.0))
+        rgb, depth = scene.render(with_depth=True)
+        out = rgbd_image(rgb, depth, plane)
+        np.testing.assert_array_equal(out[..., :3], rgb)
+        u, v = np.floor(cam.project(np.array([0.58, 0.0, TABLE_Z + height]))).astype(int)
+        v += 1  # just below the top face's far edge: on the top face
+        expected = (_ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z) - _ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z + height)) * 1000
+        expected = (expected - RELIEF_DEADBAND_MM) / RELIEF_RANGE_MM * 255
+        assert abs(int(out[v, u, 3]) - expected) <= 3, (height, out[v, u, 3], expected)
+        levels[height] = int(out[v, u, 3])
+    assert levels[0.12] > levels[0.06] > 0
+
+
+@pytest.fixture(scope="module")
+def relief_checkpoint(compose, workspace, depth_checkpoints):
+    run = workspace / "outputs" / "run-cnn_dmp-relief"
+    cfg = compose(
+        "train", f"paths.root_dir={workspace}", *TINY, *TINY_MODEL, "model=cnn_dmp", "data.depth_encoding=relief",
+        "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run}",
+    )
+    return train.main(cfg)
+
+
+def test_relief_training_items_are_what_evaluation_renders(relief_checkpoint, workspace):
+    """data.depth_encoding=relief: the checkpoint records it, its training items hold the
+    relief channel, and the evaluator's first observation of an episode (the same object at
+    the same placement) is that episode's training image, byte for byte."""
+    policy = load_policy(relief_checkpoint)
+    assert policy.hparams.depth_encoding == "relief" and policy.input_channels == 4
+    data = load_dataset(workspace / "data" / "tinyd")
+    rec = data.split("train")[0]
+    item = DMPReachDataset(data, "train", depth_encoding="relief")[0]
+    relief = item["image"][3].numpy() * 255
+    assert relief.max() > 20 and np.median(relief) <= 2  # the object; the table: 0 at 96 px, a level or two at this coarse 32 px
+    with ReachScene(load_robot(data.config.robot), image_size=data.config.image_size) as scene:
+        scene.reset(rec.obj, rec.placement)
+        first = observe(scene, PlanController(policy, 0.1))
+    np.testing.assert_array_equal(first, (item["image"].permute(1, 2, 0).numpy() * 255).round().astype(np.uint8))
+    assert first.shape == (32, 32, 4)
+
+
+def test_depth_encoding_mismatches_are_refused(relief_checkpoint, depth_checkpoints, compose, workspace):
+    with pytest.raises(ValueError, match="depth_encoding: 'relief' is an encoding of the depth channel; the input is RGB"):
+        ReachDataModule(name="x", root=workspace / "data", depth=True, input_depth=False, depth_encoding="relief")
+    with pytest.raises(ValueError, match=r"depth_encoding: expected one of \('range', 'relief'\), got 'height'"):
+        ReachDataModule(name="x", root=workspace / "data", depth=True, depth_encoding="height")
+    with pytest.raises(ValueError, match="depth_encoding: 'relief' needs depth=true"):
+        POLICIES["cnn_dmp"](name="cnn_dmp", n_basis=5, channels=[4, 4], hidden=[8], image_size=32, depth_encoding="relief")
+    # resuming a range checkpoint's training on relief items names both encodings
+    cfg = compose(
+        "train", f"paths.root_dir={workspace}", *TINY, *TINY_MODEL, "model=cnn_dmp", "data.depth_encoding=relief",
+        "model.depth_encoding=range", "++trainer.max_steps=1", "++trainer.limit_val_batches=1",
+        f"paths.output_dir={workspace / 'outputs' / 'run-mismatch'}",
+    )
+    with pytest.raises(ValueError, match="built with depth_encoding='range', the datamodule serves depth_encoding='relief'"):
+        train.main(cfg)

@@ -312,3 +312,29 @@ def test_colour_tta_needs_a_colour_augmented_policy():
         policy.colour_tta = True
     assert policy.colour_tta is False
     policy.colour_tta = False  # switching it off is always allowed
+
+
+def test_brightness_augment_is_checked_and_changes_only_training_batches(monkeypatch):
+    with pytest.raises(ValueError, match="brightness_augment: needs depth=true"):
+        CNNDMPPolicy(name="cnn_dmp", n_basis=5, brightness_augment=[0.5, 2.0], **SMALL)
+    for bad in ([2.0, 0.5], [0.0, 1.0], [0.5], [0.5, float("nan")], "bright"):
+        with pytest.raises(ValueError, match=r"brightness_augment: expected \[low, high\]"):
+            CNNDMPPolicy(name="cnn_dmp", n_basis=5, brightness_augment=bad, depth=True, **SMALL)
+    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, brightness_augment=[0.25, 0.5], depth=True, **SMALL)
+    assert policy.hparams.brightness_augment == [0.25, 0.5]
+    batch = dmp_batch()
+    g = torch.Generator().manual_seed(5)
+    image = torch.cat([torch.rand(3, 3, 24, 24, generator=g), torch.full((3, 1, 24, 24), 0.8)], dim=1)
+    for i in range(3):  # an object nearer than the table, somewhere else in each image
+        image[i, 3, 4 * i : 4 * i + 5, 3:8] = 0.5
+    batch["image"] = image
+    seen = []
+    monkeypatch.setattr(policy, "losses", lambda b: seen.append(b["image"]) or {"loss": b["image"].sum()})
+    monkeypatch.setattr(policy, "log_dict", lambda *a, **k: None)
+    monkeypatch.setattr(policy, "log", lambda *a, **k: None)
+    monkeypatch.setattr(policy, "optimizers", lambda: torch.optim.SGD(policy.parameters(), lr=0.1))
+    policy.training_step(batch, 0)
+    out = seen[0]
+    obj = image[:, 3:] < 0.8
+    assert torch.equal(out[:, 3], image[:, 3]) and torch.equal(out[:, :3][~obj.expand(-1, 3, -1, -1)], image[:, :3][~obj.expand(-1, 3, -1, -1)])
+    assert (out[:, :3][obj.expand(-1, 3, -1, -1)] < image[:, :3][obj.expand(-1, 3, -1, -1)]).all()  # factors <= 0.5 darken

@@ -1,10 +1,17 @@
-"""SpatialSoftmax and the keypoint trunk: analytic keypoints, shapes, gradients."""
+"""SpatialSoftmax, the keypoint trunk and the training augmentations: analytic keypoints, shapes, gradients, masks on rendered frames."""
 
 import numpy as np
 import pytest
 import torch
 
-from lfd.models.vision import KeypointEncoder, SpatialSoftmax, image_to_tensor, permute_colour_channels
+from lfd.models.vision import (
+    KeypointEncoder,
+    SpatialSoftmax,
+    foreground_mask,
+    image_to_tensor,
+    permute_colour_channels,
+    scale_foreground_brightness,
+)
 
 
 @pytest.mark.parametrize(("h", "w", "row", "col"), [(5, 7, 0, 0), (5, 7, 4, 6), (8, 8, 3, 5), (16, 9, 10, 2)])
@@ -89,3 +96,59 @@ def test_colour_permutation_reorders_channels_per_image():
     assert torch.equal(orders.sort(dim=1).values, torch.arange(3).expand(64, 3))  # a permutation per image
     assert len({tuple(o.tolist()) for o in orders}) == 6  # all six orders occur
     assert torch.equal(out, orders[:, :, None, None].float().expand_as(out))  # whole planes move together
+
+
+@pytest.fixture(scope="module")
+def rendered_batch():
+    """RGB-D frames (uint8, the policies' input) of one box at three placements and the
+    object's pixels in each, found independently: where the colour differs from a render
+    of the empty scene."""
+    from lfd.robots import load_robot
+    from lfd.sim.camera import rgbd_image
+    from lfd.sim.objects import ObjectSpec, Placement
+    from lfd.sim.scene import ReachScene
+
+    box = ObjectSpec("box", (0.05, 0.06, 0.10), (0.2, 0.5, 0.8, 1.0), 0.3, "box")
+    frames, objects = [], []
+    with ReachScene(load_robot("pr2_right_arm"), image_size=64) as scene:
+        scene.reset()
+        empty = scene.render()
+        for x, y in ((0.5, -0.2), (0.6, 0.0), (0.65, 0.2)):
+            scene.reset(box, Placement(x, y, 0.3))
+            rgb, depth = scene.render(with_depth=True)
+            frames.append(rgbd_image(rgb, depth))
+            objects.append((rgb != empty).any(axis=-1))
+    return image_to_tensor(np.stack(frames), 4), torch.as_tensor(np.stack(objects))
+
+
+def test_foreground_mask_finds_the_object_in_a_rendered_batch(rendered_batch):
+    image, objects = rendered_batch
+    mask = foreground_mask(image)[:, 0]
+    assert mask.shape == objects.shape and objects.sum(dim=(1, 2)).min() > 20
+    inter, union = (mask & objects).sum(dim=(1, 2)), (mask | objects).sum(dim=(1, 2))
+    assert (inter / union).min() > 0.8  # a rim at the base, nearly at the table's depth, may be missed
+    assert not (mask & ~objects).any()  # never a table pixel
+    assert not foreground_mask(image[:1]).any()  # a batch of one has no reference: no foreground
+    with pytest.raises(ValueError, match=r"RGB-D batch \(B, 4, H, W\)"):
+        foreground_mask(image[:, :3])
+
+
+def test_brightness_augment_scales_only_the_objects_colour(rendered_batch):
+    image, _ = rendered_batch
+    image = image.repeat(200, 1, 1, 1)  # three placements, 200 draws each
+    torch.manual_seed(0)
+    out = scale_foreground_brightness(image, 0.3, 2.0)
+    mask = foreground_mask(image).expand(-1, 3, -1, -1)
+    assert torch.equal(out[:, 3], image[:, 3])  # depth untouched
+    assert torch.equal(out[:, :3][~mask], image[:, :3][~mask])  # table and floor untouched
+    assert out.min() >= 0 and out.max() <= 1
+    # one factor per image: unclipped foreground pixels are all scaled by it
+    ratio = torch.where(mask & (out[:, :3] < 1) & (image[:, :3] > 0.05), out[:, :3] / image[:, :3].clamp(min=1e-6), torch.nan)
+    factor = ratio.flatten(1).nanmedian(dim=1).values
+    spread = (ratio.flatten(1) - factor[:, None]).abs().nan_to_num(0).amax(dim=1)
+    assert spread.max() < 0.05
+    assert factor.min() >= 0.3 - 1e-3 and factor.max() <= 2.0 + 1e-3
+    # log-uniform: half the draws below the geometric mean of the range
+    assert abs((factor < (0.3 * 2.0) ** 0.5).float().mean().item() - 0.5) < 0.08
+    with pytest.raises(ValueError, match="0 < low <= high"):
+        scale_foreground_brightness(image, 0.0, 2.0)

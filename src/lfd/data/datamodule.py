@@ -13,6 +13,7 @@ from lfd.data.config import GeneratorConfig
 from lfd.data.datasets import DMPReachDataset, ReachData, VelocityReachDataset, image_augmentation, load_dataset
 from lfd.data.generate import GenerationReport, dataset_dir, generate_dataset
 from lfd.data.storage import DatasetError
+from lfd.sim.camera import DEPTH_ENCODINGS
 from lfd.sim.objects import SHAPES
 
 __all__ = ["ReachDataModule"]
@@ -43,6 +44,8 @@ class ReachDataModule(L.LightningDataModule):
             ``depth: true``) or RGB (``False``), ``None`` = ``depth``. So an RGB policy can
             train on an RGB-D dataset's colour frames: ``experiment=quick`` generates one
             dataset for both of its policies.
+        depth_encoding: the RGB-D depth channel (:data:`lfd.sim.camera.DEPTH_ENCODINGS`):
+            ``"range"`` or ``"relief"`` (in front of the table plane); RGB-D input only.
         num_gen_workers: generation processes (default: all CPU cores).
         shard, num_shards: generate only shard ``shard`` of ``num_shards`` into
             ``<root>/<name>.shard-<i>-of-<N>`` (join with :func:`lfd.data.merge_shards`);
@@ -84,6 +87,7 @@ class ReachDataModule(L.LightningDataModule):
         num_workers: int = 0,
         augment: bool = False,
         input_depth: bool | None = None,
+        depth_encoding: str = "range",
         num_gen_workers: int | None = None,
         shard: int | None = None,
         num_shards: int = 1,
@@ -123,6 +127,11 @@ class ReachDataModule(L.LightningDataModule):
         self.input_depth = bool(depth if input_depth is None else input_depth)
         if self.input_depth and not depth:
             raise ValueError("ReachDataModule.input_depth: true needs a dataset recorded with depth: true (it has depth: false)")
+        if depth_encoding not in DEPTH_ENCODINGS:
+            raise ValueError(f"ReachDataModule.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}")
+        if depth_encoding != "range" and not self.input_depth:
+            raise ValueError(f"ReachDataModule.depth_encoding: {depth_encoding!r} is an encoding of the depth channel; the input is RGB (input_depth: false)")
+        self.depth_encoding = depth_encoding
         if augment and self.input_depth:
             raise ValueError("ReachDataModule: augment (colour jitter + shifts of RGB images) does not support RGB-D input (input_depth / depth: true); set augment: false")
         self.name, self.mode = name, mode
@@ -160,7 +169,9 @@ class ReachDataModule(L.LightningDataModule):
         )
         for split in wanted:
             if split not in self.datasets and self.data.manifest["episodes"][split] > 0:
-                self.datasets[split] = view(self.data, split, augment if split == "train" else None, depth=self.input_depth)
+                self.datasets[split] = view(
+                    self.data, split, augment if split == "train" else None, depth=self.input_depth, depth_encoding=self.depth_encoding
+                )
 
     def fingerprint(self) -> dict:
         """The loaded dataset's fingerprint (:func:`lfd.data.fingerprint.dataset_fingerprint`),

@@ -30,7 +30,8 @@ from lfd.data.episodes import SPLITS, EpisodeRecord, episode_path
 from lfd.data.generate import code_version
 from lfd.data.manifest import STATS, verify_dataset
 from lfd.data.storage import DatasetError, read_json
-from lfd.sim.camera import rgbd_image
+from lfd.sim.approach import TABLE_Z
+from lfd.sim.camera import DEPTH_ENCODINGS, plane_depth_mm, rgbd_image
 
 __all__ = [
     "DMPReachDataset",
@@ -111,11 +112,21 @@ def image_augmentation(image_size: int, max_shift_px: float = 4.0) -> Transform:
     )
 
 
-def policy_frames(record: EpisodeRecord, depth: bool) -> np.ndarray:
+def policy_frames(record: EpisodeRecord, depth: bool, depth_encoding: str = "range") -> np.ndarray:
     """The policy inputs of an episode: uint8 ``(T, H, W, 3)`` RGB frames, or with ``depth``
-    ``(T, H, W, 4)`` RGB-D (:func:`lfd.sim.camera.rgbd_image`) from its ``depth`` images."""
+    ``(T, H, W, 4)`` RGB-D (:func:`lfd.sim.camera.rgbd_image`) from its ``depth`` images, the
+    depth channel in ``depth_encoding`` (:data:`~lfd.sim.camera.DEPTH_ENCODINGS`; ``"relief"``
+    against the table plane seen through the episode's recorded camera)."""
+    if depth_encoding not in DEPTH_ENCODINGS:
+        raise ValueError(f"policy_frames.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}")
     rgb = record.frames()
-    return rgbd_image(rgb, record.frames("depth")) if depth else rgb
+    if not depth:
+        return rgb
+    reference = None
+    if depth_encoding == "relief":
+        a = record.arrays
+        reference = plane_depth_mm(a["camera_view"], a["camera_projection"], rgb.shape[-2], rgb.shape[-3], TABLE_Z)
+    return rgbd_image(rgb, record.frames("depth"), reference)
 
 
 def _depth(data) -> bool:
@@ -196,13 +207,15 @@ class DMPReachDataset(Dataset):
                                  (training-only label; when the records have their mode)
     """
 
-    def __init__(self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None) -> None:
+    def __init__(
+        self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None, depth_encoding: str = "range"
+    ) -> None:
         records = data.split(split)
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
         depth = _input_depth(data, depth)
-        self.frames = torch.from_numpy(np.stack([policy_frames(r, depth)[0] for r in records]))
+        self.frames = torch.from_numpy(np.stack([policy_frames(r, depth, depth_encoding)[0] for r in records]))
         self.tensors = {
             "joints": _stack(records, "joints")[:, 0],
             "goal": _stack(records, "dmp_goal"),
@@ -245,13 +258,15 @@ class VelocityReachDataset(Dataset):
         step      ()         int64 step t
     """
 
-    def __init__(self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None) -> None:
+    def __init__(
+        self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None, depth_encoding: str = "range"
+    ) -> None:
         records = data.split(split)
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
         depth = _input_depth(data, depth)
-        self.frames = torch.from_numpy(np.concatenate([policy_frames(r, depth) for r in records]))
+        self.frames = torch.from_numpy(np.concatenate([policy_frames(r, depth, depth_encoding) for r in records]))
         steps = records[0].arrays["t"].shape[0]
         self.tensors = {
             "joints": _stack(records, "joints").reshape(-1, 7),

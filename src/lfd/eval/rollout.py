@@ -127,9 +127,15 @@ CONTROLLERS = {"cnn_dmp": PlanController, "velocity": VelocityController}
 
 def observe(scene, controller) -> np.ndarray:
     """The fixed camera's image in the form ``controller``'s policy takes: RGB ``(H, W, 3)``,
-    or RGB-D ``(H, W, 4)`` uint8 when the policy has 4 input channels (one render call)."""
-    if getattr(getattr(controller, "policy", None), "input_channels", 3) == 4:
-        return rgbd_image(*scene.render(with_depth=True))
+    or RGB-D ``(H, W, 4)`` uint8 when the policy has 4 input channels (one render call), its
+    depth channel in the policy's ``depth_encoding`` (``"relief"``: against the scene's
+    table plane)."""
+    policy = getattr(controller, "policy", None)
+    if getattr(policy, "input_channels", 3) == 4:
+        hparams = getattr(policy, "hparams", {})
+        relief = hparams.get("depth_encoding", "range") == "relief"
+        reference = scene.camera.plane_depth_mm(scene.table_z) if relief else None
+        return rgbd_image(*scene.render(with_depth=True), reference)
     return scene.render()
 
 

@@ -21,7 +21,16 @@ from torch import nn
 from torch.nn import functional as F
 
 from lfd.models.training import SCHEDULERS, make_optimizer
-from lfd.models.vision import COLOUR_ORDERS, KeypointEncoder, all_colour_orders, image_to_tensor, mlp, permute_colour_channels
+from lfd.sim.camera import DEPTH_ENCODINGS
+from lfd.models.vision import (
+    COLOUR_ORDERS,
+    KeypointEncoder,
+    all_colour_orders,
+    image_to_tensor,
+    mlp,
+    permute_colour_channels,
+    scale_foreground_brightness,
+)
 
 #: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
 ONECYCLE_PCT_START = 0.3
@@ -51,12 +60,18 @@ class VisuomotorPolicy(L.LightningModule):
         image_size: side (px) of the square camera images of the training data.
         depth: the input is RGB-D (4 channels, :func:`lfd.sim.camera.rgbd_image`) instead of
             RGB; the training data must have been made with ``depth: true``.
+        depth_encoding: the depth channel's encoding (:data:`lfd.sim.camera.DEPTH_ENCODINGS`):
+            ``"range"`` or ``"relief"``; evaluation renders it the same way.
         duration, n_steps: demonstration duration (s) and number of samples; the control
             period is ``duration / (n_steps - 1)``.
         robot: robot model name (:func:`lfd.robots.load_robot`).
         n_joints: arm degrees of freedom.
         colour_augment: shuffle the RGB channels of each training image
             (:func:`~lfd.models.vision.permute_colour_channels`).
+        brightness_augment: ``[low, high]``: the object's colour in each training image
+            times a random factor in that range (log-uniform;
+            :func:`~lfd.models.vision.scale_foreground_brightness`), or None. Needs
+            ``depth`` (the depth channel tells the object from the table).
         global_pool: the encoder also gives each channel's spatial maximum
             (:class:`~lfd.models.vision.KeypointEncoder`).
         aux_weight: weight of the auxiliary losses on training-only labels (0: none). The
@@ -98,12 +113,14 @@ class VisuomotorPolicy(L.LightningModule):
         scheduler: str = "cosine",
         image_size: int = 128,
         depth: bool = False,
+        depth_encoding: str = "range",
         duration: float = 4.0,
         n_steps: int = 100,
         robot: str = "pr2_right_arm",
         n_joints: int = 7,
         plot_every_n_val: int = 5,
         colour_augment: bool = False,
+        brightness_augment: tuple[float, float] | list[float] | None = None,
         global_pool: bool = False,
         aux_weight: float = 0.0,
         mode_heads: bool = False,
@@ -123,6 +140,19 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__}.mode_heads: needs aux_weight > 0 (the mode logit picks the head), got aux_weight={aux_weight}")
         if n_steps < 2 or not duration > 0:
             raise ValueError(f"{type(self).__name__}: need n_steps >= 2 and duration > 0, got {n_steps}, {duration}")
+        if depth_encoding not in DEPTH_ENCODINGS:
+            raise ValueError(f"{type(self).__name__}.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}")
+        if depth_encoding != "range" and not depth:
+            raise ValueError(f"{type(self).__name__}.depth_encoding: {depth_encoding!r} needs depth=true")
+        if brightness_augment is not None:
+            values = list(brightness_augment)
+            if len(values) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values) or not 0 < values[0] <= values[1]:
+                raise ValueError(
+                    f"{type(self).__name__}.brightness_augment: expected [low, high] with 0 < low <= high, or null; got {brightness_augment!r}"
+                )
+            if not depth:
+                raise ValueError(f"{type(self).__name__}.brightness_augment: needs depth=true (the depth channel finds the object)")
+            brightness_augment = [float(v) for v in values]
         self.save_hyperparameters(ignore=["name"])
         self.hparams["kind"] = self.kind
         self.config_name = name or self.kind
@@ -301,6 +331,12 @@ class VisuomotorPolicy(L.LightningModule):
         config = getattr(dm, "config", None)
         if config is not None:
             self.check_data(config, depth=getattr(dm, "input_depth", None))
+        served = getattr(dm, "depth_encoding", "range")
+        if self.hparams.depth and served != self.hparams.get("depth_encoding", "range"):
+            raise ValueError(
+                f"{type(self).__name__} was built with depth_encoding={self.hparams.get('depth_encoding', 'range')!r}, "
+                f"the datamodule serves depth_encoding={served!r}"
+            )
         fingerprint = getattr(dm, "fingerprint", None)
         self.dataset_fingerprint = fingerprint() if callable(fingerprint) else None
         for stat in self.stat_names:
@@ -311,6 +347,9 @@ class VisuomotorPolicy(L.LightningModule):
     def training_step(self, batch: dict[str, torch.Tensor], batch_idx: int) -> torch.Tensor:
         if self.hparams.colour_augment:
             batch = {**batch, "image": permute_colour_channels(batch["image"])}
+        if self.hparams.get("brightness_augment"):
+            nearer = self.hparams.get("depth_encoding", "range") == "relief"
+            batch = {**batch, "image": scale_foreground_brightness(batch["image"], *self.hparams.brightness_augment, nearer_is_larger=nearer)}
         losses = self.losses(batch)
         n = batch["image"].shape[0]
         self.log_dict({f"train/{k}": v for k, v in losses.items()}, prog_bar=False, on_step=True, on_epoch=True, batch_size=n)

@@ -162,6 +162,37 @@ def permute_colour_channels(image: torch.Tensor) -> torch.Tensor:
     return torch.cat([rgb, image[:, 3:]], dim=1)
 
 
+def foreground_mask(image: torch.Tensor, margin: float = 1.5 / 255, nearer_is_larger: bool = False) -> torch.Tensor:
+    """``(B, 1, H, W)`` bool: the pixels of an RGB-D batch ``(B, 4, H, W)`` (depth channel of
+    :func:`lfd.sim.camera.rgbd_image`) nearer than the farthest depth any image of the batch
+    has at that pixel, by more than ``margin``. The table and floor never move, so that
+    farthest depth is the empty scene wherever one image of the batch leaves the pixel free
+    (objects cover ~0.5 % of an image); the mask is then the object and whatever of the arm
+    is in view. A batch of one has no foreground. ``nearer_is_larger``: the channel grows
+    towards the camera (the relief encoding) instead of away from it (the range encoding)."""
+    if image.ndim != 4 or image.shape[1] != 4:
+        raise ValueError(f"foreground_mask: expected an RGB-D batch (B, 4, H, W), got shape {tuple(image.shape)}")
+    depth = -image[:, 3:] if nearer_is_larger else image[:, 3:]
+    return depth < depth.amax(dim=0, keepdim=True) - margin
+
+
+def scale_foreground_brightness(image: torch.Tensor, low: float, high: float, nearer_is_larger: bool = False) -> torch.Tensor:
+    """Training-time albedo augmentation of an RGB-D batch ``(B, 4, H, W)`` in [0, 1]: the
+    RGB of each image's foreground (:func:`foreground_mask`) times a factor drawn
+    log-uniformly from ``[low, high]``, clipped to 1; background and depth unchanged. Diffuse
+    shading is proportional to the surface colour, so this renders each training object as a
+    darker or paler one of the same shape: dark objects, whose faces differ little in
+    brightness, and near-white ones are otherwise rare cases for the shape cue.
+    ``nearer_is_larger``: as in :func:`foreground_mask`."""
+    if not 0 < low <= high:
+        raise ValueError(f"scale_foreground_brightness: need 0 < low <= high, got [{low}, {high}]")
+    mask = foreground_mask(image, nearer_is_larger=nearer_is_larger)
+    u = torch.rand(image.shape[0], 1, 1, 1, device=image.device, dtype=image.dtype)
+    factor = torch.exp(math.log(low) + u * (math.log(high) - math.log(low)))
+    rgb = torch.where(mask, (image[:, :3] * factor).clamp_(max=1.0), image[:, :3])
+    return torch.cat([rgb, image[:, 3:]], dim=1)
+
+
 #: The 6 orders of the RGB channels (:func:`all_colour_orders`).
 COLOUR_ORDERS = tuple(itertools.permutations(range(3)))
 
