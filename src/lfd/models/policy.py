@@ -21,7 +21,6 @@ from torch import nn
 from torch.nn import functional as F
 
 from lfd.models.training import SCHEDULERS, make_optimizer
-from lfd.sim.camera import DEPTH_ENCODINGS
 from lfd.models.vision import (
     COLOUR_ORDERS,
     KeypointEncoder,
@@ -31,6 +30,7 @@ from lfd.models.vision import (
     permute_colour_channels,
     scale_foreground_brightness,
 )
+from lfd.sim.camera import DEPTH_ENCODINGS
 
 #: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
 ONECYCLE_PCT_START = 0.3
