@@ -21,7 +21,7 @@ from typing import Any
 import hydra
 from omegaconf import DictConfig
 
-from lfd.eval.evaluator import CKPT_KEYS
+from lfd.visuomotor.eval.evaluator import CKPT_KEYS
 
 
 def evaluate(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:

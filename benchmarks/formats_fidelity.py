@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from lfd.data import load_dataset
-from lfd.data.episodes import SPLITS
-from lfd.data.formats import LeRobotDataModule, LeRobotFolder
+from lfd.visuomotor.data import load_dataset
+from lfd.visuomotor.data.episodes import SPLITS
+from lfd.interop import LeRobotDataModule, LeRobotFolder
 
 
 def main(src: str, dst: str) -> None:

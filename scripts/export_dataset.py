@@ -22,7 +22,7 @@ SUFFIX = {"lerobot": ".lerobot", "robomimic": ".hdf5"}
 
 def export(cfg: DictConfig) -> Path:
     """Generate or verify ``cfg.data``'s dataset, then export it as ``cfg.format``."""
-    from lfd.data.export import FORMATS, export_dataset
+    from lfd.interop.export import FORMATS, export_dataset
 
     if cfg.format not in FORMATS:
         raise ValueError(f"format: expected one of {FORMATS}, got {cfg.format!r}")

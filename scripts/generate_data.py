@@ -6,7 +6,7 @@ Uses the same Hydra config as ``train.py``, so every ``data.*`` override applies
     python scripts/generate_data.py data=original data.shard=0 data.num_shards=4   # machine / array task 0
     python scripts/generate_data.py data=original +merge_shards=4       # join the 4 shards
 
-A merged dataset is byte-identical to an unsharded run (``lfd.data.merge_shards``).
+A merged dataset is byte-identical to an unsharded run (``lfd.visuomotor.data.merge_shards``).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ CONFIGS = str(Path(__file__).resolve().parents[1] / "configs")
 
 @hydra.main(version_base="1.3", config_path=CONFIGS, config_name="train")
 def main(cfg: DictConfig) -> None:
-    from lfd.data import dataset_dir, merge_shards
+    from lfd.visuomotor.data import dataset_dir, merge_shards
 
     n_merge = cfg.get("merge_shards")
     if n_merge:

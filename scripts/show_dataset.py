@@ -22,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from lfd.data import SPLITS, load_dataset  # noqa: E402
+from lfd.visuomotor.data import SPLITS, load_dataset  # noqa: E402
 from lfd.sim import project_points  # noqa: E402
 
 

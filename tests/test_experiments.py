@@ -13,8 +13,8 @@ EXPERIMENTS = sorted(p.stem for p in (Path(__file__).resolve().parents[1] / "con
 #: Overrides that shrink an experiment, per datamodule class (the experiment's data._target_);
 #: the reaching experiments add the ``tiny_reaching`` fixture's.
 SHRINK = {
-    "lfd.data.ReachDataModule": ["data.name=tiny"],
-    "lfd.data.sawyer.SawyerModelsDataModule": [
+    "lfd.visuomotor.data.ReachDataModule": ["data.name=tiny"],
+    "lfd.model_reaching.data.SawyerModelsDataModule": [
         "data.forward.batch_size=64",
         "data.forward.n_val=200",
         "data.forward.n_test=200",
@@ -36,7 +36,7 @@ def test_experiment_fast_dev_run(compose, tiny_reaching, tmp_path_factory, capsy
     data = compose("train", f"experiment={name}").data
     target = data._target_
     assert target in SHRINK, f"experiment={name}: no shrinking overrides for data {target}"
-    shrink = [*SHRINK[target], *(tiny_reaching if target == "lfd.data.ReachDataModule" else ())]
+    shrink = [*SHRINK[target], *(tiny_reaching if target == "lfd.visuomotor.data.ReachDataModule" else ())]
     if data.get("depth"):  # an RGB-D dataset cannot share the RGB one's folder
         shrink.append("data.name=tiny_rgbd")
     run = root / f"run-{name}"

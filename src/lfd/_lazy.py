@@ -17,11 +17,13 @@ def exports(groups: Mapping[str, Iterable[str]]) -> dict[str, str]:
 
 def lazy_getattr(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """Module-level ``__getattr__`` and ``__dir__`` for ``package`` that import
-    ``<package>.<names[name]>`` on the first access of ``name``."""
+    ``<package>.<names[name]>`` (or ``names[name]`` itself when it starts with ``lfd.``) on the
+    first access of ``name``."""
 
     def __getattr__(name: str):
         if name in names:
-            return getattr(import_module(f"{package}.{names[name]}"), name)
+            module = names[name]
+            return getattr(import_module(module if module.startswith("lfd.") else f"{package}.{module}"), name)
         raise AttributeError(f"module {package!r} has no attribute {name!r}")
 
     def __dir__() -> list[str]:

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from teach_helpers import BOXES, FakeClock, drag_line
 
-from lfd.data.episodes import EpisodeRecord
-from lfd.data.sawyer import load_demo_csv, make_demonstration
+from lfd.visuomotor.data.episodes import EpisodeRecord
+from lfd.model_reaching.data import load_demo_csv, make_demonstration
 from lfd.dmp import DMP
 from lfd.teach import TeachSession
 from lfd.teach.collision import CollisionChecker

@@ -4,14 +4,14 @@ Files written by :func:`export_session` (atomically, temp file + rename):
 
 * ``demo.csv``: header ``time,j0,...,j{n-1}``, seconds and radians, one row per recorded
   sample: the ``t, q0..qn`` columns of the issue under the names the Sawyer / PoWER tools
-  read (:func:`lfd.data.sawyer.load_demo_csv` with ``n_joints=n``).
+  read (:func:`lfd.model_reaching.data.load_demo_csv` with ``n_joints=n``).
 * ``demo.json``: robot, scene, mode, collisions, counters, timings (drag latency
   median / p95, recording duration), the recording (``t``, ``q``, ``tool``), the 2-D
   waypoints and, after a Send, its errors.
 * ``demo.dmp.json``: an :class:`lfd.dmp.DMP` fitted to the recording resampled on a
   uniform grid (``DMP.load`` reads it).
 * ``episode.npz``: the recording as a dataset episode
-  (:meth:`lfd.data.episodes.EpisodeRecord.load` reads it): ``t``, ``joints``,
+  (:meth:`lfd.visuomotor.data.episodes.EpisodeRecord.load` reads it): ``t``, ``joints``,
   ``velocities``, ``ee_poses``, the DMP (``dmp_y0``, ``dmp_goal``, ``dmp_weights``,
   ``dmp_tau``), the goal centre as ``target_point`` and the goal region as a sphere
   "object" (``object_shape="sphere"``, ``object_dims=(radius,)``, ``placement=(x, y, 0)``).
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd.data.storage import write_bytes_atomic, write_npz_atomic
+from lfd.io.files import write_bytes_atomic, write_npz_atomic
 from lfd.dmp import DMP
 
 from .execute import ExecutedPath, execute_joint_trajectory

@@ -1,0 +1,36 @@
+"""Datasets in the formats the field uses: LeRobot v3.0 (write and read) and robomimic HDF5.
+
+* :func:`export_lerobot` / :class:`LeRobotWriter`: LeRobot v3.0 folders (parquet + AV1 or
+  H.264 MP4, lerobot 0.4's layout), :class:`LeRobotDataModule`: train lfd's policies on any
+  v3.0 folder.
+* :func:`export_robomimic`: one robomimic HDF5 file.
+* :func:`lfd.interop.export.export_dataset` picks one by name (``scripts/export_dataset.py``).
+
+The libraries themselves are not needed: pyarrow, PyAV and h5py write the files.
+See ``docs/formats.md``.
+"""
+
+from lfd.interop.lerobot.writer import (
+    CODEBASE_VERSION,
+    LeRobotEpisode,
+    LeRobotWriter,
+    export_lerobot,
+    task_string,
+    update_chunk_file_indices,
+)
+from lfd.interop.lerobot.reader import LeRobotDataModule, LeRobotFolder, read_info
+from lfd.interop.robomimic import export_robomimic
+
+
+__all__ = [
+    "CODEBASE_VERSION",
+    "LeRobotDataModule",
+    "LeRobotEpisode",
+    "LeRobotFolder",
+    "LeRobotWriter",
+    "export_lerobot",
+    "export_robomimic",
+    "read_info",
+    "task_string",
+    "update_chunk_file_indices",
+]

@@ -1,0 +1,173 @@
+"""robomimic HDF5 export of an lfd dataset (h5py, no robomimic import).
+
+Layout (robomimic's dataset structure, ``robomimic/docs/datasets/overview``)::
+
+    data                      attrs: total (frames), env_args (JSON: env_name, type, env_kwargs),
+                                     action_space, action_scale (rad/s per joint)
+    data/demo_<i>             attrs: num_samples; i = the lfd episode index
+        obs/<key>             (N, ...) per step
+        next_obs/<key>        obs shifted by one step (the last repeated)
+        actions               (N, 7) velocity commands / action_scale, in [-1, 1]
+        rewards, dones        (N,) 1 at the last step (every demonstration succeeds there)
+        states                (N, 21) joints (7), joint velocities (7), object position (3)
+                              and quaternion x, y, z, w (4): the simulator state
+    mask/train, mask/valid    demo names as byte strings (lfd's train / val split)
+    mask/test                 the test split (new objects; robomimic ignores unknown masks)
+
+Observation keys: ``agentview_image`` (fixed camera, uint8 ``(N, H, W, 3)``),
+``robot0_eye_in_hand_image`` (wrist camera, if recorded), ``robot0_joint_pos``,
+``robot0_joint_vel``, ``robot0_eef_pos``, ``robot0_eef_quat`` (x, y, z, w) and
+``object`` (object position and quaternion), all in the robot base (torso) frame.
+
+Example::
+
+    export_robomimic("data/quick_s42", "data/quick_s42.hdf5")
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+#: robomimic's EnvType.GYM_TYPE (robomimic.envs.env_base): the closest of its env kinds.
+GYM_ENV_TYPE = 2
+ENV_NAME = "LfdReach-v0"
+
+
+def _h5py():
+    try:
+        import h5py
+    except ImportError as e:  # pragma: no cover - h5py is a declared dependency
+        raise ImportError("lfd.interop.robomimic needs h5py: pip install h5py") from e
+    return h5py
+
+
+def rotation_to_quat_xyzw(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)`` (x, y, z, w; w >= 0) of rotation matrices ``(..., 3, 3)``."""
+    R = np.asarray(R, dtype=np.float64)
+    m = R.reshape(-1, 3, 3)
+    out = np.empty((len(m), 4))
+    for i, r in enumerate(m):
+        tr = np.trace(r)
+        if tr > 0:
+            s = 2.0 * np.sqrt(tr + 1.0)
+            q = [(r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s, 0.25 * s]
+        elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
+            s = 2.0 * np.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
+            q = [0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s, (r[2, 1] - r[1, 2]) / s]
+        elif r[1, 1] > r[2, 2]:
+            s = 2.0 * np.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
+            q = [(r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s, (r[0, 2] - r[2, 0]) / s]
+        else:
+            s = 2.0 * np.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
+            q = [(r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s, (r[1, 0] - r[0, 1]) / s]
+        q = np.asarray(q)
+        out[i] = q / np.linalg.norm(q) * (1 if q[3] >= 0 else -1)
+    return out.reshape(*R.shape[:-2], 4)
+
+
+def _obs(record, frames: np.ndarray, wrist: np.ndarray | None) -> dict[str, np.ndarray]:
+    a = record.arrays
+    ee, obj = np.asarray(a["ee_poses"]), np.asarray(a["object_poses"])
+    obs = {
+        "agentview_image": frames,
+        "robot0_joint_pos": np.asarray(a["joints"], np.float64),
+        "robot0_joint_vel": np.asarray(a["velocities"], np.float64),
+        "robot0_eef_pos": ee[:, :3, 3],
+        "robot0_eef_quat": rotation_to_quat_xyzw(ee[:, :3, :3]),
+        "object": np.concatenate([obj[:, :3, 3], rotation_to_quat_xyzw(obj[:, :3, :3])], axis=1),
+    }
+    if wrist is not None:
+        obs["robot0_eye_in_hand_image"] = wrist
+    return obs
+
+
+def export_robomimic(
+    dataset: str | Path,
+    out: str | Path,
+    *,
+    overwrite: bool = False,
+    progress: bool = True,
+    compression: str | None = "gzip",
+    limit: int | None = None,
+) -> Path:
+    """Export a verified lfd dataset folder to one robomimic HDF5 file ``out``.
+
+    Actions are the velocity commands that reproduce the demonstration under velocity control,
+    the joints' mean velocity over each control period
+    (:func:`lfd.visuomotor.data.datasets.command_velocities`; the recorded instantaneous velocities are
+    ~1/8 of it and stay in ``obs/robot0_joint_vel``), divided by ``action_scale``, the
+    largest absolute command of each joint over the whole dataset, so they lie in
+    ``[-1, 1]``; ``data.attrs["action_scale"]`` (rad/s) turns them back.
+
+    Args:
+        dataset: lfd dataset folder (verified against its manifest first).
+        out: ``.hdf5`` file to write (``overwrite`` replaces an existing one).
+        compression: h5py filter for the image datasets (``"gzip"``, ``"lzf"`` or None).
+        limit: export only the first ``limit`` episodes (index order).
+    """
+    from lfd.visuomotor.data.datasets import load_dataset
+
+    h5py = _h5py()
+    data = load_dataset(dataset)
+    out = Path(out)
+    if out.exists():
+        if not overwrite:
+            raise FileExistsError(f"export_robomimic: {out} exists (pass overwrite=True to replace it)")
+        out.unlink() if out.is_file() else shutil.rmtree(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    records = data.episodes[:limit]
+    cfg = data.config
+    from lfd.visuomotor.data.datasets import command_velocities
+
+    commands = {r.index: command_velocities(r.arrays["joints"], r.arrays["t"]) for r in records}
+    scale = np.max([np.abs(c).max(axis=0) for c in commands.values()], axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    tmp = out.with_name(f".{out.name}.tmp")
+    items = records
+    if progress:
+        from tqdm import tqdm
+
+        items = tqdm(records, desc="robomimic", unit="ep")
+    total = 0
+    with h5py.File(tmp, "w") as f:
+        grp = f.create_group("data")
+        for r in items:
+            frames = r.frames()
+            wrist = r.frames("wrist_frames") if cfg.wrist_camera else None
+            obs = _obs(r, frames, wrist)
+            n = len(frames)
+            demo = grp.create_group(f"demo_{r.index}")
+            demo.attrs["num_samples"] = n
+            for key, value in obs.items():
+                kw = {"compression": compression, "chunks": (1, *value.shape[1:])} if value.dtype == np.uint8 and compression else {}
+                demo.create_dataset(f"obs/{key}", data=value, **kw)
+                demo.create_dataset(f"next_obs/{key}", data=np.concatenate([value[1:], value[-1:]]), **kw)
+            a = r.arrays
+            demo.create_dataset("actions", data=commands[r.index] / scale)
+            done = np.zeros(n)
+            done[-1] = 1.0
+            demo.create_dataset("rewards", data=done)
+            demo.create_dataset("dones", data=done.astype(np.int64))
+            demo.create_dataset("states", data=np.concatenate([obs["robot0_joint_pos"], obs["robot0_joint_vel"], obs["object"]], axis=1))
+            demo.attrs["model_file"] = ""
+            demo.attrs["lfd_split"] = r.split
+            demo.attrs["lfd_object"] = json.dumps(r.obj.to_dict())
+            total += n
+        grp.attrs["total"] = total
+        grp.attrs["env_args"] = json.dumps(
+            {"env_name": ENV_NAME, "type": GYM_ENV_TYPE, "env_kwargs": {"lfd_generator_config": cfg.to_dict(), "control_dt": cfg.control_dt}}
+        )
+        grp.attrs["action_space"] = "joint_velocity"
+        grp.attrs["action_scale"] = scale
+        for name, split in (("train", "train"), ("valid", "val"), ("test", "test")):
+            demos = [f"demo_{r.index}" for r in records if r.split == split]
+            f.create_dataset(f"mask/{name}", data=np.array(demos, dtype="S"))
+    tmp.replace(out)
+    return out
+
+
+__all__ = ["ENV_NAME", "GYM_ENV_TYPE", "export_robomimic", "rotation_to_quat_xyzw"]

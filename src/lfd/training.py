@@ -1,0 +1,58 @@
+"""Training helpers shared by every LightningModule of :mod:`lfd.visuomotor.policies`: activations by
+name, AdamW with a per-step learning-rate schedule, and hyper-parameters saved per module.
+
+Example::
+
+    >>> from lfd.training import make_activation
+    >>> make_activation("silu")
+    SiLU()
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import lightning as L
+import torch
+from torch import nn
+
+__all__ = ["ACTIVATIONS", "SCHEDULERS", "make_activation", "make_optimizer", "save_own_hyperparameters"]
+
+#: Hidden activations by name (``activation`` in the model configs).
+ACTIVATIONS = {"silu": nn.SiLU, "gelu": nn.GELU, "relu": nn.ReLU, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid}
+#: Learning-rate schedules of :func:`make_optimizer` (all per optimiser step).
+SCHEDULERS = ("onecycle", "cosine", "none")
+
+
+def make_activation(name: str) -> nn.Module:
+    """A new activation module by name (one of :data:`ACTIVATIONS`)."""
+    if name not in ACTIVATIONS:
+        raise ValueError(f"activation: expected one of {sorted(ACTIVATIONS)}, got {name!r}")
+    return ACTIVATIONS[name]()
+
+
+def save_own_hyperparameters(module: L.LightningModule, init_locals: dict[str, Any]) -> None:
+    """``module.save_hyperparameters`` of exactly its own ``__init__`` arguments (pass
+    ``locals()``); without an explicit dict Lightning would also collect the arguments of
+    an enclosing module's ``__init__`` when the module is built inside another one."""
+    module.save_hyperparameters({k: v for k, v in init_locals.items() if k not in ("self", "__class__")})
+
+
+def make_optimizer(module: L.LightningModule, groups: list[dict[str, Any]], scheduler: str, pct_start: float = 0.15) -> dict[str, Any]:
+    """AdamW over parameter ``groups`` (each with ``params``, ``lr``, ``weight_decay``) and a
+    per-step schedule over the trainer's total steps: ``"onecycle"`` (peak at each group's
+    ``lr``, warming up for the fraction ``pct_start``), ``"cosine"`` (to 0) or ``"none"``.
+    The return value is what ``configure_optimizers`` returns."""
+    if scheduler not in SCHEDULERS:
+        raise ValueError(f"scheduler: expected one of {SCHEDULERS}, got {scheduler!r}")
+    opt = torch.optim.AdamW(groups)
+    if scheduler == "none":
+        return {"optimizer": opt}
+    steps = module.trainer.estimated_stepping_batches
+    total = max(1, int(steps)) if math.isfinite(steps) else 1
+    if scheduler == "cosine":
+        sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=total)
+    else:
+        sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=[g["lr"] for g in groups], total_steps=total + 1, pct_start=pct_start)
+    return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}

@@ -1,0 +1,33 @@
+"""Visuomotor policies (LightningModules): CNN -> DMP and the velocity CNN, their vision parts,
+and the factory that loads any of them from a checkpoint.
+
+Every policy has one inference interface: :meth:`VisuomotorPolicy.controller` returns a
+controller that the closed-loop evaluator starts once per episode and steps every control
+period (:mod:`lfd.visuomotor.eval.rollout`).
+
+Example (closed loop from a checkpoint)::
+
+    from lfd.visuomotor.policies import load_policy
+
+    policy = load_policy("outputs/train/.../checkpoints/last.ckpt")   # kind read from the checkpoint
+"""
+
+from __future__ import annotations
+
+from lfd.visuomotor.policies.base import VisuomotorPolicy
+from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
+from lfd.visuomotor.policies.factory import POLICIES, checkpoint_kind, load_policy
+from lfd.visuomotor.policies.velocity import VelocityPolicy
+from lfd.visuomotor.policies.vision import KeypointEncoder, SpatialSoftmax, image_to_tensor
+
+__all__ = [
+    "POLICIES",
+    "CNNDMPPolicy",
+    "KeypointEncoder",
+    "SpatialSoftmax",
+    "VelocityPolicy",
+    "VisuomotorPolicy",
+    "checkpoint_kind",
+    "image_to_tensor",
+    "load_policy",
+]

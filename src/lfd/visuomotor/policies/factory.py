@@ -1,0 +1,49 @@
+"""The policy factory: policy classes by kind, and loading any policy checkpoint.
+
+A checkpoint's kind is the ``kind`` hyper-parameter every :class:`VisuomotorPolicy` saves;
+:func:`load_policy` picks the class from it, so a caller never branches on file names.
+
+Example::
+
+    from lfd.visuomotor.policies.factory import load_policy
+
+    policy = load_policy("outputs/train/.../checkpoints/last.ckpt")   # in eval mode
+    controller = policy.controller(dt=0.02)                           # stepped by the evaluator
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import torch
+
+from lfd.visuomotor.policies.base import VisuomotorPolicy
+from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
+from lfd.visuomotor.policies.velocity import VelocityPolicy
+
+__all__ = ["POLICIES", "checkpoint_kind", "load_policy"]
+
+#: Policy kind (``Policy.kind``, stored in the checkpoint's hyper-parameters) -> class.
+POLICIES: dict[str, type[VisuomotorPolicy]] = {cls.kind: cls for cls in (CNNDMPPolicy, VelocityPolicy)}
+
+
+def checkpoint_kind(path: str | Path) -> str | None:
+    """The policy kind stored in a Lightning checkpoint's hyper-parameters (None if it has none)."""
+    ckpt = torch.load(path, map_location="cpu", weights_only=False, mmap=True)
+    return ckpt.get("hyper_parameters", {}).get("kind")
+
+
+def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> VisuomotorPolicy:
+    """Load a policy checkpoint of any kind, in eval mode.
+
+    Raises:
+        FileNotFoundError: no file at ``path``.
+        ValueError: the checkpoint holds no known policy kind.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"policy checkpoint not found: {path}")
+    kind = checkpoint_kind(path)
+    if kind not in POLICIES:
+        raise ValueError(f"{path}: checkpoint kind {kind!r} is not a policy; expected one of {sorted(POLICIES)}")
+    return POLICIES[kind].load_from_checkpoint(path, map_location=map_location, weights_only=False).eval()

@@ -1,0 +1,324 @@
+"""End to end on a tiny generated dataset, with the real Hydra configs:
+
+fast_dev_run of both policies through ``train.py``'s main; a short run that saves
+checkpoints; the checkpoints load alone; closed-loop evaluation in PyBullet writes every
+output with valid contents; the policy never receives the object pose; missing or
+mismatched checkpoints give clear errors.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import hydra
+import numpy as np
+import pytest
+import torch
+from PIL import Image
+
+import evaluate  # the repository's entry points (pytest's pythonpath holds the root)
+import lfd.visuomotor.eval.evaluator as evaluator_module
+import train
+from lfd.visuomotor.eval import ReachEvaluator
+from lfd.visuomotor.policies import POLICIES, load_policy
+
+#: A dataset small enough to generate in seconds: 2 training objects x 3 placements
+#: (1 of them validation), 1 test object x 2 placements, 32 px images, 30 steps.
+TINY_DATA = [
+    "data.name=tiny",
+    "data.n_train_objects=2",
+    "data.n_train_placements=3",
+    "data.val_fraction=0.34",
+    "data.n_test_objects=1",
+    "data.n_test_placements=2",
+    "data.depth=false",  # explicit, like the next: experiment=quick (evaluate.py's default) sets its own
+    "data.n_val_objects=4",
+    "data.n_val_object_placements=3",
+    "data.image_size=32",
+    "data.n_steps=30",
+    "data.batch_size=4",
+    "data.progress=false",
+]
+TINY_MODEL = ["model.channels=[4,4,4,8]", "model.hidden=[16,16]", "model.plot_every_n_val=1"]
+
+
+@pytest.fixture(scope="module")
+def tiny(compose, workspace):
+    """``compose`` rooted in this module's workspace, on the tiny dataset."""
+
+    def _compose(name: str, *overrides: str):
+        # the tiny checkpoints train without colour_augment: no colour averaging unless a test asks
+        plain = ["eval.colour_tta=[]"] if name == "evaluate" else []
+        return compose(name, f"paths.root_dir={workspace}", *TINY_DATA, *plain, *overrides)
+
+    return _compose
+
+
+def given(cfg) -> dict:
+    """The checkpoints named on the command line, as ``evaluate.py`` passes them."""
+    return {"cnn_dmp": cfg.ckpt_dmp, "velocity": cfg.ckpt_velocity}
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("pipeline")
+
+
+@pytest.mark.parametrize("model", sorted(POLICIES))
+def test_fast_dev_run(tiny, model):
+    """The composed config instantiates and fits one train + one val batch; both losses are finite."""
+    cfg = tiny("train", f"model={model}", "++trainer.fast_dev_run=true", *TINY_MODEL)
+    assert cfg.data.mode == POLICIES[model].item_mode
+    datamodule = hydra.utils.instantiate(cfg.data)
+    policy = hydra.utils.instantiate(cfg.model)
+    trainer = hydra.utils.instantiate(cfg.trainer, logger=False, enable_checkpointing=False)
+    trainer.fit(policy, datamodule=datamodule)
+    metrics = trainer.callback_metrics
+    for key in ("train/loss", "val/loss"):
+        assert torch.isfinite(metrics[key]), key
+    assert type(policy) is POLICIES[model]
+    torch.testing.assert_close(policy.joints_std, datamodule.stats["joints"]["std"])
+
+
+@pytest.fixture(scope="module")
+def checkpoints(tiny, workspace) -> dict[str, Path]:
+    """Two optimiser steps of each policy, as ``train.py -m model=cnn_dmp,velocity`` would
+    leave them under ``outputs/train/<run>/checkpoints/last.ckpt``."""
+    out = {}
+    for model in sorted(POLICIES):
+        run_dir = workspace / "outputs" / "train" / f"run-{model}"
+        cfg = tiny(
+            "train", f"model={model}", "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run_dir}", *TINY_MODEL
+        )
+        out[model] = Path(train.main(cfg))
+        assert out[model] == run_dir / "checkpoints" / "last.ckpt" and out[model].is_file()
+    return out
+
+
+def test_checkpoint_runs_alone(checkpoints, workspace):
+    from lfd.visuomotor.data.datasets import load_dataset
+
+    stats = load_dataset(workspace / "data" / "tiny").stats
+    frame = np.zeros((32, 32, 3), dtype=np.uint8)
+    for kind, path in checkpoints.items():
+        policy = load_policy(path)
+        assert policy.kind == kind and type(policy) is POLICIES[kind] and not policy.training
+        assert policy.hparams.image_size == 32 and policy.hparams.robot == "pr2_right_arm"
+        torch.testing.assert_close(policy.joints_mean, stats["joints"]["mean"])
+        out = policy.plan(frame, np.zeros(7)) if kind == "cnn_dmp" else policy.act(frame, np.zeros(7), 0.0)
+        assert out.shape == ((30, 7) if kind == "cnn_dmp" else (7,)) and np.all(np.isfinite(out))
+        again = POLICIES[kind].load_from_checkpoint(path, weights_only=False)
+        torch.testing.assert_close(again.state_dict(), policy.state_dict())
+    with pytest.raises(ValueError, match="holds 'velocity' policies"):
+        POLICIES["velocity"].load_from_checkpoint(checkpoints["cnn_dmp"], weights_only=False)
+
+
+class RecordingPolicy:
+    """Wraps a policy and records every argument its closed-loop methods are called with."""
+
+    def __init__(self, policy) -> None:
+        self.policy, self.calls = policy, []
+
+    def __getattr__(self, name):
+        return getattr(self.policy, name)
+
+    def _record(self, name, args, kwargs):
+        self.calls.append((name, args, kwargs))
+
+    def plan(self, *args, **kwargs):
+        self._record("plan", args, kwargs)
+        return self.policy.plan(*args, **kwargs)
+
+    def act(self, *args, **kwargs):
+        self._record("act", args, kwargs)
+        return self.policy.act(*args, **kwargs)
+
+
+def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace, monkeypatch):
+    recorders = {}
+
+    def recording_load(path):
+        rec = RecordingPolicy(load_policy(path))
+        recorders[rec.kind] = rec
+        return rec
+
+    monkeypatch.setattr(evaluator_module, "load_policy", recording_load)
+    out_dir = workspace / "eval"
+    cfg = tiny("evaluate", "eval.n_gifs=1", "eval.max_steps=12")
+    metrics = evaluate.evaluate(cfg, out_dir)
+
+    # metrics.json: both methods, every key, sane values
+    saved = json.loads((out_dir / "metrics.json").read_text())
+    assert saved == json.loads(json.dumps(metrics))
+    assert set(saved) == {"cnn_dmp", "velocity"}
+    for kind, m in saved.items():
+        assert m["checkpoint"] == str(checkpoints[kind])
+        assert m["episodes"] == 2
+        assert set(m["final_distance_m"]) == {"mean", "median", "p90", "ci"} and m["final_distance_m"]["mean"] > 0  # ci: cluster bootstrap (issue 12)
+        for key in ("success_5cm", "success_2cm", "approach_correct"):
+            assert 0.0 <= m[key] <= 1.0
+        for key in ("success_5cm_ci", "success_2cm_ci"):
+            low, high = m[key]
+            assert 0.0 <= low <= m[key.removesuffix("_ci")] <= high <= 1.0
+        assert m["jerk_ratio"] > 0 and m["jerk_ratio_median"] > 0 and m["joint_limit_violations"] >= 0
+        assert 0 < m["latency_ms"]["median"] <= m["latency_ms"]["p95"]
+
+    # episodes.csv: one row per episode and method
+    with open(out_dir / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 4 and {r["method"] for r in rows} == {"cnn_dmp", "velocity"}
+    for r in rows:
+        assert float(r["final_distance_m"]) >= 0 and r["success_5cm"] in ("True", "False")
+        # issue 12: the object's distance and displacement, contacts, the ood mark
+        assert float(r["object_distance_m"]) >= 0 and float(r["object_displacement_m"]) >= 0
+        assert r["arm_table_contact"] in ("True", "False") and r["arm_object_contact"] in ("True", "False")
+        assert r["ood"] == "False"  # the test split is drawn from the training ranges
+        if r["approach_correct"] == "True":
+            assert float(r["final_distance_m"]) < 0.05
+    means = {k: np.mean([float(r["final_distance_m"]) for r in rows if r["method"] == k]) for k in saved}
+    for k in saved:
+        assert means[k] == pytest.approx(saved[k]["final_distance_m"]["mean"])
+
+    # plots and GIFs
+    objects = {r["object"] for r in rows}
+    for name in objects:
+        for prefix in ("distance", "paths3d"):
+            with Image.open(out_dir / f"{prefix}_{name}.png") as im:
+                assert im.size[0] > 200 and im.size[1] > 200
+    gifs = sorted((out_dir / "rollouts").glob("*.gif"))
+    assert {g.name.split("_")[0] for g in gifs} == {"cnn", "velocity"}
+    for gif in gifs:
+        with Image.open(gif) as im:
+            assert im.format == "GIF" and im.size == (64, 64)
+
+    # the policies saw only camera frames, joint angles and (velocity) the clock
+    assert [c[0] for c in recorders["cnn_dmp"].calls] == ["plan"] * 3  # warm-up + 2 episodes
+    assert len(recorders["velocity"].calls) == 1 + 2 * 12
+    for kind, rec in recorders.items():
+        times = []
+        for _, args, kwargs in rec.calls:
+            # the DMP policy is asked for a plan covering the episode (start + 12 steps)
+            assert kwargs == ({"n_steps": 13} if kind == "cnn_dmp" else {})
+            assert len(args) == (2 if kind == "cnn_dmp" else 3)
+            image, joints, *time = args
+            assert isinstance(image, np.ndarray) and image.dtype == np.uint8 and image.shape == (32, 32, 3)
+            assert isinstance(joints, np.ndarray) and joints.shape == (7,)
+            times += time
+        if kind == "velocity":  # warm-up at 0 s, then each episode's steps 0..11
+            dt = 4.0 / 29
+            np.testing.assert_allclose(times, [0.0] + 2 * [k * dt for k in range(12)])
+
+
+def test_scenario_file_evaluation(checkpoints, tiny, workspace):
+    """Every object x placement of a scenario, with the scripted expert's path as reference."""
+    scenario = workspace / "scenario.yaml"
+    scenario.write_text(
+        "objects:\n"
+        "  - {name: can, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1.0, 0.5, 0.0, 1.0]}\n"
+        "  - {name: block, shape: box, size: [0.05, 0.07, 0.06], rgba: [0.5, 0.0, 0.5, 1.0]}\n"
+        "placements:\n"
+        "  - [0.55, 0.05, 0.3]\n"
+    )
+    cfg = tiny("evaluate", f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=6")
+    out_dir = workspace / "eval-scenario"
+    metrics = evaluate.evaluate(cfg, out_dir)
+    assert {m["episodes"] for m in metrics.values()} == {2}
+    assert all(m["cases"] == f"scenario {scenario}" for m in metrics.values())
+    with open(out_dir / "episodes.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert sorted((r["method"], r["object"], r["approach_mode"]) for r in rows) == [
+        ("cnn_dmp", "block", "top"), ("cnn_dmp", "can", "side"), ("velocity", "block", "top"), ("velocity", "can", "side")
+    ]
+    assert all(float(r["demo_jerk"]) > 0 for r in rows)  # the expert demonstrated both cases
+    assert (out_dir / "distance_can.png").is_file() and (out_dir / "paths3d_block.png").is_file()
+    assert not (out_dir / "rollouts").exists()
+
+
+def test_evaluator_interface_cannot_pass_the_object_pose():
+    """The controllers only ever get an Observation: an image, joints and the clock."""
+    from dataclasses import fields
+
+    from lfd.visuomotor.eval.rollout import Observation
+
+    assert [f.name for f in fields(Observation)] == ["image", "joints", "time"]
+
+
+def test_missing_checkpoint_says_which_and_how(tiny, tmp_path):
+    cfg = tiny("evaluate", f"paths.output_root={tmp_path}")
+    with pytest.raises(FileNotFoundError) as info:
+        ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
+    msg = str(info.value)
+    assert "no 'cnn_dmp' checkpoint" in msg and "python train.py model=cnn_dmp" in msg and "ckpt_dmp=PATH" in msg
+    assert "no 'velocity' checkpoint" in msg and "python train.py model=velocity" in msg
+    cfg = tiny("evaluate", f"ckpt_dmp={tmp_path / 'nope.ckpt'}")
+    with pytest.raises(FileNotFoundError, match="ckpt_dmp=.*nope.ckpt"):
+        ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
+
+
+def test_newest_checkpoint_of_each_kind_is_found(checkpoints, tiny):
+    cfg = tiny("evaluate")
+    assert ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg)) == checkpoints
+
+
+def test_mismatched_image_size_is_refused(checkpoints, tiny, workspace):
+    cfg = tiny("evaluate", "data.image_size=48", "data.name=tiny48", "eval.limit=1")
+    with pytest.raises(ValueError, match="built with image_size=32, the dataset has image_size=48"):
+        evaluate.evaluate(cfg, workspace / "eval-mismatch")
+
+
+def test_checkpoint_carries_fingerprint_and_own_training_items_are_refused(checkpoints, tiny, workspace):
+    """Issue 12: the checkpoint knows its dataset; evaluating it on a training object is refused, naming both."""
+    from lfd.visuomotor.data.datasets import load_dataset
+    from lfd.io.files import sha256_file
+
+    data = load_dataset(workspace / "data" / "tiny")
+    for path in checkpoints.values():
+        fp = load_policy(path).dataset_fingerprint
+        assert fp["manifest_sha256"] == sha256_file(data.path / "manifest.json")
+        assert set(fp["split_keys"]) == {"train", "val", "test"}
+        assert len(fp["train_placements"]) == len(data.split("train"))
+    obj = data.split("train")[0].obj
+    assert obj.shape == "cylinder"
+    scenario = workspace / "own.yaml"
+    scenario.write_text(
+        "objects:\n"
+        f"  - {{name: mine, shape: cylinder, radius: {obj.dims[0]!r}, height: {obj.dims[1]!r}, rgba: {list(obj.rgba)!r}}}\n"
+        "placements:\n  - [0.55, 0.05, 0.3]\n"
+    )
+    cfg = tiny("evaluate", f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=2")
+    with pytest.raises(ValueError, match=rf"checkpoint .* was trained on items of the evaluation cases .*object 'mine' is training object '{obj.name}'"):
+        evaluate.evaluate(cfg, workspace / "eval-own")
+
+
+def test_colour_tta_is_set_per_method_and_refused_without_colour_augment(checkpoints, tiny, workspace):
+    """`eval.colour_tta` switches the test-time colour averaging on for the methods it names,
+    records it in metrics.json, and refuses a checkpoint that never saw permuted colours."""
+    cfg = tiny("evaluate", "eval.colour_tta=[cnn_dmp]", "eval.n_gifs=0", "eval.max_steps=4", "eval.limit=1")
+    with pytest.raises(ValueError, match=r"eval.colour_tta: cnn_dmp checkpoint .*colour_augment"):
+        evaluate.evaluate(cfg, workspace / "eval-tta-refused")
+    run_dir = workspace / "outputs" / "train-tta" / "run-cnn_dmp"
+    train_cfg = tiny(
+        "train", "model=cnn_dmp", "model.colour_augment=true", "++trainer.max_steps=2", "++trainer.limit_val_batches=1",
+        f"paths.output_dir={run_dir}", *TINY_MODEL,
+    )
+    ckpt = Path(train.main(train_cfg))
+    cfg = tiny(
+        "evaluate", "eval.colour_tta=[cnn_dmp]", "eval.n_gifs=0", "eval.max_steps=4", "eval.limit=1",
+        f"ckpt_dmp={ckpt}", f"ckpt_velocity={checkpoints['velocity']}",
+    )
+    metrics = evaluate.evaluate(cfg, workspace / "eval-tta")
+    assert metrics["cnn_dmp"]["colour_tta"] is True and metrics["velocity"]["colour_tta"] is False
+    from lfd.visuomotor.eval.evaluator import ReachEvaluator
+
+    with pytest.raises(ValueError, match="colour_tta: unknown methods"):
+        ReachEvaluator(colour_tta=["cnn"])
+
+
+def test_quick_evaluates_cnn_dmp_with_colour_averaging_and_nothing_else_does(compose):
+    """experiment=quick (evaluate.py's default) turns colour averaging on for CNN -> DMP only,
+    as chosen on validation; the original scale and an explicit override leave it off."""
+    assert list(compose("evaluate", "experiment=quick").eval.colour_tta) == ["cnn_dmp"]
+    assert list(compose("evaluate", "experiment=quick", "eval.colour_tta=[]").eval.colour_tta) == []
+    assert list(compose("evaluate", "experiment=original").eval.colour_tta) == []

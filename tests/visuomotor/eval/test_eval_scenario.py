@@ -1,0 +1,77 @@
+"""Scenario files: parsing, and clear errors that name the file, the entry and the field."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from lfd.visuomotor.eval.scenario import DEFAULT_MASS, ScenarioError, load_scenario
+
+GOOD = """
+objects:
+  - {name: can, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1.0, 0.5, 0.0, 1.0]}
+  - {name: block, shape: box, size: [0.05, 0.07, 0.06], rgba: [0.5, 0.0, 0.5, 1.0], mass: 0.2}
+placements:
+  - [0.55, 0.05, 0.3]
+  - [0.60, -0.10, -0.5]
+"""
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "scenario.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_good_scenario(tmp_path):
+    sc = load_scenario(write(tmp_path, GOOD))
+    assert [o.name for o in sc.objects] == ["can", "block"]
+    assert sc.objects[0].dims == (0.035, 0.14) and sc.objects[0].mass == DEFAULT_MASS
+    assert sc.objects[1].dims == (0.05, 0.07, 0.06) and sc.objects[1].mass == 0.2
+    assert sc.placements[1].yaw == pytest.approx(-0.5)
+    cases = sc.cases()
+    assert len(cases) == 4 and {(c[0], c[2]) for c in cases} == {(0, 0), (0, 1), (1, 0), (1, 1)}
+
+
+def test_example_scenarios_in_configs_load():
+    files = sorted(Path(__file__).resolve().parents[3].joinpath("configs", "scenarios").glob("*.yaml"))
+    assert files
+    for f in files:
+        sc = load_scenario(f)
+        assert sc.objects and sc.placements
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expected"),
+    [
+        ("radius: 0.035, height: 0.14", "radius: 0.035", r"objects\[0\] \(can\): field 'height' must be a length"),
+        ("size: [0.05, 0.07, 0.06]", "size: [0.05, 0.07]", r"objects\[1\] \(block\): field 'size' must be 3 lengths"),
+        ("size: [0.05, 0.07, 0.06]", "size: [0.05, 0.07, -0.06]", r"objects\[1\] \(block\): .*size_z must be"),
+        ("rgba: [1.0, 0.5, 0.0, 1.0]", "rgba: [1.0, 0.5, 0.0, 2.0]", r"objects\[0\] \(can\): .*rgba"),
+        ("rgba: [1.0, 0.5, 0.0, 1.0]", "rgba: red", r"objects\[0\] \(can\): field 'rgba' must be 4 numbers"),
+        ("shape: cylinder", "shape: cone", r"objects\[0\]: field 'shape' must be one of"),
+        ("height: 0.14", "height: 0.14, colour: red", r"objects\[0\]: unknown field\(s\) \['colour'\]"),
+        ("mass: 0.2", "mass: -1", r"objects\[1\] \(block\): .*mass"),
+        ("name: can, ", "", r"objects\[0\]: field 'name' must be a non-empty string"),
+        ("[0.60, -0.10, -0.5]", "[0.60, -0.10]", r"placements\[1\]: expected \[x, y, yaw\]"),
+        ("[0.60, -0.10, -0.5]", "[2.0, 0.0, 0.0]", r"placements\[1\]: .* lies off the table"),
+        ("name: block", "name: can", r"object names must be unique"),
+        ("placements:", "placement:", r"unknown top-level key"),
+    ],
+)
+def test_bad_field_is_named(tmp_path, old, new, expected):
+    assert old in GOOD
+    path = write(tmp_path, GOOD.replace(old, new, 1))
+    with pytest.raises(ScenarioError, match=expected) as info:
+        load_scenario(path)
+    assert str(path) in str(info.value)
+
+
+def test_missing_and_unparsable_files(tmp_path):
+    with pytest.raises(ScenarioError, match="not found"):
+        load_scenario(tmp_path / "nope.yaml")
+    with pytest.raises(ScenarioError, match="not valid YAML"):
+        load_scenario(write(tmp_path, "objects: [\n"))
+    with pytest.raises(ScenarioError, match="'objects' must be a non-empty list"):
+        load_scenario(write(tmp_path, "objects: []\nplacements: [[0.5, 0, 0]]\n"))
+    assert math.isfinite(load_scenario(write(tmp_path, GOOD)).placements[0].x)
