@@ -46,7 +46,11 @@ def main(cfg: DictConfig) -> str | None:
         print(OmegaConf.to_yaml(cfg, resolve=False))
     trainer.fit(model=model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"))
     if cfg.get("test"):
-        trainer.test(model=model, datamodule=datamodule, ckpt_path="best" if not cfg.trainer.get("fast_dev_run") else None)
+        trainer.test(
+            model=model,
+            datamodule=datamodule,
+            ckpt_path="best" if not cfg.trainer.get("fast_dev_run") else None,
+        )
 
     callback = trainer.checkpoint_callback
     ckpt = callback.last_model_path if callback else None
@@ -58,8 +62,12 @@ def main(cfg: DictConfig) -> str | None:
                 # Lightning >= 2.6 writes last.ckpt only beside a new best monitored checkpoint
                 import torch
 
-                step = torch.load(ckpt, map_location="cpu", weights_only=False, mmap=True).get("global_step")  # no tensor is read
-                print(f"[lfd]   the best {callback.monitor} on validation ({float(callback.best_model_score):.4g}), at step {step} of {trainer.global_step}")
+                step = torch.load(ckpt, map_location="cpu", weights_only=False, mmap=True).get(
+                    "global_step"
+                )  # no tensor is read
+                print(
+                    f"[lfd]   the best {callback.monitor} on validation ({float(callback.best_model_score):.4g}), at step {step} of {trainer.global_step}"
+                )
     return ckpt
 
 

@@ -19,15 +19,17 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "dmp"))
 
-from movement_primitives.dmp import CartesianDMP as ReferenceCartesianDMP  # noqa: E402
-from test_dmp_cartesian import fixed_axis_demo, free_demos, orientation_rmse, position_rmse  # noqa: E402
+from movement_primitives.dmp import CartesianDMP as ReferenceCartesianDMP
+from test_dmp_cartesian import fixed_axis_demo, free_demos, orientation_rmse, position_rmse
 
-from lfd.dmp import CartesianDMP  # noqa: E402
+from lfd.dmp import CartesianDMP
 
 
 def main():
-    print("| demonstration | lfd 'log': pos / rot RMSE | lfd 'ude': pos / rot RMSE | movement_primitives: pos / rot RMSE "
-          "| time fit+rollout lfd 'log' / 'ude' / mp (s) |")
+    print(
+        "| demonstration | lfd 'log': pos / rot RMSE | lfd 'ude': pos / rot RMSE | movement_primitives: pos / rot RMSE "
+        "| time fit+rollout lfd 'log' / 'ude' / mp (s) |"
+    )
     print("|---|---|---|---|---|")
     for name, t, pose in free_demos() + [("fixed axis", *fixed_axis_demo()[:2])]:
         cells, times = [], []
@@ -35,14 +37,18 @@ def main():
             start = time.perf_counter()
             ours = CartesianDMP(n_basis=20, orientation=orientation).fit(t, pose).rollout(t=t)
             times.append(time.perf_counter() - start)
-            cells.append(f"{position_rmse(ours[:, :3], pose[:, :3]):.2e} / {orientation_rmse(ours[:, 3:], pose[:, 3:]):.2e}")
+            cells.append(
+                f"{position_rmse(ours[:, :3], pose[:, :3]):.2e} / {orientation_rmse(ours[:, 3:], pose[:, 3:]):.2e}"
+            )
         start = time.perf_counter()
         reference = ReferenceCartesianDMP(execution_time=t[-1] - t[0], dt=t[1] - t[0], n_weights_per_dim=20)
         reference.imitate(t - t[0], pose)
         reference.configure(start_y=pose[0], goal_y=pose[-1])
         theirs = reference.open_loop()[1][: len(t)]
         times.append(time.perf_counter() - start)
-        cells.append(f"{position_rmse(theirs[:, :3], pose[:, :3]):.2e} / {orientation_rmse(theirs[:, 3:], pose[:, 3:]):.2e}")
+        cells.append(
+            f"{position_rmse(theirs[:, :3], pose[:, :3]):.2e} / {orientation_rmse(theirs[:, 3:], pose[:, 3:]):.2e}"
+        )
         print(f"| {name} | " + " | ".join(cells) + " | " + " / ".join(f"{x:.2f}" for x in times) + " |")
 
 

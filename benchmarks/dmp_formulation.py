@@ -25,10 +25,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "dmp"))
 
-from dmp_helpers import LASA_SHAPES, lasa_demo, smooth_demo  # noqa: E402
+from dmp_helpers import LASA_SHAPES, lasa_demo, smooth_demo
 
-from lfd.dmp import DMP  # noqa: E402
-from lfd.dmp.formulation import FORMULATIONS  # noqa: E402
+from lfd.dmp import DMP
+from lfd.dmp.formulation import FORMULATIONS
 
 
 def returning_demos():
@@ -44,7 +44,9 @@ def returning_demos():
         t, y = smooth_demo(rng, 100, 7, duration=4.0)
         s = (t - t[0]) / (t[-1] - t[0])
         for d in (2, 5):  # joints that swing out and back
-            y[:, d] = y[0, d] + rng.uniform(0.2, 1.0) * np.sin(np.pi * s) * np.sin(np.pi * s * rng.integers(1, 3))
+            y[:, d] = y[0, d] + rng.uniform(0.2, 1.0) * np.sin(np.pi * s) * np.sin(
+                np.pi * s * rng.integers(1, 3)
+            )
         cases.append((f"7-joint {i}", t, y, np.isin(np.arange(7), (2, 5))))
     return cases
 
@@ -88,8 +90,10 @@ def temporal(formulation):
 
 
 def main():
-    print("| formulation | moving DoFs: median / max RMSE | returning DoFs: median / max RMSE "
-          "| goal +10 %: max shift / offset (far, near DoF) | end error / offset | tau x2 max diff |")
+    print(
+        "| formulation | moving DoFs: median / max RMSE | returning DoFs: median / max RMSE "
+        "| goal +10 %: max shift / offset (far, near DoF) | end error / offset | tau x2 max diff |"
+    )
     print("|---|---|---|---|---|---|")
     for formulation in FORMULATIONS:
         mov_med, mov_max, ret_med, ret_max = reproduction(formulation)
@@ -98,8 +102,10 @@ def main():
             f"| {formulation} | {mov_med:.2e} / {mov_max:.2e} | {ret_med:.2e} / {ret_max:.2e} "
             f"| {excess[0]:.2f}, {excess[1]:.2f} | {end_error.max():.1e} | {temporal(formulation):.1e} |"
         )
-    print("\nRMSE relative to each DoF's range; 'max shift / offset' is 1.00 when a goal change moves "
-          "the path by no more than the goal offset (shape kept), larger when it rescales the shape.")
+    print(
+        "\nRMSE relative to each DoF's range; 'max shift / offset' is 1.00 when a goal change moves "
+        "the path by no more than the goal offset (shape kept), larger when it rescales the shape."
+    )
 
 
 if __name__ == "__main__":

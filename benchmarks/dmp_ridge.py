@@ -26,9 +26,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "dmp"))
 
-from dmp_helpers import LASA_SHAPES, lasa_demo, smooth_demo  # noqa: E402
+from dmp_helpers import LASA_SHAPES, lasa_demo, smooth_demo
 
-from lfd.dmp import DMP  # noqa: E402
+from lfd.dmp import DMP
 
 RIDGES = (0.0, 1e-12, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6)
 NOISE = 0.005  # measurement noise of the synthetic coarse samples, fraction of each DoF's range
@@ -53,7 +53,9 @@ def coarse_cases(seeds, shapes):
         rng.bit_generator.state = state  # the same motion, sampled coarsely
         coarse_t = np.linspace(0.0, n / 30.0, n)
         _, coarse_y = smooth_demo(rng, t=coarse_t, n_dims=7)
-        noise = NOISE * np.ptp(coarse_y, axis=0) * np.random.default_rng(seed + 1000).normal(size=coarse_y.shape)
+        noise = (
+            NOISE * np.ptp(coarse_y, axis=0) * np.random.default_rng(seed + 1000).normal(size=coarse_y.shape)
+        )
         yield coarse_t, coarse_y + noise, fine_t, fine_y
     for name in shapes:
         t, y = lasa_demo(name)
@@ -91,8 +93,10 @@ def main():
     parser.add_argument("--split", choices=("dev", "test"), default="dev")
     args = parser.parse_args()
     print(f"split: {args.split}; errors relative to the demonstration's range, weights relative to it too\n")
-    print("| ridge | coarse -> 1000-sample replay: median / max RMSE | max abs weight / range "
-          "| LASA 1000 samples: median / max RMSE |")
+    print(
+        "| ridge | coarse -> 1000-sample replay: median / max RMSE | max abs weight / range "
+        "| LASA 1000 samples: median / max RMSE |"
+    )
     print("|---|---|---|---|")
     for ridge in RIDGES:
         m = measure(ridge, args.split)

@@ -46,9 +46,9 @@ def demonstration(n_steps: int) -> tuple[np.ndarray, np.ndarray]:
     t = np.linspace(0.0, DURATION, n_steps)
     s = t / DURATION
     min_jerk = 10 * s**3 - 15 * s**4 + 6 * s**5
-    return t, start + np.outer(min_jerk, stroke) + bump * np.sin(np.pi * np.outer(s, frequency)) * np.sin(np.pi * s)[
-        :, None
-    ]
+    return t, start + np.outer(min_jerk, stroke) + bump * np.sin(np.pi * np.outer(s, frequency)) * np.sin(
+        np.pi * s
+    )[:, None]
 
 
 def median_time(function, repeats: int) -> float:
@@ -169,7 +169,9 @@ def bench_layer(repeats: int, device: str) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repeats and shorter reference loops (< 1 min)")
+    parser.add_argument(
+        "--quick", action="store_true", help="fewer repeats and shorter reference loops (< 1 min)"
+    )
     args = parser.parse_args()
     repeats = 5 if args.quick else 21
     rng = np.random.default_rng(1)
@@ -187,11 +189,15 @@ def main() -> None:
             n_loop = (3 if args.quick else 20) if n_steps == 1000 else (10 if args.quick else 100)
             results = {
                 "lfd.dmp": bench_lfd(t, y, n_basis, weights, repeats),
-                "movement-primitives 0.9.1": bench_movement_primitives(t, y, n_basis, weights, repeats, n_loop),
+                "movement-primitives 0.9.1": bench_movement_primitives(
+                    t, y, n_basis, weights, repeats, n_loop
+                ),
                 "pydmps 0.2": bench_pydmps(t, y, n_basis, weights, repeats, n_loop),
             }
             for name, r in results.items():
-                fit = f"{r['fit'] * 1e3:.2f}" + (f" (cold {r['fit_cold'] * 1e3:.2f})" if "fit_cold" in r else "")
+                fit = f"{r['fit'] * 1e3:.2f}" + (
+                    f" (cold {r['fit_cold'] * 1e3:.2f})" if "fit_cold" in r else ""
+                )
                 rows.append(
                     f"| {n_steps} | {n_basis} | {name} | {fit} | {r['one'] * 1e3:.2f} | "
                     f"{r['many'] * 1e3:.1f} ({r['many_note']}) | {r['errors'][0]:.2e} | {r['errors'][1]:.2e} |"
@@ -205,7 +211,9 @@ def main() -> None:
                     f"{other['many'] / ours['many']:.0f}x | {other['errors'][0] / ours['errors'][0]:.1f}x |"
                 )
 
-    print("| T | K | library | fit [ms] | 1 rollout [ms] | 1000 rollouts [ms] | RMSE / range | end error / range |")
+    print(
+        "| T | K | library | fit [ms] | 1 rollout [ms] | 1000 rollouts [ms] | RMSE / range | end error / range |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
     print("\nSpeed-up of lfd.dmp (their time / ours) and reproduction-error ratio (their RMSE / ours):\n")

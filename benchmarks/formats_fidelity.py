@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
+from lfd.interop import LeRobotDataModule, LeRobotFolder
 from lfd.visuomotor.data import load_dataset
 from lfd.visuomotor.data.episodes import SPLITS
-from lfd.interop import LeRobotDataModule, LeRobotFolder
 
 
 def main(src: str, dst: str) -> None:
@@ -43,7 +43,9 @@ def main(src: str, dst: str) -> None:
     t = time.perf_counter()
     dm = LeRobotDataModule(dst, mode="dmp")
     dm.setup("fit")
-    print(f"LeRobotDataModule(mode=dmp).setup('fit'): {time.perf_counter() - t:.1f} s, train {len(dm.datasets['train'])}, val {len(dm.datasets['val'])}")
+    print(
+        f"LeRobotDataModule(mode=dmp).setup('fit'): {time.perf_counter() - t:.1f} s, train {len(dm.datasets['train'])}, val {len(dm.datasets['val'])}"
+    )
 
 
 if __name__ == "__main__":

@@ -27,7 +27,9 @@ from lfd.human.synthetic import synthetic_recording
 
 
 def speed(minutes: float, repeats: int) -> None:
-    rec = synthetic_recording(duration=60.0 * minutes, seed=0, noise=0.01, dropouts=200, swap=True, outlier_burst=True)
+    rec = synthetic_recording(
+        duration=60.0 * minutes, seed=0, noise=0.01, dropouts=200, swap=True, outlier_burst=True
+    )
     frames = rec.skeleton.n_frames
     analyze_arm(rec.skeleton)  # warm-up (imports, torch constants)
     times = []
@@ -38,7 +40,9 @@ def speed(minutes: float, repeats: int) -> None:
     best = min(times)
     duration = rec.skeleton.t[-1] - rec.skeleton.t[0] + 1 / rec.skeleton.rate
     print(f"## Speed: {minutes:g} min at 30 Hz = {frames} frames (best of {repeats})")
-    print(f"whole pipeline: {best:.2f} s = {frames / best:,.0f} frames/s = {duration / best:.0f}x real time (target >= 50x)")
+    print(
+        f"whole pipeline: {best:.2f} s = {frames / best:,.0f} frames/s = {duration / best:.0f}x real time (target >= 50x)"
+    )
     robot = arm_model()
     q, qd, qdd, g = result.q, result.qd, result.qdd, result.gravity * [1, 1, 1]
     ok = np.isfinite(q).all(1) & np.isfinite(qd).all(1) & np.isfinite(qdd).all(1)
@@ -65,9 +69,17 @@ def speed(minutes: float, repeats: int) -> None:
 
 def accuracy(seeds, duration: float) -> None:
     combos = [(f, fit) for f in ("butterworth", "median", "none") for fit in ("polynomial", "spline")]
-    print(f"\n## Accuracy on synthetic ground truth (seeds {seeds[0]}-{seeds[-1]}, {duration:g} s each, both arms)")
+    print(
+        f"\n## Accuracy on synthetic ground truth (seeds {seeds[0]}-{seeds[-1]}, {duration:g} s each, both arms)"
+    )
     print("noise 1 cm, 12 dropouts, a 0.5 s gap, a 5-frame outlier burst, a 1 s left/right swap\n")
-    print("| filter | fit | angle RMSE (deg) " + " / ".join(JOINT_NAMES) + " | torque RMSE (N m) " + " / ".join(JOINT_NAMES) + " |")
+    print(
+        "| filter | fit | angle RMSE (deg) "
+        + " / ".join(JOINT_NAMES)
+        + " | torque RMSE (N m) "
+        + " / ".join(JOINT_NAMES)
+        + " |"
+    )
     print("|---|---|---|---|")
     recs = [synthetic_recording(duration=duration, seed=s, noise=0.01, dropouts=12, long_gap=0.5, outlier_burst=True, swap=True)
             for s in seeds]  # fmt: skip
@@ -81,12 +93,20 @@ def accuracy(seeds, duration: float) -> None:
                 angle.append(np.rad2deg(np.sqrt(np.mean((res.q[ok] - rec.q[side][ok]) ** 2, 0))))
                 torque.append(np.sqrt(np.mean((res.tau[ok] - rec.tau[side][ok]) ** 2, 0)))
         a, t = np.mean(angle, 0), np.mean(torque, 0)
-        print(f"| {filt} | {fit} | " + " / ".join(f"{v:.2f}" for v in a) + " | " + " / ".join(f"{v:.2f}" for v in t) + " |")
-    print(f"\npeak |torque| of the truth (N m): " + " / ".join(f"{v:.1f}" for v in peak))
+        print(
+            f"| {filt} | {fit} | "
+            + " / ".join(f"{v:.2f}" for v in a)
+            + " | "
+            + " / ".join(f"{v:.2f}" for v in t)
+            + " |"
+        )
+    print("\npeak |torque| of the truth (N m): " + " / ".join(f"{v:.1f}" for v in peak))
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--quick", action="store_true", help="1-minute recording, 2 seeds of 10 s")
     args = parser.parse_args()
     if args.quick:

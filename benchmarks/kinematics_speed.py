@@ -98,8 +98,12 @@ def pin_dls_ik(model, data, frame: int, targets: list, q0: np.ndarray, max_iters
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="fewer repeats; Pinocchio loops on 10x fewer rows")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="fewer repeats; Pinocchio loops on 10x fewer rows"
+    )
     parser.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's choice)")
     args = parser.parse_args()
     if args.threads:
@@ -120,7 +124,9 @@ def main() -> None:
 
     # Agreement first: a benchmark of wrong numbers is worthless.
     pin.forwardKinematics(model, data, np1000[0])
-    assert np.allclose(pin.updateFramePlacement(model, data, frame).homogeneous, robot.fk(q1000[:1])[0].numpy())
+    assert np.allclose(
+        pin.updateFramePlacement(model, data, frame).homogeneous, robot.fk(q1000[:1])[0].numpy()
+    )
     pool = pin.ModelPool(model, threads)
     qT, vT, aT = np1000.T.copy(), npd.T.copy(), npdd.T.copy()  # Pinocchio's batch layout: (nq, batch)
     tau_pin = pin.rneaInParallel(threads, pool, qT, vT, aT)
@@ -147,10 +153,14 @@ def main() -> None:
 
     targets = robot.fk(robot.sample_q(1000, gen))
     ik_success = []
-    ik = timed(lambda: ik_success.append(robot.ik(targets).success.float().mean().item()), max(repeats // 2, 2))
+    ik = timed(
+        lambda: ik_success.append(robot.ik(targets).success.float().mean().item()), max(repeats // 2, 2)
+    )
     pin_targets = [pin.SE3(t[:3, :3], t[:3, 3]) for t in targets.numpy()[: 1000 // pin_rows]]
     pin_success = []
-    pin_ik = timed(lambda: pin_success.append(pin_dls_ik(model, data, frame, pin_targets, robot.home.numpy())), 1)
+    pin_ik = timed(
+        lambda: pin_success.append(pin_dls_ik(model, data, frame, pin_targets, robot.home.numpy())), 1
+    )
     note = f"success lfd {min(ik_success):.1%}, pin {pin_success[0].mean():.1%} (DLS loop from home, no restarts)"
     rows.append(("IK, 1000 poses (f64)", 1000, ik, pin_ik.scaled(pin_rows), note))
 
@@ -170,7 +180,9 @@ def main() -> None:
           f"f32 {fk32.wall * 1e3:.1f} ms ({verdict[fk32.wall < 0.05]})")  # fmt: skip
     ratio = rne.wall / rnea_par.wall
     print(f"- inverse dynamics within 3x rneaInParallel: {ratio:.2f}x ({verdict[ratio <= 3]})")
-    print(f"- batched IK < 1 ms per target: {per_target * 1e3:.3f} ms per target ({verdict[per_target < 1e-3]})")
+    print(
+        f"- batched IK < 1 ms per target: {per_target * 1e3:.3f} ms per target ({verdict[per_target < 1e-3]})"
+    )
 
 
 if __name__ == "__main__":

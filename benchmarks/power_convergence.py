@@ -121,7 +121,9 @@ def ours(dmp, reward, sigma_goal, lower, upper, max_iter, seed) -> Run:
     start = time.perf_counter()
     result = power(dmp, reward, sigma_goal=sigma_goal, n_rollouts=N_ROLLOUTS, tol=TOL, lower=lower, upper=upper,
                    limit_penalty=LIMIT_PENALTY, max_iter=max_iter, seed=seed)  # fmt: skip
-    return Run(result.iterations, result.rollouts, result.error, result.converged, time.perf_counter() - start)
+    return Run(
+        result.iterations, result.rollouts, result.error, result.converged, time.perf_counter() - start
+    )
 
 
 def original(dmp, reward, lower, upper, max_iter, seed, c) -> Run:
@@ -135,7 +137,9 @@ def problems(robot, space: str, rng, n_goals: int):
     dmp = DMP(n_basis=20).fit(t, demo)
     lower, upper = robot.lower.numpy(), robot.upper.numpy()
     if space == "joint":
-        goals = [np.clip(dmp.goal_ + rng.normal(0.0, 0.15, 7), lower + 0.05, upper - 0.05) for _ in range(n_goals)]
+        goals = [
+            np.clip(dmp.goal_ + rng.normal(0.0, 0.15, 7), lower + 0.05, upper - 0.05) for _ in range(n_goals)
+        ]
         rewards = [JointGoalReward(goal, W1) for goal in goals]
     else:
         demo_xyz = tool_positions(robot, dmp.goal_[None])[0]
@@ -148,7 +152,9 @@ def tune_c(robot, space, max_iter, seed) -> float:
     """The original's exploration factor with the fewest total rollouts on 5 tuning goals."""
     dmp, _, rewards = problems(robot, space, np.random.default_rng(seed + 1000), 5)
     lower, upper = robot.lower.numpy(), robot.upper.numpy()
-    totals = {c: sum(original(dmp, r, lower, upper, max_iter, seed, c).rollouts for r in rewards) for c in C_GRID}
+    totals = {
+        c: sum(original(dmp, r, lower, upper, max_iter, seed, c).rollouts for r in rewards) for c in C_GRID
+    }
     return min(totals, key=totals.get)
 
 

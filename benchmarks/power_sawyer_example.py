@@ -30,14 +30,14 @@ import time
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import torch
 
-from lfd.dmp import DMP  # noqa: E402
-from lfd.dmp.canonical import discrete_activations  # noqa: E402
-from lfd.rl import TaskGoalReward, adapt_to_goal, goal_configuration, power  # noqa: E402
-from lfd.robots import load_robot  # noqa: E402
+from lfd.dmp import DMP
+from lfd.dmp.canonical import discrete_activations
+from lfd.rl import TaskGoalReward, adapt_to_goal, goal_configuration, power
+from lfd.robots import load_robot
 
 START_DEG = (0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0)
 DEMO_GOAL = (0.035, -0.573, -0.04)
@@ -48,7 +48,14 @@ DURATION = 4.0  # s
 
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Rotation ``Rz(yaw) Ry(pitch) Rx(roll)`` (angles in rad), shape ``(3, 3)``."""
-    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    cr, sr, cp, sp, cy, sy = (
+        np.cos(roll),
+        np.sin(roll),
+        np.cos(pitch),
+        np.sin(pitch),
+        np.cos(yaw),
+        np.sin(yaw),
+    )
     return np.array(
         [
             [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
@@ -93,13 +100,22 @@ def plot(path, t, dmp, robot, runs: dict, learning, new_goal) -> None:
         for j in range(7):
             ax.plot(t, np.rad2deg(trajectory[:, j]), styles[name], color=colours[j], lw=1.4)
     ax.set(title="Joint trajectories (colour = joint j0..j6)", xlabel="time [s]", ylabel="angle [deg]")
-    ax.legend([plt.Line2D([], [], ls=s, color="k") for s in styles.values()], styles.keys(), fontsize=8, loc="best")
+    ax.legend(
+        [plt.Line2D([], [], ls=s, color="k") for s in styles.values()], styles.keys(), fontsize=8, loc="best"
+    )
 
     ax = fig.add_subplot(grid[0, 1])
     for name, trajectory in runs.items():
         xyz = tool_positions(robot, trajectory)
         for k, (axis, colour) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"))):
-            ax.plot(t, xyz[:, k], styles[name], color=colour, lw=1.4, label=axis if name.startswith("adapt") else None)
+            ax.plot(
+                t,
+                xyz[:, k],
+                styles[name],
+                color=colour,
+                lw=1.4,
+                label=axis if name.startswith("adapt") else None,
+            )
     for k, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
         ax.axhline(new_goal[k], color=colour, lw=0.8, alpha=0.5)
     ax.set(title="End-effector position (thin lines: new goal)", xlabel="time [s]", ylabel="[m]")
@@ -139,7 +155,9 @@ def plot(path, t, dmp, robot, runs: dict, learning, new_goal) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="power_sawyer.png", help="output PNG path")
-    parser.add_argument("--goal", type=float, nargs=3, default=NEW_GOAL, metavar=("X", "Y", "Z"), help="new goal (m)")
+    parser.add_argument(
+        "--goal", type=float, nargs=3, default=NEW_GOAL, metavar=("X", "Y", "Z"), help="new goal (m)"
+    )
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
@@ -160,7 +178,10 @@ def main() -> None:
     demo_end = tool_positions(robot, dmp.rollout()[-1:])[0]
     print(f"demonstration DMP ends at {np.round(demo_end, 3).tolist()} m (demonstration goal {list(DEMO_GOAL)}), "
           f"{100 * np.linalg.norm(demo_end - new_goal):.1f} cm from the new goal {new_goal.tolist()}")  # fmt: skip
-    for name, result, seconds in (("adapt_to_goal", adapted, adapt_seconds), ("reward only", learning, learn_seconds)):
+    for name, result, seconds in (
+        ("adapt_to_goal", adapted, adapt_seconds),
+        ("reward only", learning, learn_seconds),
+    ):
         print(f"{name:14s}: converged={result.converged} iterations={result.iterations} rollouts={result.rollouts} "
               f"error={100 * result.error:.2f} cm within_limits={result.within_limits} ({seconds:.2f} s)")  # fmt: skip
     runs = {

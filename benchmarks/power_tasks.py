@@ -77,7 +77,9 @@ def make_tasks(kind: str, dmp, n: int, seed: int) -> list:
             joints = rng.choice(7, size=2, replace=False)
             point = np.interp(0.5 * dmp.tau_, t, np.arange(t.size))
             index = int(point)
-            at_mid = reference[index] + (point - index) * (reference[min(index + 1, t.size - 1)] - reference[index])
+            at_mid = reference[index] + (point - index) * (
+                reference[min(index + 1, t.size - 1)] - reference[index]
+            )
             target = at_mid.copy()
             target[joints] += 0.15 * rng.choice([-1.0, 1.0], size=2)
             rewards.append(ViaPointReward(t, 0.5 * dmp.tau_, target, goal=dmp.goal_, width=WIDTH))
@@ -120,7 +122,9 @@ def methods(goal_sigma: float) -> dict:
 
     g = dict(sigma_goal=goal_sigma)
     anneal = dict(scale_by_error=True)
-    old = dict(variant="episodic", sigma=0.02, n_best=3, n_rollouts=N_ROLLOUTS, adapt_variance=False, per_basis=False)
+    old = dict(
+        variant="episodic", sigma=0.02, n_best=3, n_rollouts=N_ROLLOUTS, adapt_variance=False, per_basis=False
+    )
     return {
         "PoWER per-step (default)": power_run(),
         "PoWER per-step + goal": power_run(**g),
@@ -130,7 +134,9 @@ def methods(goal_sigma: float) -> dict:
         "PoWER per-step, per-DoF scale (late bases frozen)": power_run(per_basis=False),
         "PoWER episodic": power_run(variant="episodic"),
         "PoWER episodic + goal + annealing": power_run(variant="episodic", **g, **anneal),
-        "PoWER before (episodic, per-DoF scale, no var. adapt.) + goal + annealing": power_run(**old, **g, **anneal),
+        "PoWER before (episodic, per-DoF scale, no var. adapt.) + goal + annealing": power_run(
+            **old, **g, **anneal
+        ),
         "PI^BB": pibb_run(),
         "PI^BB + goal": pibb_run(**g),
         "CMA-ES (scaled)": cma_run(),

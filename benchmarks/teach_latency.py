@@ -48,11 +48,25 @@ def measure(robot: str, scene: str, q3: str, n: int, reference: bool) -> dict:
 
         class _Ref:
             def solve(self, q, target, orientation=None):
-                res = ik(np.asarray(target)[None], np.asarray(q)[None], position_only=True, restarts=0, tol_pos=1e-3)
+                res = ik(
+                    np.asarray(target)[None],
+                    np.asarray(q)[None],
+                    position_only=True,
+                    restarts=0,
+                    tol_pos=1e-3,
+                )
                 from lfd.teach.drag_ik import IKStep
 
                 qq = res.q[0].numpy()
-                return IKStep(qq, bool(res.success[0]), float(res.pos_error[0]), float(np.max(np.abs(qq - q))), 0, False, "ref")
+                return IKStep(
+                    qq,
+                    bool(res.success[0]),
+                    float(res.pos_error[0]),
+                    float(np.max(np.abs(qq - q))),
+                    0,
+                    False,
+                    "ref",
+                )
 
         session.ik.solve = _Ref().solve  # same session, same sweep and scene update
     targets = path(session.tool_position, n)
@@ -67,14 +81,24 @@ def measure(robot: str, scene: str, q3: str, n: int, reference: bool) -> dict:
     server.close()
     session.close()
     ms = lambda x, q: float(np.percentile(np.array(x) * 1e3, q))  # noqa: E731
-    return {"core_med": ms(core, 50), "core_p95": ms(core, 95), "tot_med": ms(total, 50), "tot_p95": ms(total, 95), "tot_max": ms(total, 100), "accepted": accepted, "n": n}
+    return {
+        "core_med": ms(core, 50),
+        "core_p95": ms(core, 95),
+        "tot_med": ms(total, 50),
+        "tot_p95": ms(total, 95),
+        "tot_max": ms(total, 100),
+        "accepted": accepted,
+        "n": n,
+    }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--updates", type=int, default=300)
     args = parser.parse_args()
-    print("| robot | drag IK | updates accepted | IK + collision: median / p95 | whole update: median / p95 / max | reference (Robot.ik) whole update: median / p95 | reference / ours (median) |")
+    print(
+        "| robot | drag IK | updates accepted | IK + collision: median / p95 | whole update: median / p95 / max | reference (Robot.ik) whole update: median / p95 | reference / ours (median) |"
+    )
     print("|---|---|---:|---:|---:|---:|---:|")
     for robot, scene, q3, label in CASES:
         ours = measure(robot, scene, q3, args.updates, reference=False)

@@ -36,9 +36,13 @@ def main() -> None:
         for user in USERS:
             r = user(task)
             runs.setdefault(r.user, []).append(r)
-    print(f"{args.tasks} tasks (seeds {args.first_seed}..{args.first_seed + args.tasks - 1}), WAM, one wall between start and goal")
+    print(
+        f"{args.tasks} tasks (seeds {args.first_seed}..{args.first_seed + args.tasks - 1}), WAM, one wall between start and goal"
+    )
     print()
-    print("| interface (scripted user) | success | collisions / task | tool path (m) | drag segments | slider moves | clicks | keystrokes | actions / task | KLM time / task (model) |")
+    print(
+        "| interface (scripted user) | success | collisions / task | tool path (m) | drag segments | slider moves | clicks | keystrokes | actions / task | KLM time / task (model) |"
+    )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, rs in runs.items():
         ok = [r for r in rs if r.success]

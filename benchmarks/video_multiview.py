@@ -38,7 +38,11 @@ def main() -> dict:
     ap.add_argument("--demo", required=True, type=Path)
     ap.add_argument("--cache", type=Path, default=None)
     ap.add_argument("--width", type=int, default=640)
-    ap.add_argument("--repair", action="store_true", help="undo MediaPipe's front/back relabelling (VideoKeypoints.repaired)")
+    ap.add_argument(
+        "--repair",
+        action="store_true",
+        help="undo MediaPipe's front/back relabelling (VideoKeypoints.repaired)",
+    )
     ap.add_argument("--strategy", default="greedy", choices=("subsets", "greedy"))
     ap.add_argument("--max-error-px", type=float, default=20.0)
     args = ap.parse_args()
@@ -54,14 +58,20 @@ def main() -> dict:
             kp.save(cache)
         kps.append(kp)
     if args.repair:
-        kps = [k.repaired() for k in kps]  # MediaPipe's front/back relabelling undone (VideoKeypoints.repaired)
+        kps = [
+            k.repaired() for k in kps
+        ]  # MediaPipe's front/back relabelling undone (VideoKeypoints.repaired)
     T = min(k.n_frames for k in kps)
     pixels = np.stack([k.pixels[:T] for k in kps])
     conf = np.stack([k.visibility[:T] for k in kps])
     tri = triangulate(calib, pixels, conf, strategy=args.strategy, max_error_px=args.max_error_px)
-    arm = [CANONICAL_NAMES.index(f"{p}_{s}") for p in ("shoulder", "elbow", "wrist") for s in ("left", "right")]
+    arm = [
+        CANONICAL_NAMES.index(f"{p}_{s}") for p in ("shoulder", "elbow", "wrist") for s in ("left", "right")
+    ]
     reproj = tri.error[:, arm]
-    ref = Skeleton(kps[0].t[:T], CANONICAL_NAMES, tri.points, source="triangulated", up=np.array([0.0, 0.0, 1.0]))
+    ref = Skeleton(
+        kps[0].t[:T], CANONICAL_NAMES, tri.points, source="triangulated", up=np.array([0.0, 0.0, 1.0])
+    )
     out = {"frames": T, "reprojection_px_median_arm": float(np.nanmedian(reproj)),
            "reprojection_px_median_all": float(np.nanmedian(tri.error)),
            "views_per_arm_joint": float(tri.used[:, :, arm].sum(0).mean()),

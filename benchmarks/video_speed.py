@@ -30,8 +30,10 @@ def main() -> None:
     start = time.perf_counter()
     analyze_arm(kp.to_skeleton(), side="right", max_gap=0.3)
     angles = time.perf_counter() - start
-    print(f"{n} frames at {args.width} px: decode only {n / decode:.1f} fps, pose {n / pose:.1f} fps, "
-          f"video -> angles {n / (pose + angles):.1f} fps (decode is {decode / (pose + angles):.0%} of the chain)")
+    print(
+        f"{n} frames at {args.width} px: decode only {n / decode:.1f} fps, pose {n / pose:.1f} fps, "
+        f"video -> angles {n / (pose + angles):.1f} fps (decode is {decode / (pose + angles):.0%} of the chain)"
+    )
 
 
 if __name__ == "__main__":

@@ -62,7 +62,12 @@ def analyze_file(path: Path, cfg: DictConfig, out_dir: Path):
     reader = OmegaConf.to_container(cfg.reader, resolve=True) if cfg.reader else {}
     skeleton = read_skeleton(path, format=cfg.format, **reader)
     result = analyze_arm(skeleton, **analysis_options(cfg))
-    result.save(out_dir, plots=bool(cfg.outputs.plots), gif=bool(cfg.outputs.gif), gif_frames=int(cfg.outputs.gif_frames))
+    result.save(
+        out_dir,
+        plots=bool(cfg.outputs.plots),
+        gif=bool(cfg.outputs.gif),
+        gif_frames=int(cfg.outputs.gif_frames),
+    )
     return result
 
 
@@ -70,7 +75,11 @@ def _files(folder: Path, pattern: str | None) -> list[Path]:
     from lfd.human.readers import _iter_files
 
     if pattern:
-        return sorted(p for p in folder.rglob("*") if p.is_file() and fnmatch.fnmatch(str(p.relative_to(folder)), pattern))
+        return sorted(
+            p
+            for p in folder.rglob("*")
+            if p.is_file() and fnmatch.fnmatch(str(p.relative_to(folder)), pattern)
+        )
     return list(_iter_files(folder))
 
 

@@ -32,9 +32,17 @@ def export(cfg: DictConfig) -> Path:
     options = OmegaConf.to_container(cfg[cfg.format], resolve=True)
     t0 = time.perf_counter()
     export_dataset(
-        datamodule.path, out, format=cfg.format, overwrite=cfg.overwrite, progress=cfg.progress, limit=cfg.limit, **options
+        datamodule.path,
+        out,
+        format=cfg.format,
+        overwrite=cfg.overwrite,
+        progress=cfg.progress,
+        limit=cfg.limit,
+        **options,
     )
-    print(f"[lfd] {cfg.format} export of {datamodule.path} written to {out} in {time.perf_counter() - t0:.1f} s")
+    print(
+        f"[lfd] {cfg.format} export of {datamodule.path} written to {out} in {time.perf_counter() - t0:.1f} s"
+    )
     return out
 
 

@@ -226,9 +226,13 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
             goal = np.asarray(list(cfg.goal), float)
             if goal.shape != (3,) or not np.isfinite(goal).all():
                 raise ValueError(f"goal must be a tool position [x, y, z] in metres, got {list(cfg.goal)}")
-            sol = solve_ik(robot, torch.from_numpy(goal[None]), torch.from_numpy(rt.q[-1][None]), position_only=True)
+            sol = solve_ik(
+                robot, torch.from_numpy(goal[None]), torch.from_numpy(rt.q[-1][None]), position_only=True
+            )
             q_goal = sol.q[0].numpy()
-            q_new = np.clip(np.asarray(dmp.rollout(t_robot, goal=q_goal)), robot.lower.numpy(), robot.upper.numpy())
+            q_new = np.clip(
+                np.asarray(dmp.rollout(t_robot, goal=q_goal)), robot.lower.numpy(), robot.upper.numpy()
+            )
             q_new_exec, _ = sim.run(t_robot, q_new)
             reached = robot.fk(torch.from_numpy(q_new_exec[-1:]))[0, :3, 3].numpy()
             goal_result = {"goal_m": goal.tolist(), "ik_success": bool(sol.success[0]),
@@ -243,7 +247,10 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
         cols[f"{name}_dmp"] = q_dmp[:, j]
         cols[f"{name}_executed"] = q_exec[:, j]
     data = np.column_stack(list(cols.values()))
-    _atomic_write(out / "robot_trajectory.csv", "\n".join([",".join(cols)] + [",".join(f"{v:.6g}" for v in r) for r in data]) + "\n")
+    _atomic_write(
+        out / "robot_trajectory.csv",
+        "\n".join([",".join(cols)] + [",".join(f"{v:.6g}" for v in r) for r in data]) + "\n",
+    )
     summary = {
         "video": str(video), "robot": cfg.robot, "side": cfg.side, "frames": kp.n_frames,
         "frames_with_person": int(kp.detected.sum()), "frames_other_person": int(kp.other_person.sum()),

@@ -19,11 +19,11 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from lfd.visuomotor.data import SPLITS, load_dataset  # noqa: E402
-from lfd.sim import project_points  # noqa: E402
+from lfd.sim import project_points
+from lfd.visuomotor.data import SPLITS, load_dataset
 
 
 def pick(records: list, n: int) -> list:
@@ -34,7 +34,9 @@ def pick(records: list, n: int) -> list:
 
 
 def main(argv: list[str] | None = None) -> Path:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("dataset", type=Path, help="dataset folder (with manifest.json)")
     parser.add_argument("--out", type=Path, default=Path("dataset_grid.png"), help="output PNG")
     parser.add_argument("--n", type=int, default=12, help="number of episodes to show")

@@ -35,7 +35,9 @@ def build(cfg: DictConfig) -> TeachServer:
         wam_q3=str(cfg.ik.wam_q3),
         margin=float(cfg.margin),
     )
-    return TeachServer(session, host=str(cfg.host), port=int(cfg.port), export_dir=to_absolute_path(str(cfg.export_dir)))
+    return TeachServer(
+        session, host=str(cfg.host), port=int(cfg.port), export_dir=to_absolute_path(str(cfg.export_dir))
+    )
 
 
 @hydra.main(version_base="1.3", config_path="../configs/teach", config_name="teach")

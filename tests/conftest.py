@@ -14,9 +14,9 @@ import os
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-from pathlib import Path  # noqa: E402
+from pathlib import Path
 
-import pytest  # noqa: E402
+import pytest
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 #: Overrides that shrink the reaching data and the visuomotor networks to seconds of CPU:

@@ -15,7 +15,9 @@ def exports(groups: Mapping[str, Iterable[str]]) -> dict[str, str]:
     return {name: module for module, names in groups.items() for name in names}
 
 
-def lazy_getattr(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
+def lazy_getattr(
+    package: str, names: Mapping[str, str]
+) -> tuple[Callable[[str], object], Callable[[], list[str]]]:
     """Module-level ``__getattr__`` and ``__dir__`` for ``package`` that import
     ``<package>.<names[name]>`` (or ``names[name]`` itself when it starts with ``lfd.``) on the
     first access of ``name``."""
@@ -23,7 +25,9 @@ def lazy_getattr(package: str, names: Mapping[str, str]) -> tuple[Callable[[str]
     def __getattr__(name: str):
         if name in names:
             module = names[name]
-            return getattr(import_module(module if module.startswith("lfd.") else f"{package}.{module}"), name)
+            return getattr(
+                import_module(module if module.startswith("lfd.") else f"{package}.{module}"), name
+            )
         raise AttributeError(f"module {package!r} has no attribute {name!r}")
 
     def __dir__() -> list[str]:

@@ -39,7 +39,9 @@ def save_own_hyperparameters(module: L.LightningModule, init_locals: dict[str, A
     module.save_hyperparameters({k: v for k, v in init_locals.items() if k not in ("self", "__class__")})
 
 
-def make_optimizer(module: L.LightningModule, groups: list[dict[str, Any]], scheduler: str, pct_start: float = 0.15) -> dict[str, Any]:
+def make_optimizer(
+    module: L.LightningModule, groups: list[dict[str, Any]], scheduler: str, pct_start: float = 0.15
+) -> dict[str, Any]:
     """AdamW over parameter ``groups`` (each with ``params``, ``lr``, ``weight_decay``) and a
     per-step schedule over the trainer's total steps: ``"onecycle"`` (peak at each group's
     ``lr``, warming up for the fraction ``pct_start``), ``"cosine"`` (to 0) or ``"none"``.
@@ -54,5 +56,7 @@ def make_optimizer(module: L.LightningModule, groups: list[dict[str, Any]], sche
     if scheduler == "cosine":
         sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=total)
     else:
-        sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=[g["lr"] for g in groups], total_steps=total + 1, pct_start=pct_start)
+        sched = torch.optim.lr_scheduler.OneCycleLR(
+            opt, max_lr=[g["lr"] for g in groups], total_steps=total + 1, pct_start=pct_start
+        )
     return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}

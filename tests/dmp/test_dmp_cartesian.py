@@ -79,7 +79,9 @@ def test_rotation_about_a_fixed_axis_is_the_one_dimensional_dmp_of_the_angle(ori
     if orientation == "log":  # and its fit is the exact trajectory fit of the angle
         fitted = DMP(20, formulation=formulation).fit(t, angle_profile(t)[:, None]).rollout()[:, 0]
         np.testing.assert_allclose(relative @ axis, fitted, atol=1e-10)
-    np.testing.assert_allclose(out[:, :3], DMP(20, formulation=formulation).fit(t, pose[:, :3]).rollout(), atol=1e-12)
+    np.testing.assert_allclose(
+        out[:, :3], DMP(20, formulation=formulation).fit(t, pose[:, :3]).rollout(), atol=1e-12
+    )
 
 
 def test_reproduction_no_worse_than_movement_primitives():

@@ -83,9 +83,9 @@ def test_new_goal_scales_the_motion_with_the_displacement_ijspeert():
     # the forcing term scales with (g - y0), so (y - g) scales by (g' - y0) / (g - y0) per DoF
     ratio = (new_goal - dmp.y0_) / (dmp.goal_ - dmp.y0_)
     np.testing.assert_allclose(moved - new_goal, (base - dmp.goal_) * ratio, atol=1e-10)
-    assert np.abs(dmp.rollout(t=np.linspace(0, 3 * dmp.tau_, 300), goal=new_goal)[-1] - new_goal).max() < 1e-4 * scale(
-        y
-    )
+    assert np.abs(
+        dmp.rollout(t=np.linspace(0, 3 * dmp.tau_, 300), goal=new_goal)[-1] - new_goal
+    ).max() < 1e-4 * scale(y)
 
 
 def test_new_goal_adds_a_smooth_offset_pastor():
@@ -99,9 +99,13 @@ def test_new_goal_adds_a_smooth_offset_pastor():
     offset = np.array([0.7, -1.3, 2.0])
     long_t = np.linspace(0, 3 * dmp.tau_, 300)
     for weights in (dmp.weights_, dmp.weights_ + rng.normal(size=dmp.weights_.shape)):
-        shift = dmp.rollout(t=long_t, goal=dmp.goal_ + offset, weights=weights) - dmp.rollout(t=long_t, weights=weights)
+        shift = dmp.rollout(t=long_t, goal=dmp.goal_ + offset, weights=weights) - dmp.rollout(
+            t=long_t, weights=weights
+        )
         transient = shift / offset
-        np.testing.assert_allclose(transient, transient[:, :1].repeat(3, axis=1), atol=1e-10)  # same for every DoF
+        np.testing.assert_allclose(
+            transient, transient[:, :1].repeat(3, axis=1), atol=1e-10
+        )  # same for every DoF
         assert np.all(np.diff(transient[:, 0]) >= -1e-12)  # monotone 0 -> 1
         assert abs(transient[0, 0]) < 1e-12 and transient[-1, 0] == pytest.approx(1.0, abs=1e-4)
         velocity = np.gradient(transient[:, 0], long_t)
@@ -118,7 +122,9 @@ def test_batched_fit_equals_per_sample_fit():
         for b in range(5):
             single = DMP(15).fit(t, demos[b], method=method)
             np.testing.assert_allclose(batched.weights_[b], single.weights_, rtol=1e-10, atol=1e-8)
-        np.testing.assert_allclose(batched.rollout()[2], DMP(15).fit(t, demos[2], method=method).rollout(), atol=1e-10)
+        np.testing.assert_allclose(
+            batched.rollout()[2], DMP(15).fit(t, demos[2], method=method).rollout(), atol=1e-10
+        )
 
 
 def test_batched_rollout_of_many_weight_sets_matches_single_rollouts():
@@ -184,7 +190,10 @@ def test_files_saved_before_the_formulation_argument_load_as_ijspeert(tmp_path):
     np.testing.assert_array_equal(loaded.rollout(), old.rollout())
     new = DMP(8).fit(t, y)
     new.save(path)
-    assert DMP.load(path).formulation == "pastor" and json.loads(path.read_text())["params"]["formulation"] == "pastor"
+    assert (
+        DMP.load(path).formulation == "pastor"
+        and json.loads(path.read_text())["params"]["formulation"] == "pastor"
+    )
 
 
 def test_derivatives_agree_with_finite_differences():

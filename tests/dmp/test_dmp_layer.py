@@ -116,7 +116,10 @@ def test_rollout_batch_numpy_and_torch_agree_and_broadcast():
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        ((torch.zeros(2, 3), torch.zeros(2, 3), torch.zeros(2, 3, 5)), r"weights must have shape \(B, D, 4\)"),
+        (
+            (torch.zeros(2, 3), torch.zeros(2, 3), torch.zeros(2, 3, 5)),
+            r"weights must have shape \(B, D, 4\)",
+        ),
         ((torch.zeros(2, 3), torch.zeros(2, 3), torch.zeros(3, 4)), r"weights must have shape \(B, D, 4\)"),
         ((torch.zeros(2, 2), torch.zeros(2, 3), torch.zeros(2, 3, 4)), r"y0 must have shape \(2, 3\)"),
         ((torch.zeros(2, 3), torch.zeros(1, 3), torch.zeros(2, 3, 4)), r"goal must have shape \(2, 3\)"),
@@ -146,7 +149,9 @@ def test_layer_and_rollout_batch_reject_bad_arguments():
     with pytest.raises(ValueError, match="either t"):
         rollout_batch(np.zeros(2), np.ones(2), np.zeros((2, 3)), np.linspace(0, 1, 5), n_steps=5, dt=0.1)
     with pytest.raises(ValueError, match="tau must be > 0"):
-        rollout_batch(np.zeros(2), np.ones(2), np.zeros((2, 3)), np.linspace(0, 1, 5), tau=np.array([1.0, -1.0]))
+        rollout_batch(
+            np.zeros(2), np.ones(2), np.zeros((2, 3)), np.linspace(0, 1, 5), tau=np.array([1.0, -1.0])
+        )
     with pytest.raises(ValueError, match="weights contains NaN"):
         rollout_batch(np.zeros(2), np.ones(2), np.full((2, 3), np.nan), np.linspace(0, 1, 5))
 
@@ -158,12 +163,21 @@ def test_layer_formulation_and_start_velocity_match_the_numpy_rollout(formulatio
     weights = torch.from_numpy(rng.normal(size=(4, 3, 10)))
     layer = DMPLayer(n_basis=10, n_steps=40, dt=0.05, formulation=formulation)
     out = layer(y0, goal, weights, yd0=yd0)
-    expected = rollout_batch(y0.numpy(), goal.numpy(), weights.numpy(), n_steps=40, dt=0.05, yd0=yd0.numpy(),
-                             formulation=formulation)
+    expected = rollout_batch(
+        y0.numpy(),
+        goal.numpy(),
+        weights.numpy(),
+        n_steps=40,
+        dt=0.05,
+        yd0=yd0.numpy(),
+        formulation=formulation,
+    )
     np.testing.assert_allclose(out.numpy(), expected, atol=1e-12)
     _, velocity, _ = layer(y0, goal, weights, return_derivatives=True, yd0=yd0)
     np.testing.assert_allclose(velocity[:, 0].numpy(), yd0.numpy(), atol=1e-12)
     other = "ijspeert" if formulation == "pastor" else "pastor"
-    assert not np.allclose(DMPLayer(10, 40, 0.05, formulation=other)(y0, goal, weights).numpy(), layer(y0, goal, weights).numpy())
+    assert not np.allclose(
+        DMPLayer(10, 40, 0.05, formulation=other)(y0, goal, weights).numpy(), layer(y0, goal, weights).numpy()
+    )
     with pytest.raises(ValueError, match="formulation"):
         DMPLayer(10, 40, 0.05, formulation="schaal")

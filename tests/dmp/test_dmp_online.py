@@ -26,7 +26,9 @@ def test_runner_agrees_with_the_closed_form_rollout(formulation):
     velocities = np.array([s.yd for s in states])
     reference, reference_velocity, _ = dmp.rollout(t=t, return_derivatives=True)
     np.testing.assert_allclose(positions, reference, rtol=0, atol=1e-6 * np.ptp(y))
-    np.testing.assert_allclose(velocities, reference_velocity, rtol=0, atol=1e-6 * np.abs(reference_velocity).max())
+    np.testing.assert_allclose(
+        velocities, reference_velocity, rtol=0, atol=1e-6 * np.abs(reference_velocity).max()
+    )
     assert states[-1].t == pytest.approx(t[-1] - t[0])
     # DMP.step is the same pure function; one sub-step per step matches a grid that needs none
     fine = np.linspace(0, dmp.tau_, transform.MIN_STEPS_PER_TAU + 1)
@@ -55,8 +57,14 @@ def test_start_velocity_matches_an_ode_solver_and_is_fitted():
     t = np.linspace(0, 2 * tau, 150)
     ours = rollout_batch(y0, goal, np.zeros((2, 6)), t, tau=tau, yd0=yd0, formulation="ijspeert")
     w = 25.0 / (2 * tau)
-    sol = solve_ivp(lambda _, x: np.concatenate([x[2:], w**2 * (goal - x[:2]) - 2 * w * x[2:]]), (0, t[-1]),
-                    np.concatenate([y0, yd0]), t_eval=t, rtol=1e-11, atol=1e-12)
+    sol = solve_ivp(
+        lambda _, x: np.concatenate([x[2:], w**2 * (goal - x[:2]) - 2 * w * x[2:]]),
+        (0, t[-1]),
+        np.concatenate([y0, yd0]),
+        t_eval=t,
+        rtol=1e-11,
+        atol=1e-12,
+    )
     np.testing.assert_allclose(ours, sol.y[:2].T, atol=1e-8)
     # a demonstration that starts moving: fit with its start velocity reproduces it better
     s = np.linspace(0, 1, 120)
@@ -87,7 +95,10 @@ def test_obstacle_avoidance_keeps_away_and_still_reaches_the_goal(kind):
     assert before < 0.035 and after > 2 * before, (before, after)
     assert np.linalg.norm(avoided[-1] - y[-1]) < 2e-3  # close to the goal at t = tau already
     long_t = np.linspace(0, 3, 600)  # and converged to it a little later
-    assert np.linalg.norm(dmp.rollout(t=long_t, coupling=[ObstacleAvoidance(obstacle, kind=kind)])[-1] - y[-1]) < 1e-5
+    assert (
+        np.linalg.norm(dmp.rollout(t=long_t, coupling=[ObstacleAvoidance(obstacle, kind=kind)])[-1] - y[-1])
+        < 1e-5
+    )
 
 
 def test_coupling_in_batched_rollout_and_runner_agree_and_obstacles_can_move():
@@ -117,13 +128,18 @@ def test_joint_limits_are_respected_and_the_motion_is_unchanged_far_from_them(fi
     t, y, dmp = fitted
     free = dmp.rollout()
     lower, upper = free.min(0) - 0.5, free.max(0) + 0.5
-    np.testing.assert_allclose(dmp.rollout(coupling=[JointLimits(lower, upper, margin=0.1)]), free, atol=1e-12)
+    np.testing.assert_allclose(
+        dmp.rollout(coupling=[JointLimits(lower, upper, margin=0.1)]), free, atol=1e-12
+    )
     lower = free.min(0) - 0.05
     upper = free[0] + 0.5 * (free.max(0) - free[0])  # halfway between the start and the highest point
     limited = dmp.rollout(coupling=[JointLimits(lower, upper)])
     assert np.all(free.max(0) > upper + 0.01)  # the free motion violates them
     assert np.all(limited <= upper) and np.all(limited >= lower)
-    assert np.all(np.isfinite(limited)) and np.abs(np.diff(limited, axis=0)).max() <= np.abs(np.diff(free, axis=0)).max()
+    assert (
+        np.all(np.isfinite(limited))
+        and np.abs(np.diff(limited, axis=0)).max() <= np.abs(np.diff(free, axis=0)).max()
+    )
     # the repulsion alone already keeps the motion out of most of the violation
     soft = JointLimits(lower, upper)
     soft.project = None

@@ -76,7 +76,9 @@ def _corrupt(kind, t, y):
 @given(
     st.integers(4, 60),
     st.integers(1, 4),
-    st.sampled_from(["nan_y", "inf_t", "repeated_time", "reversed_time", "length_mismatch", "too_short", "flat_y"]),
+    st.sampled_from(
+        ["nan_y", "inf_t", "repeated_time", "reversed_time", "length_mismatch", "too_short", "flat_y"]
+    ),
     st.sampled_from([DMP, RhythmicDMP]),
 )
 def test_bad_demonstrations_raise_value_error(n_steps, n_dims, kind, model):

@@ -10,7 +10,9 @@ from lfd.dmp import DMP
 
 def reference_reproduction(t, y, n_basis):
     """movement_primitives.dmp.DMP: imitate then open-loop rollout on the demo's own step."""
-    dmp = ReferenceDMP(n_dims=y.shape[1], execution_time=t[-1] - t[0], dt=t[1] - t[0], n_weights_per_dim=n_basis)
+    dmp = ReferenceDMP(
+        n_dims=y.shape[1], execution_time=t[-1] - t[0], dt=t[1] - t[0], n_weights_per_dim=n_basis
+    )
     dmp.imitate(t - t[0], y)
     dmp.configure(start_y=y[0], goal_y=y[-1])
     _, positions = dmp.open_loop()

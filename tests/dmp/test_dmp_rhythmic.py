@@ -14,7 +14,8 @@ def signal(t):
     """Sum of sines with period 2 s, two DoF: ``(T, 2)``."""
     w = 2 * np.pi / PERIOD
     return np.stack(
-        [np.sin(w * t) + 0.3 * np.sin(3 * w * t), 0.5 * np.cos(w * t) + 0.2 * np.sin(2 * w * t + 1.0) + 1.0], -1
+        [np.sin(w * t) + 0.3 * np.sin(3 * w * t), 0.5 * np.cos(w * t) + 0.2 * np.sin(2 * w * t + 1.0) + 1.0],
+        -1,
     )
 
 

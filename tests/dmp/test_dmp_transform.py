@@ -5,10 +5,15 @@ import pytest
 import torch
 from scipy.integrate import solve_ivp
 
-from lfd.dmp import DMP, clear_caches, rollout_batch
-from lfd.dmp import transform
+from lfd.dmp import DMP, clear_caches, rollout_batch, transform
 from lfd.dmp.canonical import discrete_features
-from lfd.dmp.transform import BLOCK, _forced_response_blocked, _forced_response_uniform, build_operator, transition
+from lfd.dmp.transform import (
+    BLOCK,
+    _forced_response_blocked,
+    _forced_response_uniform,
+    build_operator,
+    transition,
+)
 
 ALPHA = 25.0
 
@@ -55,7 +60,9 @@ def _reference_rollout(t, y0, goal, weights, tau, n_basis, formulation, alpha_s=
         force = f * (goal - y0) if formulation == "ijspeert" else stiffness * (f - (goal - y0) * s)
         return np.concatenate([z / tau, (ALPHA * (ALPHA / 4 * (goal - y) - z) + force) / tau])
 
-    sol = solve_ivp(rhs, (t[0], t[-1]), np.concatenate([y0, np.zeros_like(y0)]), t_eval=t, rtol=1e-11, atol=1e-12)
+    sol = solve_ivp(
+        rhs, (t[0], t[-1]), np.concatenate([y0, np.zeros_like(y0)]), t_eval=t, rtol=1e-11, atol=1e-12
+    )
     return sol.y[: len(y0)].T
 
 
@@ -77,7 +84,9 @@ def test_rollout_converges_to_the_continuous_solution(uniform, formulation, monk
         with monkeypatch.context() as patch:  # the raw first-order hold on the grid itself
             patch.setattr(transform, "MIN_STEPS_PER_TAU", 1)
             clear_caches()
-            raw = DMP(n_basis, formulation=formulation).rollout(t=t, y0=y0, goal=goal, tau=tau, weights=weights)
+            raw = DMP(n_basis, formulation=formulation).rollout(
+                t=t, y0=y0, goal=goal, tau=tau, weights=weights
+            )
         clear_caches()
         errors.append(np.abs(raw - reference).max())
     # first-order hold on the forcing term: second-order convergence in the step size
@@ -116,7 +125,11 @@ def test_operator_is_linear_in_weights():
 def test_build_operator_first_sample_is_the_start_state():
     theta = torch.linspace(0, 1, 5, dtype=torch.float64)
     operator = build_operator(
-        theta, discrete_features(theta, 3, ALPHA / 3, 0.8), torch.tensor(1.0, dtype=torch.float64), ALPHA, ALPHA / 4
+        theta,
+        discrete_features(theta, 3, ALPHA / 3, 0.8),
+        torch.tensor(1.0, dtype=torch.float64),
+        ALPHA,
+        ALPHA / 4,
     )
     torch.testing.assert_close(operator.initial[0], torch.eye(2, dtype=torch.float64))
     assert torch.count_nonzero(operator.forced[0]) == 0

@@ -7,7 +7,13 @@ import pytest
 from scipy import signal
 
 from lfd.human.cleaning import fill_gaps, repair_swaps
-from lfd.human.filters import butterworth_filter, butterworth_sos, filter_positions, hampel_filter, median_filter
+from lfd.human.filters import (
+    butterworth_filter,
+    butterworth_sos,
+    filter_positions,
+    hampel_filter,
+    median_filter,
+)
 from lfd.human.fit import fit_derivatives, fit_polynomial, fit_spline
 
 
@@ -40,7 +46,9 @@ def test_median_and_hampel_remove_spikes():
     spiky[[50, 120, 121]] += 1.0
     assert np.abs(median_filter(spiky, 5) - x).max() < 0.1
     cleaned, mask = hampel_filter(spiky, 7, 3.0)
-    assert mask[[50, 120, 121], 0].all() and mask.sum() <= 0.15 * len(x)  # few false alarms, each replaced by a median
+    assert mask[[50, 120, 121], 0].all() and mask.sum() <= 0.15 * len(
+        x
+    )  # few false alarms, each replaced by a median
     assert np.abs(cleaned - x).max() < 0.1
     with pytest.raises(ValueError, match="odd"):
         median_filter(x, 4)
@@ -84,7 +92,11 @@ def test_fits_recover_derivatives():
     ddy = np.c_[-1.69 * np.sin(1.3 * t), -0.245 * np.cos(0.7 * t)]
     for fit in (fit_polynomial, fit_spline):
         v, d, dd, _ = fit(t, y)
-        assert np.abs(v - y).max() < 2e-3 and np.abs(d - dy)[15:-15].max() < 0.02 and np.abs(dd - ddy)[15:-15].max() < 0.1
+        assert (
+            np.abs(v - y).max() < 2e-3
+            and np.abs(d - dy)[15:-15].max() < 0.02
+            and np.abs(dd - ddy)[15:-15].max() < 0.1
+        )
     # the CV picks a low order for a line with noise and a higher one for a fast sine
     rng = np.random.default_rng(0)
     ts = t[:120]

@@ -55,7 +55,9 @@ def test_shoulder_terms_signs():
     shoulder = np.zeros((3, 3))
     # arm raised sideways (right arm: towards -y), forwards (+x), backwards (-x), all at 40 deg
     a = np.deg2rad(40)
-    elbow = L1 * np.array([[0, -np.sin(a), -np.cos(a)], [np.sin(a), 0, -np.cos(a)], [-np.sin(a), 0, -np.cos(a)]])
+    elbow = L1 * np.array(
+        [[0, -np.sin(a), -np.cos(a)], [np.sin(a), 0, -np.cos(a)], [-np.sin(a), 0, -np.cos(a)]]
+    )
     wrist = elbow + np.array([[L2 * 0.6, 0, -L2 * 0.8]] * 3)
     q = arm_ik(shoulder, elbow, wrist).q
     assert q[0, 0] == pytest.approx(a) and q[0, 1] == pytest.approx(0.0, abs=1e-12)  # abduction
@@ -66,7 +68,9 @@ def test_shoulder_terms_signs():
 def test_left_arm_is_the_mirror_image(robot):
     q = robot.sample_q(300, torch.Generator().manual_seed(3)).numpy()
     elbow, wrist = arm_fk(q, L1, L2)
-    left = arm_ik(np.zeros_like(elbow), mirror(elbow, "left"), mirror(wrist, "left"), side="left", continuity=0)
+    left = arm_ik(
+        np.zeros_like(elbow), mirror(elbow, "left"), mirror(wrist, "left"), side="left", continuity=0
+    )
     ok = ~left.elbow_singular & ~left.shoulder_singular
     np.testing.assert_allclose(left.q[ok], q[ok], atol=1e-9)
     # a left arm raised sideways moves towards +y and has positive abduction

@@ -65,7 +65,9 @@ def test_without_swap_repair_the_error_is_large(corrupted):
     assert np.nanmean(err) > 10.0
 
 
-@pytest.mark.parametrize(("filter_", "fit"), [("median", "polynomial"), ("butterworth", "spline"), ("median", "spline")])
+@pytest.mark.parametrize(
+    ("filter_", "fit"), [("median", "polynomial"), ("butterworth", "spline"), ("median", "spline")]
+)
 def test_other_filters_and_fits_are_accurate_too(filter_, fit):
     rec = synthetic_recording(duration=12.0, seed=3, noise=0.01, dropouts=5)
     result = analyze_arm(rec.skeleton, side="right", filter=filter_, fit=fit, hampel=True)
@@ -75,7 +77,12 @@ def test_other_filters_and_fits_are_accurate_too(filter_, fit):
 
 def test_invariance_to_camera_pose():
     base = synthetic_recording(duration=6.0, seed=2, noise=0.0)
-    moved = synthetic_recording(duration=6.0, seed=2, noise=0.0, camera=camera_pose(yaw_deg=35, distance=3.4, height=0.6, pitch_deg=-15))
+    moved = synthetic_recording(
+        duration=6.0,
+        seed=2,
+        noise=0.0,
+        camera=camera_pose(yaw_deg=35, distance=3.4, height=0.6, pitch_deg=-15),
+    )
     assert not np.allclose(base.skeleton.positions, moved.skeleton.positions, atol=0.1)
     for side in ("right", "left"):
         a, b = analyze_arm(base.skeleton, side=side), analyze_arm(moved.skeleton, side=side)
@@ -98,7 +105,7 @@ def test_outputs(tmp_path):
     assert "elbow_flexion_torque_Nm" in header and len(csv.read_text().splitlines()) == 91
     data = np.genfromtxt(csv, delimiter=",", skip_header=1)
     np.testing.assert_allclose(data[:, 1:5], np.rad2deg(result.q), rtol=1e-5, atol=1e-4)
-    mot = (tmp_path / "a.mot")
+    mot = tmp_path / "a.mot"
     result.to_mot(mot)
     lines = mot.read_text().splitlines()
     assert lines[1:6] == ["version=1", "nRows=90", "nColumns=9", "inDegrees=yes", "endheader"]
@@ -115,7 +122,14 @@ def test_plots_and_gif(tmp_path):
     rec = synthetic_recording(duration=2.0, seed=6, noise=0.01)
     paths = analyze_arm(rec.skeleton).plot(tmp_path, gif_frames=12)
     names = sorted(p.name for p in paths)
-    for expected in ("positions.png", "angles.png", "velocities.png", "accelerations.png", "torques.png", "stick_figure.gif"):
+    for expected in (
+        "positions.png",
+        "angles.png",
+        "velocities.png",
+        "accelerations.png",
+        "torques.png",
+        "stick_figure.gif",
+    ):
         assert expected in names
     for p in paths:
         assert p.stat().st_size > 2000

@@ -26,7 +26,10 @@ def test_real_excerpt_plausible(fmt):
     assert sk.positions.shape[1:] in {(25, 3), (22, 3)} and sk.rate == pytest.approx(30.0)
     tested = 0
     for side in ("left", "right"):
-        upper, fore = _bone(sk, f"shoulder_{side}", f"elbow_{side}"), _bone(sk, f"elbow_{side}", f"wrist_{side}")
+        upper, fore = (
+            _bone(sk, f"shoulder_{side}", f"elbow_{side}"),
+            _bone(sk, f"elbow_{side}", f"wrist_{side}"),
+        )
         if upper is None or fore is None:
             continue  # e.g. NTU "drink water": the left arm is occluded (only inferred) in most frames
         tested += 1
@@ -73,8 +76,11 @@ def test_ntu_picks_body_with_most_frames(tmp_path):
         body = lines[i + 1 : i + 1 + 27]
         i += 28
         shifted = [body[0].replace("72057594037931101", "99"), body[1]]
-        shifted += [" ".join([str(float(v) + (1.0 if k == 0 else 0.0)) for k, v in enumerate(line.split())]) for line in body[2:]]
-        out += (["2", *body, *shifted] if frame == 0 else ["1", *shifted])
+        shifted += [
+            " ".join([str(float(v) + (1.0 if k == 0 else 0.0)) for k, v in enumerate(line.split())])
+            for line in body[2:]
+        ]
+        out += ["2", *body, *shifted] if frame == 0 else ["1", *shifted]
     path = tmp_path / "two.skeleton"
     path.write_text("\n".join(out) + "\n")
     assert "body 99" in read_skeleton(path).source
@@ -87,7 +93,9 @@ def test_uiprmd_units_and_sibling_angles(tmp_path):
     # waist row of frame 0 is (-12.35, 91.34, -254.14) cm
     np.testing.assert_allclose(sk.joint("spine_base")[0], [-0.1234805, 0.9134453, -2.5414243])
     # bone length = norm of the constant offset row (28.87635 cm upper arm), whatever the rotation
-    np.testing.assert_allclose(np.linalg.norm(sk.joint("elbow_left")[0] - sk.joint("shoulder_left")[0]), 0.2887635, atol=1e-6)
+    np.testing.assert_allclose(
+        np.linalg.norm(sk.joint("elbow_left")[0] - sk.joint("shoulder_left")[0]), 0.2887635, atol=1e-6
+    )
     lonely = tmp_path / "Positions"
     lonely.mkdir()
     shutil.copy(FIXTURES / "ui_prmd/Kinect/Positions/m07_s02_e01_positions.txt.gz", lonely)
@@ -106,7 +114,9 @@ def test_trc_and_generic_csv_agree():
     np.testing.assert_allclose(long.positions, wide.positions, atol=1e-9)
     finite = np.isfinite(trc.positions)
     assert not finite[10, trc.index("wrist_right")].any()  # blank marker cells -> NaN
-    np.testing.assert_allclose(trc.positions[finite], long.positions[finite], atol=6e-6)  # mm -> m (both rounded to 5 µm)
+    np.testing.assert_allclose(
+        trc.positions[finite], long.positions[finite], atol=6e-6
+    )  # mm -> m (both rounded to 5 µm)
     for sk in (trc, long, wide):
         q = analyze_arm(sk, side="right").q
         assert np.rad2deg(np.sqrt(np.nanmean((q - truth["q_right"]) ** 2))) < 4.0
@@ -145,7 +155,9 @@ def test_kimore_bad_number_names_joint_field(tmp_path):
     fields = lines[40].split(",")
     fields[4 * 9 + 1] = "abc"  # ElbowRight y
     lines[40] = ",".join(fields)
-    with pytest.raises(SkeletonFormatError, match=r"line 41, field elbow_right\.y: expected a number, got 'abc'"):
+    with pytest.raises(
+        SkeletonFormatError, match=r"line 41, field elbow_right\.y: expected a number, got 'abc'"
+    ):
         read_skeleton(_write(tmp_path, "bad.csv", lines), format="kinect_csv")
 
 

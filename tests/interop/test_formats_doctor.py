@@ -16,7 +16,10 @@ def _report(path):
     from lerobot_doctor.runner import Severity, run_checks
 
     report = run_checks(load_dataset(str(path)))
-    return {r.name: [(m.severity, m.message) for m in r.messages if m.severity == Severity.FAIL] for r in report.results}, report
+    return {
+        r.name: [(m.severity, m.message) for m in r.messages if m.severity == Severity.FAIL]
+        for r in report.results
+    }, report
 
 
 @pytest.mark.parametrize("which", ["ours", "reference"])

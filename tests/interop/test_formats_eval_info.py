@@ -8,13 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from lfd.visuomotor.data import GeneratorConfig
-from lfd.visuomotor.eval.evaluator import Case
 from lfd.interop.lerobot.report import episode_rewards, side_by_side, write_lerobot_eval
-from lfd.visuomotor.eval.rollout import EpisodeTrace
 from lfd.robots import load_robot
 from lfd.sim.approach import plan_approach
 from lfd.sim.objects import ObjectSpec, Placement
+from lfd.visuomotor.data import GeneratorConfig
+from lfd.visuomotor.eval.evaluator import Case
+from lfd.visuomotor.eval.rollout import EpisodeTrace
 
 PER_EPISODE = {"episode_ix", "sum_reward", "max_reward", "success", "seed"}
 AGGREGATED = {"avg_sum_reward", "avg_max_reward", "pc_success", "eval_s", "eval_ep_s"}
@@ -35,14 +35,24 @@ def test_side_by_side():
 def _cases_and_traces():
     robot = load_robot("pr2_right_arm")
     objs = [
-        ObjectSpec(shape="cylinder", dims=(0.03, 0.15), rgba=(0.9, 0.1, 0.1, 1), mass=0.2, name="test-00-cylinder"),
-        ObjectSpec(shape="box", dims=(0.05, 0.05, 0.05), rgba=(0.1, 0.2, 0.9, 1), mass=0.2, name="test-01-box"),
+        ObjectSpec(
+            shape="cylinder", dims=(0.03, 0.15), rgba=(0.9, 0.1, 0.1, 1), mass=0.2, name="test-00-cylinder"
+        ),
+        ObjectSpec(
+            shape="box", dims=(0.05, 0.05, 0.05), rgba=(0.1, 0.2, 0.9, 1), mass=0.2, name="test-01-box"
+        ),
     ]
     cases, traces, rows = [], {"cnn_dmp": [], "velocity": []}, []
     home = robot.home.numpy()
     import torch
 
-    for i, (obj, p) in enumerate([(objs[0], Placement(0.55, -0.1, 0.0)), (objs[0], Placement(0.6, 0.1, 0.3)), (objs[1], Placement(0.5, 0.0, 0.0))]):
+    for i, (obj, p) in enumerate(
+        [
+            (objs[0], Placement(0.55, -0.1, 0.0)),
+            (objs[0], Placement(0.6, 0.1, 0.3)),
+            (objs[1], Placement(0.5, 0.0, 0.0)),
+        ]
+    ):
         plan = plan_approach(obj, p, table_z=-0.33)
         cases.append(Case(0 if obj is objs[0] else 1, i, obj, p, plan, None))
         joints = np.linspace(home, home + 0.2, 7)
@@ -61,7 +71,18 @@ def test_eval_info_schema_and_videos(tmp_path):
 
     cases, traces, rows = _cases_and_traces()
     gen = GeneratorConfig(image_size=32, n_steps=10)
-    paths = write_lerobot_eval(tmp_path, rows, cases, traces, gen, seed=7, eval_s=12.0, n_videos=1, frame_every=2, video_size=(160, 120))
+    paths = write_lerobot_eval(
+        tmp_path,
+        rows,
+        cases,
+        traces,
+        gen,
+        seed=7,
+        eval_s=12.0,
+        n_videos=1,
+        frame_every=2,
+        video_size=(160, 120),
+    )
     assert set(paths) == {"cnn_dmp", "velocity"}
     for method, path in paths.items():
         assert path == tmp_path / method / "eval_info.json"
@@ -73,7 +94,9 @@ def test_eval_info_schema_and_videos(tmp_path):
         assert set(info["aggregated"]) == AGGREGATED
         succ = [r["success_5cm"] for r in rows if r["method"] == method]
         assert info["aggregated"]["pc_success"] == pytest.approx(100 * np.mean(succ))
-        assert info["aggregated"]["eval_s"] == 12.0 and info["aggregated"]["eval_ep_s"] == pytest.approx(12.0 / 6)
+        assert info["aggregated"]["eval_s"] == 12.0 and info["aggregated"]["eval_ep_s"] == pytest.approx(
+            12.0 / 6
+        )
         ep = info["per_episode"][0]
         if method == "cnn_dmp":  # the tool path ends on the target
             assert ep["max_reward"] == pytest.approx(1.0)
@@ -83,16 +106,30 @@ def test_eval_info_schema_and_videos(tmp_path):
         assert [(t["task_group"], t["task_id"]) for t in info["per_task"]] == [("cylinder", 0), ("box", 1)]
         assert info["per_task"][0]["task"] == "reach the red cylinder from the side"
         assert info["per_task"][1]["task"] == "reach the blue box from above"
-        assert set(info["per_task"][0]["metrics"]) == {"sum_rewards", "max_rewards", "successes", "video_paths"}
+        assert set(info["per_task"][0]["metrics"]) == {
+            "sum_rewards",
+            "max_rewards",
+            "successes",
+            "video_paths",
+        }
         assert info["per_group"]["cylinder"]["n_episodes"] == 2 and info["overall"]["n_episodes"] == 3
-        assert {"avg_sum_reward", "avg_max_reward", "pc_success", "n_episodes", "video_paths"} <= set(info["per_group"]["box"])
+        assert {"avg_sum_reward", "avg_max_reward", "pc_success", "n_episodes", "video_paths"} <= set(
+            info["per_group"]["box"]
+        )
         assert AGGREGATED | {"n_episodes", "video_paths"} == set(info["overall"])
         assert not math.isnan(info["overall"]["avg_sum_reward"])
         video = tmp_path / method / "videos" / "eval_episode_0.mp4"
-        assert info["video_paths"] == [str(video)] and not (tmp_path / method / "videos" / "eval_episode_1.mp4").exists()
+        assert (
+            info["video_paths"] == [str(video)]
+            and not (tmp_path / method / "videos" / "eval_episode_1.mp4").exists()
+        )
         with av.open(str(video)) as c:
             frames = [f.to_ndarray(format="rgb24") for f in c.decode(video=0)]
-        assert len(frames) == 4 and frames[0].shape == (120, 160 + 120, 3)  # 7 states, every 2nd; view + policy view
+        assert len(frames) == 4 and frames[0].shape == (
+            120,
+            160 + 120,
+            3,
+        )  # 7 states, every 2nd; view + policy view
         assert frames[0][:, :160].std() > 5  # a rendered scene, not a blank frame
 
 

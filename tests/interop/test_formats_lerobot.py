@@ -10,11 +10,17 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from lfd.visuomotor.data import load_dataset
-from lfd.visuomotor.data.episodes import SPLITS
-from lfd.interop import LeRobotEpisode, LeRobotFolder, LeRobotWriter, export_lerobot, update_chunk_file_indices
+from lfd.interop import (
+    LeRobotEpisode,
+    LeRobotFolder,
+    LeRobotWriter,
+    export_lerobot,
+    update_chunk_file_indices,
+)
 from lfd.interop.lerobot.writer import STAT_KEYS, colour_name, task_string
 from lfd.io.video import decode_video_frames
+from lfd.visuomotor.data import load_dataset
+from lfd.visuomotor.data.episodes import SPLITS
 
 REFERENCE = Path(__file__).resolve().parents[1] / "fixtures" / "lerobot_v3_reference"
 
@@ -44,7 +50,9 @@ def test_info_json_matches_reference(tiny_lerobot):
             assert mine["names"] == feat["names"]
         elif feat["names"] is None:
             assert mine["names"] is None
-    assert ours["features"]["observation.state"]["shape"] == [14] and ours["features"]["action"]["shape"] == [7]
+    assert ours["features"]["observation.state"]["shape"] == [14] and ours["features"]["action"]["shape"] == [
+        7
+    ]
     assert ours["total_episodes"] == 7 and ours["total_frames"] == 7 * 30
     assert ours["splits"] == {"train": "0:4", "val": "4:6", "test": "6:7"}
     assert ours["fps"] == pytest.approx(29 / 4.0)  # (n_steps - 1) / duration
@@ -72,7 +80,10 @@ def test_parquet_schemas_match_reference(tiny_lerobot, rel):
 
 def test_one_row_group_per_episode_and_stats_layout(tiny_lerobot):
     assert pq.ParquetFile(tiny_lerobot / DATA).metadata.num_row_groups == 7
-    ref, ours = json.loads((REFERENCE / "meta/stats.json").read_text()), json.loads((tiny_lerobot / "meta/stats.json").read_text())
+    ref, ours = (
+        json.loads((REFERENCE / "meta/stats.json").read_text()),
+        json.loads((tiny_lerobot / "meta/stats.json").read_text()),
+    )
     assert set(ours) == set(ref)
     for feat in ref:
         assert list(ours[feat]) == list(ref[feat]) == list(STAT_KEYS)
@@ -88,7 +99,11 @@ def test_frames_timestamps_indices_exact(tiny_lerobot):
     key = "observation.images.front"
     to = 0.0
     for e, row in enumerate(folder.episodes):
-        assert (row["dataset_from_index"], row["dataset_to_index"], row["length"]) == (30 * e, 30 * e + 30, 30)
+        assert (row["dataset_from_index"], row["dataset_to_index"], row["length"]) == (
+            30 * e,
+            30 * e + 30,
+            30,
+        )
         np.testing.assert_array_equal(d["episode_index"][folder.episode_slice(e)], e)
         assert row[f"videos/{key}/from_timestamp"] == pytest.approx(to)
         to = row[f"videos/{key}/to_timestamp"]
@@ -103,12 +118,17 @@ def test_states_actions_extra_columns_and_tasks(tiny, tiny_lerobot):
     for e, rec in enumerate(order):
         sl = folder.episode_slice(e)
         a = rec.arrays
-        np.testing.assert_array_equal(folder.data["observation.state"][sl], np.concatenate([a["joints"], a["velocities"]], 1).astype(np.float32))
+        np.testing.assert_array_equal(
+            folder.data["observation.state"][sl],
+            np.concatenate([a["joints"], a["velocities"]], 1).astype(np.float32),
+        )
         np.testing.assert_array_equal(folder.data["action"][sl][:-1], a["joints"][1:].astype(np.float32))
         row = folder.episodes[e]
         assert row["lfd/index"] == rec.index and row["lfd/split"] == rec.split
         assert row["lfd/object_name"] == rec.obj.name and row["lfd/object_shape"] == rec.obj.shape
-        np.testing.assert_array_equal(np.reshape(row["lfd/dmp_weights"], a["dmp_weights"].shape), a["dmp_weights"])
+        np.testing.assert_array_equal(
+            np.reshape(row["lfd/dmp_weights"], a["dmp_weights"].shape), a["dmp_weights"]
+        )
         np.testing.assert_array_equal(row["lfd/dmp_goal"], a["dmp_goal"])
         np.testing.assert_array_equal(row["lfd/placement"], a["placement"])
         np.testing.assert_array_equal(np.reshape(row["lfd/ee_path"], (-1, 3)), a["ee_poses"][:, :3, 3])
@@ -132,9 +152,15 @@ def test_stats_are_exact(tiny, tiny_lerobot):
     stats = json.loads((tiny_lerobot / "meta/stats.json").read_text())
     folder = LeRobotFolder(tiny_lerobot)
     state = folder.data["observation.state"].astype(np.float64)
-    np.testing.assert_allclose(stats["observation.state"]["q50"], np.quantile(state, 0.5, axis=0), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(stats["observation.state"]["q99"], np.quantile(state, 0.99, axis=0), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(stats["action"]["std"], folder.data["action"].astype(np.float64).std(axis=0), atol=1e-12)
+    np.testing.assert_allclose(
+        stats["observation.state"]["q50"], np.quantile(state, 0.5, axis=0), rtol=0, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        stats["observation.state"]["q99"], np.quantile(state, 0.99, axis=0), rtol=0, atol=1e-12
+    )
+    np.testing.assert_allclose(
+        stats["action"]["std"], folder.data["action"].astype(np.float64).std(axis=0), atol=1e-12
+    )
     assert stats["index"]["count"] == [210] and stats["index"]["max"] == [209]
     # images: per channel in [0, 1], against a brute-force pass over every source pixel
     frames = np.concatenate([r.frames() for r in load_dataset(tiny).episodes]).astype(np.float64) / 255
@@ -190,8 +216,16 @@ def test_file_size_and_chunk_rollover(tmp_path):
     and the file index runs past chunks_size=2 into the next chunks, as lerobot's writer does."""
     rng = np.random.default_rng(0)
     w = LeRobotWriter(
-        tmp_path / "ds", fps=10, robot_type="test", state_names=list("abcd"), action_names=["u", "v"],
-        cameras={"front": (64, 64)}, chunks_size=2, data_files_size_in_mb=1e-4, video_files_size_in_mb=1e-4, codec="h264",
+        tmp_path / "ds",
+        fps=10,
+        robot_type="test",
+        state_names=list("abcd"),
+        action_names=["u", "v"],
+        cameras={"front": (64, 64)},
+        chunks_size=2,
+        data_files_size_in_mb=1e-4,
+        video_files_size_in_mb=1e-4,
+        codec="h264",
     )
     eps = [_episode(rng, T) for T in (5, 6, 7, 8, 9)]
     for ep in eps:
@@ -207,24 +241,45 @@ def test_file_size_and_chunk_rollover(tmp_path):
         assert row[f"videos/{key}/from_timestamp"] == 0.0  # each video file starts with its episode
         assert (root / f"data/chunk-{expected[e][0]:03d}/file-{expected[e][1]:03d}.parquet").is_file()
         assert (root / f"videos/{key}/chunk-{expected[e][0]:03d}/file-{expected[e][1]:03d}.mp4").is_file()
-        np.testing.assert_array_equal(folder.data["observation.state"][folder.episode_slice(e)], eps[e].state.astype(np.float32))
+        np.testing.assert_array_equal(
+            folder.data["observation.state"][folder.episode_slice(e)], eps[e].state.astype(np.float32)
+        )
         assert folder.frames(e, key).shape == (len(eps[e].state), 64, 64, 3)
     assert folder.tasks == ["task 1", "task 0"]
 
 
 def test_default_limits_keep_one_file(tmp_path):
     rng = np.random.default_rng(1)
-    w = LeRobotWriter(tmp_path / "ds", fps=10, robot_type="t", state_names=list("abcd"), action_names=["u", "v"], cameras={"front": (64, 64)}, codec="h264")
+    w = LeRobotWriter(
+        tmp_path / "ds",
+        fps=10,
+        robot_type="t",
+        state_names=list("abcd"),
+        action_names=["u", "v"],
+        cameras={"front": (64, 64)},
+        codec="h264",
+    )
     for T in (5, 6, 7):
         w.add_episode(_episode(rng, T))
     folder = LeRobotFolder(w.finalize())
-    assert {(r["data/file_index"], r["videos/observation.images.front/file_index"]) for r in folder.episodes} == {(0, 0)}
-    assert [r["videos/observation.images.front/from_timestamp"] for r in folder.episodes] == pytest.approx([0.0, 0.5, 1.1])
+    assert {
+        (r["data/file_index"], r["videos/observation.images.front/file_index"]) for r in folder.episodes
+    } == {(0, 0)}
+    assert [r["videos/observation.images.front/from_timestamp"] for r in folder.episodes] == pytest.approx(
+        [0.0, 0.5, 1.1]
+    )
 
 
 def test_writer_rejects_bad_input(tmp_path):
     rng = np.random.default_rng(2)
-    w = LeRobotWriter(tmp_path / "ds", fps=10, robot_type="t", state_names=list("abcd"), action_names=["u", "v"], cameras={"front": (64, 64)})
+    w = LeRobotWriter(
+        tmp_path / "ds",
+        fps=10,
+        robot_type="t",
+        state_names=list("abcd"),
+        action_names=["u", "v"],
+        cameras={"front": (64, 64)},
+    )
     ep = _episode(rng, 5)
     with pytest.raises(ValueError, match="state"):
         w.add_episode(LeRobotEpisode(ep.state[:, :3], ep.action, ep.frames, "t"))
@@ -241,9 +296,13 @@ def test_writer_rejects_bad_input(tmp_path):
     with pytest.raises(FileExistsError):
         (tmp_path / "full").mkdir()
         (tmp_path / "full" / "x").write_text("x")
-        LeRobotWriter(tmp_path / "full", fps=10, robot_type="t", state_names=["a"], action_names=["a"], cameras={})
+        LeRobotWriter(
+            tmp_path / "full", fps=10, robot_type="t", state_names=["a"], action_names=["a"], cameras={}
+        )
     with pytest.raises(ValueError, match="fps"):
-        LeRobotWriter(tmp_path / "f", fps=0, robot_type="t", state_names=["a"], action_names=["a"], cameras={})
+        LeRobotWriter(
+            tmp_path / "f", fps=0, robot_type="t", state_names=["a"], action_names=["a"], cameras={}
+        )
 
 
 def test_decode_tolerance(tiny_lerobot):

@@ -13,8 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 import torch
 
-from lfd.visuomotor.data import ReachDataModule
 from lfd.interop import LeRobotDataModule, LeRobotFolder, read_info
+from lfd.visuomotor.data import ReachDataModule
 
 REFERENCE = Path(__file__).resolve().parents[1] / "fixtures" / "lerobot_v3_reference"
 #: PSNR bounds (dB) of the decoded frames against the originals (AV1, crf 30, 64 px; measured
@@ -31,18 +31,26 @@ def test_reads_the_lerobot_written_reference():
     folder = LeRobotFolder(REFERENCE)
     assert len(folder) == 3 and folder.tasks == ["reach the red cube"]
     table = pq.read_table(REFERENCE / "data/chunk-000/file-000.parquet")
-    np.testing.assert_array_equal(folder.data["observation.state"], np.array(table.column("observation.state").to_pylist(), np.float32))
+    np.testing.assert_array_equal(
+        folder.data["observation.state"], np.array(table.column("observation.state").to_pylist(), np.float32)
+    )
     frames = folder.frames(2, "observation.images.front")
     assert frames.shape == (30, 64, 64, 3) and frames.dtype == np.uint8
     dm = LeRobotDataModule(REFERENCE, mode="velocity", batch_size=8)
     dm.setup()
     n = {k: len(v) for k, v in dm.datasets.items()}
-    assert n == {"train": 20 + 30, "val": 25}  # no val split in info.json: round(0.2 * 3) = 1 episode, the middle one
+    assert n == {
+        "train": 20 + 30,
+        "val": 25,
+    }  # no val split in info.json: round(0.2 * 3) = 1 episode, the middle one
     item = dm.datasets["val"][3]
     assert item["image"].shape == (3, 64, 64) and item["step"] == 3 and item["index"] == 1
     np.testing.assert_array_equal(item["joints"].numpy(), folder.data["observation.state"][20 + 3, :7])
     np.testing.assert_array_equal(item["velocity"].numpy(), folder.data["observation.state"][20 + 3, 7:])
-    torch.testing.assert_close(item["image"], torch.from_numpy(folder.frames(1, "observation.images.front")[3]).permute(2, 0, 1).float() / 255)
+    torch.testing.assert_close(
+        item["image"],
+        torch.from_numpy(folder.frames(1, "observation.images.front")[3]).permute(2, 0, 1).float() / 255,
+    )
     assert item["t"] == pytest.approx(0.3)
     assert dm.config.robot == "panda" and dm.config.image_size == 64
     with pytest.raises(ValueError, match="equal episode lengths"):
@@ -55,7 +63,11 @@ def test_round_trip_ours_lerobot_ours(tiny_root, tiny_lerobot, tiny_params, mode
     ours.setup()
     theirs = LeRobotDataModule(tiny_lerobot, mode=mode)
     theirs.setup()
-    assert theirs.config.n_steps == 30 and theirs.config.duration == 4.0 and theirs.config.robot == "pr2_right_arm"
+    assert (
+        theirs.config.n_steps == 30
+        and theirs.config.duration == 4.0
+        and theirs.config.robot == "pr2_right_arm"
+    )
     values = []
     for split in ("train", "val", "test"):
         a, b = ours.datasets[split], theirs.datasets[split]
@@ -145,7 +157,8 @@ def test_bad_arguments(tiny_lerobot):
 
 
 @pytest.mark.parametrize(
-    "policy", ["cnn_dmp", "velocity"],
+    "policy",
+    ["cnn_dmp", "velocity"],
 )
 def test_policies_train_on_a_lerobot_folder(tiny_lerobot, tmp_path, policy):
     from lfd.visuomotor.policies import CNNDMPPolicy, VelocityPolicy
@@ -156,7 +169,14 @@ def test_policies_train_on_a_lerobot_folder(tiny_lerobot, tmp_path, policy):
     else:
         model, mode = VelocityPolicy(**common), "velocity"
     dm = LeRobotDataModule(tiny_lerobot, mode=mode, batch_size=4)
-    trainer = L.Trainer(fast_dev_run=True, accelerator="cpu", logger=False, enable_checkpointing=False, enable_progress_bar=False, default_root_dir=tmp_path)
+    trainer = L.Trainer(
+        fast_dev_run=True,
+        accelerator="cpu",
+        logger=False,
+        enable_checkpointing=False,
+        enable_progress_bar=False,
+        default_root_dir=tmp_path,
+    )
     trainer.fit(model, datamodule=dm)
     assert torch.isfinite(trainer.callback_metrics["train/loss"])
     if policy == "cnn_dmp":
@@ -169,7 +189,14 @@ def test_hydra_data_config(tiny_lerobot):
 
     configs = Path(__file__).resolve().parents[2] / "configs"
     with initialize_config_dir(config_dir=str(configs), version_base="1.3"):
-        over = [f"data.root={tiny_lerobot}", "data.image_size=64", "data.n_steps=30", "data.n_basis=8", "model.channels=[8]", "model.hidden=[8]"]
+        over = [
+            f"data.root={tiny_lerobot}",
+            "data.image_size=64",
+            "data.n_steps=30",
+            "data.n_basis=8",
+            "model.channels=[8]",
+            "model.hidden=[8]",
+        ]
         cfg = compose("train", overrides=["data=lerobot", "model=cnn_dmp", *over])
         dm, model = instantiate(cfg.data), instantiate(cfg.model)
         dm.setup("fit")

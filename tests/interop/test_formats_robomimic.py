@@ -8,9 +8,9 @@ import h5py
 import numpy as np
 import pytest
 
-from lfd.visuomotor.data import load_dataset
 from lfd.interop import export_robomimic
 from lfd.interop.robomimic import rotation_to_quat_xyzw
+from lfd.visuomotor.data import load_dataset
 
 
 @pytest.fixture(scope="module")
@@ -38,9 +38,18 @@ def test_layout_and_attributes(tiny, hdf5):
             n = demo.attrs["num_samples"]
             assert n == 30
             assert set(demo.keys()) == {"obs", "next_obs", "actions", "rewards", "dones", "states"}
-            assert set(demo["obs"].keys()) == set(demo["next_obs"].keys()) == {
-                "agentview_image", "robot0_joint_pos", "robot0_joint_vel", "robot0_eef_pos", "robot0_eef_quat", "object",
-            }
+            assert (
+                set(demo["obs"].keys())
+                == set(demo["next_obs"].keys())
+                == {
+                    "agentview_image",
+                    "robot0_joint_pos",
+                    "robot0_joint_vel",
+                    "robot0_eef_pos",
+                    "robot0_eef_quat",
+                    "object",
+                }
+            )
             img = demo["obs/agentview_image"][()]
             assert img.dtype == np.uint8 and img.shape == (n, 64, 64, 3)
             np.testing.assert_array_equal(img, rec.frames())  # lossless
@@ -57,13 +66,17 @@ def test_layout_and_attributes(tiny, hdf5):
             assert demo["rewards"][-1] == 1.0 and demo["rewards"][:-1].sum() == 0
             assert demo["states"].shape == (n, 21)
             np.testing.assert_allclose(demo["obs/robot0_eef_pos"][()], rec.arrays["ee_poses"][:, :3, 3])
-        assert np.isclose(np.abs(np.concatenate([grp[d]["actions"][()] for d in demos])).max(axis=0), 1.0).all()
+        assert np.isclose(
+            np.abs(np.concatenate([grp[d]["actions"][()] for d in demos])).max(axis=0), 1.0
+        ).all()
 
 
 def test_quaternions():
     theta = 0.7
     R = np.array([[np.cos(theta), -np.sin(theta), 0], [np.sin(theta), np.cos(theta), 0], [0, 0, 1]])
-    np.testing.assert_allclose(rotation_to_quat_xyzw(R), [0, 0, np.sin(theta / 2), np.cos(theta / 2)], atol=1e-12)
+    np.testing.assert_allclose(
+        rotation_to_quat_xyzw(R), [0, 0, np.sin(theta / 2), np.cos(theta / 2)], atol=1e-12
+    )
     flip = np.diag([1.0, -1.0, -1.0])  # 180 deg about x
     np.testing.assert_allclose(np.abs(rotation_to_quat_xyzw(flip)), [1, 0, 0, 0], atol=1e-12)
 

@@ -72,8 +72,14 @@ def test_fixture_demo_loads_within_limits(robot):
     ("text", "expected"),
     [
         ("time,j0,j1,j2,j3,j4,j6\n0,0,0,0,0,0,0\n", r"demo\.csv:1: header is missing column\(s\) j5"),
-        (f"{HEADER}\n0,0,0,0,0,0,0,0\n0.1,0,0,abc,0,0,0,0\n", r"demo\.csv:3: column 'j2': 'abc' is not a number"),
-        (f"{HEADER}\n0,0,0,0,0,0,0,0\n0.1,0,0,0,0,0,0,nan\n", r"demo\.csv:3: column 'j6': 'nan' is not finite"),
+        (
+            f"{HEADER}\n0,0,0,0,0,0,0,0\n0.1,0,0,abc,0,0,0,0\n",
+            r"demo\.csv:3: column 'j2': 'abc' is not a number",
+        ),
+        (
+            f"{HEADER}\n0,0,0,0,0,0,0,0\n0.1,0,0,0,0,0,0,nan\n",
+            r"demo\.csv:3: column 'j6': 'nan' is not finite",
+        ),
         (
             f"{HEADER}\n0,0,0,0,0,0,0,0\n0.1,0,0,0,0,0,0,0\n0.1,0,0,0,0,0,0,0\n",
             r"demo\.csv:4: column 'time': 0\.1 is not greater than the previous time 0\.1 \(line 3\)",
@@ -92,7 +98,9 @@ def test_csv_missing_file_and_out_of_limits(tmp_path, robot):
     with pytest.raises(FileNotFoundError, match="nope.csv"):
         load_demo_csv(tmp_path / "nope.csv")
     path = write(tmp_path, f"{HEADER}\n" + "\n".join(f"{t},0,-3.9,0,0,0,0,0" for t in range(3)))
-    with pytest.raises(DemoFileError, match=r"demo\.csv: 100 resampled sample\(s\) outside the sawyer joint limits"):
+    with pytest.raises(
+        DemoFileError, match=r"demo\.csv: 100 resampled sample\(s\) outside the sawyer joint limits"
+    ):
         make_demonstration(robot, demo_csv=path)
 
 
@@ -106,14 +114,19 @@ def test_scripted_demo_reaches_the_goal_pose_at_rest(robot, cube_demo):
 
 
 def test_warp_keeps_start_and_shape_and_ends_at_goals():
-    demo = np.linspace(0, 1, 50)[:, None] * np.array([1.0, -2.0]) + np.sin(np.linspace(0, np.pi, 50))[:, None] * np.array([0.0, 0.3])
+    demo = np.linspace(0, 1, 50)[:, None] * np.array([1.0, -2.0]) + np.sin(np.linspace(0, np.pi, 50))[
+        :, None
+    ] * np.array([0.0, 0.3])
     goals = np.array([[1.5, -2.0], [0.5, -1.0]])
     paths = warp_to_goals(demo, goals, [3, 5])
     assert paths[:, 0] == pytest.approx(np.repeat(demo[:1], 2, axis=0))
     assert paths[:, -1] == pytest.approx(goals)
     # the bend is a rest-to-rest polynomial blend: zero offset slope at both ends
     offset = paths - demo
-    assert np.abs(offset[:, 1] - offset[:, 0]).max() < 0.01 and np.abs(offset[:, -1] - offset[:, -2]).max() < 0.01
+    assert (
+        np.abs(offset[:, 1] - offset[:, 0]).max() < 0.01
+        and np.abs(offset[:, -1] - offset[:, -2]).max() < 0.01
+    )
     with pytest.raises(ValueError, match="order must be 3 or 5"):
         warp_to_goals(demo, goals, [3, 4])
 
@@ -176,6 +189,8 @@ def test_sawyer_data_imports_without_pybullet():
         "print(sorted(m for m in sys.modules if m.startswith('lfd.sim')))"
     )
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
     assert result.returncode == 0, result.stderr[-2000:]
     assert result.stdout.strip() == "['lfd.sim', 'lfd.sim.trajectory']"

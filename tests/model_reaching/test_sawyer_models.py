@@ -7,19 +7,30 @@ import numpy as np
 import pytest
 import torch
 
-from lfd.model_reaching.data import TASK_ORIENTATIONS_DEG, InverseDataConfig, SawyerFKDataModule, SawyerInverseDataModule, sample_fk
-from lfd.visuomotor.eval.rollout import closed_loop_reach
 from lfd.model_reaching import SawyerModels, load_sawyer_models
+from lfd.model_reaching.data import (
+    TASK_ORIENTATIONS_DEG,
+    InverseDataConfig,
+    SawyerFKDataModule,
+    SawyerInverseDataModule,
+    sample_fk,
+)
 from lfd.model_reaching.forward import ForwardModel, error_summary, position_errors_mm
 from lfd.model_reaching.inverse import InverseModel
 from lfd.robots import load_robot
 from lfd.sim.arms import KinematicArm
+from lfd.visuomotor.eval.rollout import closed_loop_reach
 
 START = np.radians([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])
 
 
 def trainer(**kwargs) -> L.Trainer:
-    options = {"logger": False, "enable_checkpointing": False, "enable_progress_bar": False, "enable_model_summary": False}
+    options = {
+        "logger": False,
+        "enable_checkpointing": False,
+        "enable_progress_bar": False,
+        "enable_model_summary": False,
+    }
     return L.Trainer(accelerator="cpu", **(options | kwargs))
 
 
@@ -83,7 +94,9 @@ def test_yaw_equivariant_forward_model_turns_with_joint_0(robot):
 
 def test_tiny_forward_model_beats_the_mean_position_baseline(tmp_path, robot):
     torch.manual_seed(0)
-    dm = SawyerFKDataModule(batch_size=512, batches_per_epoch=80, n_val=512, n_test=4000, eval_batch_size=4000, seed=0)
+    dm = SawyerFKDataModule(
+        batch_size=512, batches_per_epoch=80, n_val=512, n_test=4000, eval_batch_size=4000, seed=0
+    )
     model = ForwardModel(width=64, n_blocks=1, lr=1e-2)
     run = trainer(max_epochs=2, default_root_dir=tmp_path)
     run.fit(model, datamodule=dm)
@@ -119,13 +132,17 @@ def test_inverse_model_drives_the_kinematic_arm_towards_goals(tmp_path, robot, c
     def fk(q):
         return robot.fk(q.double())[:, :3, 3].float()
 
-    traces = closed_loop_reach(fk, model, robot, goals, START, KinematicArm(robot, 0.05), max_steps=200, threshold=0.01)
+    traces = closed_loop_reach(
+        fk, model, robot, goals, START, KinematicArm(robot, 0.05), max_steps=200, threshold=0.01
+    )
     final = np.array([trace.final_error(g) for trace, g in zip(traces, goals)])
     assert np.all(final < 0.25 * initial), (final, initial)
 
     untrained = InverseModel(task="cube")
     untrained.adapt(cube_data.data["cube"])
-    baseline = closed_loop_reach(fk, untrained, robot, goals, START, KinematicArm(robot, 0.05), max_steps=200, threshold=0.01)
+    baseline = closed_loop_reach(
+        fk, untrained, robot, goals, START, KinematicArm(robot, 0.05), max_steps=200, threshold=0.01
+    )
     assert final.mean() < 0.5 * np.mean([trace.final_error(g) for trace, g in zip(baseline, goals)])
 
 

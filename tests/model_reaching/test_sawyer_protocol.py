@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 import torch
 
-from lfd.model_reaching.data import DEMO_GOAL, TASK_ORIENTATIONS_DEG, make_demonstration
-from lfd.visuomotor.eval.rollout import closed_loop_reach
-from lfd.model_reaching.protocol import GOALS
 from lfd.model_reaching import load_sawyer_models
+from lfd.model_reaching.data import DEMO_GOAL, TASK_ORIENTATIONS_DEG, make_demonstration
+from lfd.model_reaching.protocol import GOALS
 from lfd.rl import refine
 from lfd.robots import Workspace, load_robot, make_transform, solve_near
 from lfd.sim.arms import KinematicArm, PyBulletArm
+from lfd.visuomotor.eval.rollout import closed_loop_reach
 
 ROOT = Path(__file__).resolve().parents[2]
 START = np.radians([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])
@@ -49,9 +49,18 @@ def robot():
 
 
 def run(script: str, *overrides: str, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{os.environ.get('PYTHONPATH', '')}", "OMP_NUM_THREADS": "1"}
+    env = {
+        **os.environ,
+        "PYTHONPATH": f"{ROOT / 'src'}{os.pathsep}{os.environ.get('PYTHONPATH', '')}",
+        "OMP_NUM_THREADS": "1",
+    }
     result = subprocess.run(
-        [sys.executable, str(ROOT / script), *overrides], cwd=cwd, env=env, capture_output=True, text=True, timeout=1200
+        [sys.executable, str(ROOT / script), *overrides],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=1200,
     )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     return result
@@ -61,7 +70,9 @@ def run(script: str, *overrides: str, cwd: Path) -> subprocess.CompletedProcess:
 def trained(tmp_path_factory) -> Path:
     """``python train.py experiment=sawyer_models`` on a small configuration; its last checkpoint."""
     out = tmp_path_factory.mktemp("sawyer_runs")
-    result = run("train.py", *SMALL_TRAIN, f"paths.output_root={out}", f"hydra.run.dir={out}/train/small", cwd=out)
+    result = run(
+        "train.py", *SMALL_TRAIN, f"paths.output_root={out}", f"hydra.run.dir={out}/train/small", cwd=out
+    )
     assert "forward model error (mm)" in result.stdout
     ckpt = out / "train" / "small" / "checkpoints" / "last.ckpt"
     assert torch.load(ckpt, weights_only=True)["global_step"] == 4 * 375  # the final weights
@@ -84,13 +95,29 @@ def test_goal_3_is_reported_unreachable(robot):
 def test_power_refines_a_nearby_trajectory_to_within_1_cm(robot):
     demo = make_demonstration(robot, TASK_ORIENTATIONS_DEG["cube"])
     goal = np.array(GOALS[0])
-    solution = solve_near(robot, make_transform(goal + [0.03, 0.02, 0.0], np.radians(TASK_ORIENTATIONS_DEG["cube"]))[None], demo.q[-1])
+    solution = solve_near(
+        robot,
+        make_transform(goal + [0.03, 0.02, 0.0], np.radians(TASK_ORIENTATIONS_DEG["cube"]))[None],
+        demo.q[-1],
+    )
     assert solution.success[0]
     q_goal = solution.q.numpy()
     t = np.linspace(0.0, 4.0, 80)
     s = (t / 4.0)[:, None]
     trajectory = START + (10 * s**3 - 15 * s**4 + 6 * s**5) * (q_goal[0] - START)  # ends 3.6 cm from the goal
-    result = refine(robot, t, trajectory, goal, n_rollouts=10, n_best=5, max_iter=150, sigma=0.02, sigma_goal=0.02, tol=0.01, seed=0)
+    result = refine(
+        robot,
+        t,
+        trajectory,
+        goal,
+        n_rollouts=10,
+        n_best=5,
+        max_iter=150,
+        sigma=0.02,
+        sigma_goal=0.02,
+        tol=0.01,
+        seed=0,
+    )
     final = robot.fk(torch.from_numpy(result.trajectory[-1:]))[0, :3, 3].numpy()
     assert result.history.error[0] > 0.03
     assert result.converged and np.linalg.norm(final - goal) <= 0.01
@@ -106,11 +133,19 @@ def test_pybullet_arm_follows_the_kinematic_arm(robot):
 
     def toward(errors):  # a fixed linear controller, the same for both arms
         return -errors @ torch.tensor(
-            [[0.0, -1.0, 0.0, 0.5, 0.0, 0.2, 0.0], [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0]]
+            [
+                [0.0, -1.0, 0.0, 0.5, 0.0, 0.2, 0.0],
+                [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, -1.0, 0.0, 0.0, 0.0],
+            ]
         )
 
-    kinematic = closed_loop_reach(fk, toward, robot, goals, START, KinematicArm(robot, 0.05), max_steps=40, threshold=1e-3)
-    simulated = closed_loop_reach(fk, toward, robot, goals, START, PyBulletArm(robot, 0.05), max_steps=40, threshold=1e-3)
+    kinematic = closed_loop_reach(
+        fk, toward, robot, goals, START, KinematicArm(robot, 0.05), max_steps=40, threshold=1e-3
+    )
+    simulated = closed_loop_reach(
+        fk, toward, robot, goals, START, PyBulletArm(robot, 0.05), max_steps=40, threshold=1e-3
+    )
     for a, b in zip(kinematic, simulated):
         assert np.abs(a.q[-1] - a.q[0]).max() > 0.3  # the arm moved
         assert np.linalg.norm(a.x[-1] - b.x[-1]) < 0.01  # tracked within 1 cm over ~0.45 m
@@ -141,10 +176,19 @@ def test_pipeline_reaches_a_reachable_goal_within_1_cm(trained, robot):
     models = load_sawyer_models(trained)  # the checkpoint alone
     goal = np.array(GOALS[0])
     trace = closed_loop_reach(
-        models.forward_model, models.inverse_models["cube"], robot, goal[None], START, KinematicArm(robot, 0.05), 300, 0.02
+        models.forward_model,
+        models.inverse_models["cube"],
+        robot,
+        goal[None],
+        START,
+        KinematicArm(robot, 0.05),
+        300,
+        0.02,
     )[0]
     assert trace.reached and trace.final_error(goal) < 0.1  # the models bring the arm near the goal
-    result = refine(robot, trace.t, trace.q, goal, max_iter=300, sigma=0.02, sigma_goal=0.05, tol=0.01, seed=0)
+    result = refine(
+        robot, trace.t, trace.q, goal, max_iter=300, sigma=0.02, sigma_goal=0.05, tol=0.01, seed=0
+    )
     final = robot.fk(torch.from_numpy(result.trajectory[-1:]))[0, :3, 3].numpy()
     assert result.converged and np.linalg.norm(final - goal) <= 0.01
 

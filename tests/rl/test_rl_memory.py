@@ -20,13 +20,17 @@ def test_keeps_best_m_across_iterations_sorted_by_return():
 
 
 def test_old_rollouts_survive_when_new_ones_are_worse():
-    params, returns = keep_best(np.empty((0, 1)), np.empty(0), np.array([[1.0], [2.0]]), np.array([0.8, 0.7]), 2)
+    params, returns = keep_best(
+        np.empty((0, 1)), np.empty(0), np.array([[1.0], [2.0]]), np.array([0.8, 0.7]), 2
+    )
     params, returns = keep_best(params, returns, np.array([[3.0], [4.0]]), np.array([0.1, 0.2]), 2)
     np.testing.assert_array_equal(params[:, 0], [1.0, 2.0])
 
 
 def test_ties_keep_the_older_rollout_and_small_memories_keep_everything():
-    params, returns = keep_best(np.array([[1.0]]), np.array([0.5]), np.array([[2.0], [3.0]]), np.array([0.5, 0.4]), 1)
+    params, returns = keep_best(
+        np.array([[1.0]]), np.array([0.5]), np.array([[2.0], [3.0]]), np.array([0.5, 0.4]), 1
+    )
     np.testing.assert_array_equal(params, [[1.0]])
     params, returns = keep_best(np.array([[1.0]]), np.array([0.5]), np.array([[2.0]]), np.array([0.4]), 10)
     assert params.shape == (2, 1) and returns.tolist() == [0.5, 0.4]

@@ -60,7 +60,14 @@ def test_learns_a_new_joint_goal_within_tolerance_and_limits(sawyer_dmp, sawyer)
     new_goal = sawyer_dmp.goal_ + np.array([0.1, -0.1, 0.08, 0.1, -0.05, 0.1, -0.1])
     lower, upper = sawyer.lower.numpy(), sawyer.upper.numpy()
     result = power(
-        sawyer_dmp, JointGoalReward(new_goal), sigma_goal=0.1, tol=0.01, lower=lower, upper=upper, max_iter=150, seed=0
+        sawyer_dmp,
+        JointGoalReward(new_goal),
+        sigma_goal=0.1,
+        tol=0.01,
+        lower=lower,
+        upper=upper,
+        max_iter=150,
+        seed=0,
     )
     assert result.converged and result.within_limits
     assert np.linalg.norm(result.trajectory[-1] - new_goal) <= 0.01

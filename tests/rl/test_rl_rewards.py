@@ -45,7 +45,9 @@ def test_task_reward_equals_per_sample_forward_kinematics(sawyer):
     trajectories = rng.uniform(-1.0, 1.0, size=(3, 5, 7))
     target = np.array([0.4, -0.3, 0.2])
     reward = TaskGoalReward(sawyer, target, w1=0.7)
-    positions = np.array([[sawyer.fk(torch.tensor(q[None]))[0, :3, 3].numpy() for q in traj] for traj in trajectories])
+    positions = np.array(
+        [[sawyer.fk(torch.tensor(q[None]))[0, :3, 3].numpy() for q in traj] for traj in trajectories]
+    )
     distances = np.linalg.norm(positions - target, axis=-1)
     np.testing.assert_allclose(reward.positions(trajectories), positions, atol=1e-12)
     np.testing.assert_allclose(reward(trajectories), returns_from_distances(distances, 0.7), rtol=1e-12)

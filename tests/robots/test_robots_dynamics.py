@@ -49,7 +49,9 @@ def test_rne_matches_pybullet(robots, bullet, name, gravity):
     ours = robot.inverse_dynamics(q, qd, qdd, gravity=gravity).numpy()
     theirs = np.array(
         [
-            p.calculateInverseDynamics(body.body, a.tolist(), b.tolist(), c.tolist(), physicsClientId=body.client)
+            p.calculateInverseDynamics(
+                body.body, a.tolist(), b.tolist(), c.tolist(), physicsClientId=body.client
+            )
             for a, b, c in zip(q.numpy(), qd.numpy(), qdd.numpy())
         ]
     )
@@ -60,7 +62,9 @@ def test_rne_static_without_gravity_is_zero(robots):
     robot = robots["sawyer"]
     q = robot.sample_q(10, torch.Generator().manual_seed(2))
     zero = torch.zeros_like(q)
-    torch.testing.assert_close(robot.inverse_dynamics(q, zero, zero, gravity=(0, 0, 0)), zero, atol=1e-14, rtol=0)
+    torch.testing.assert_close(
+        robot.inverse_dynamics(q, zero, zero, gravity=(0, 0, 0)), zero, atol=1e-14, rtol=0
+    )
 
 
 def test_rne_float32_close_to_float64(robots):

@@ -58,13 +58,17 @@ def test_jacobian_matches_autograd(robots, name):
     robot = robots[name]
     q = robot.sample_q(20, torch.Generator().manual_seed(2)).requires_grad_(True)
     pose = robot.fk(q)
-    rows = [torch.autograd.grad(pose[:, r, c].sum(), q, retain_graph=True)[0] for r in range(3) for c in range(4)]
+    rows = [
+        torch.autograd.grad(pose[:, r, c].sum(), q, retain_graph=True)[0] for r in range(3) for c in range(4)
+    ]
     d_pose = torch.stack(rows, dim=1).reshape(20, 3, 4, robot.n_dof)  # d pose[:, r, c] / d q_j
     rotation = pose[:, :3, :3].detach()
     linear = d_pose[:, :, 3, :]
     skew = torch.einsum("brcj,bkc->brkj", d_pose[:, :, :3, :], rotation)  # dR/dq_j R^T
     angular = torch.stack((skew[:, 2, 1], skew[:, 0, 2], skew[:, 1, 0]), dim=1)
-    torch.testing.assert_close(torch.cat((linear, angular), dim=1), robot.jacobian(q.detach()), atol=1e-12, rtol=0)
+    torch.testing.assert_close(
+        torch.cat((linear, angular), dim=1), robot.jacobian(q.detach()), atol=1e-12, rtol=0
+    )
 
 
 @pytest.mark.parametrize("name", ROBOT_NAMES)
@@ -172,10 +176,16 @@ def test_large_batches_match_row_by_row(robots):
     pose, jac = robot.kinematics(q)
     torch.testing.assert_close(pose[rows], robot.fk(q[rows]), atol=1e-14, rtol=0)
     torch.testing.assert_close(jac[rows], robot.jacobian(q[rows]), atol=1e-14, rtol=0)
-    torch.testing.assert_close(robot.fk(q, all_links=True)[rows], robot.fk(q[rows], all_links=True), atol=1e-14, rtol=0)
+    torch.testing.assert_close(
+        robot.fk(q, all_links=True)[rows], robot.fk(q[rows], all_links=True), atol=1e-14, rtol=0
+    )
     torch.testing.assert_close(robot.jacobian(q)[rows], jac[rows], atol=0, rtol=0)
     tau = robot.inverse_dynamics(q, q, q)
-    torch.testing.assert_close(tau[rows], robot.inverse_dynamics(q[rows], q[rows], q[rows]), atol=1e-10, rtol=0)
+    torch.testing.assert_close(
+        tau[rows], robot.inverse_dynamics(q[rows], q[rows], q[rows]), atol=1e-10, rtol=0
+    )
     q.requires_grad_(True)
     robot.fk(q)[:, :3, 3].sum().backward()
-    torch.testing.assert_close(q.grad[rows], robot.jacobian(q[rows].detach())[:, :3].sum(1), atol=1e-12, rtol=0)
+    torch.testing.assert_close(
+        q.grad[rows], robot.jacobian(q[rows].detach())[:, :3].sum(1), atol=1e-12, rtol=0
+    )

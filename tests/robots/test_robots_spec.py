@@ -17,13 +17,17 @@ DEG = np.pi / 180
 def dh_standard(alpha, a, d, theta):
     """Independent textbook standard DH matrix Rz(theta) Tz(d) Tx(a) Rx(alpha)."""
     ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
-    return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1]])
+    return np.array(
+        [[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1]]
+    )
 
 
 def dh_modified(alpha, a, d, theta):
     """Independent textbook modified (Craig) DH matrix Rx(alpha) Tx(a) Rz(theta) Tz(d)."""
     ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
-    return np.array([[ct, -st, 0, a], [st * ca, ct * ca, -sa, -d * sa], [st * sa, ct * sa, ca, d * ca], [0, 0, 0, 1]])
+    return np.array(
+        [[ct, -st, 0, a], [st * ca, ct * ca, -sa, -d * sa], [st * sa, ct * sa, ca, d * ca], [0, 0, 0, 1]]
+    )
 
 
 def chain(rows, q, matrix, base, tool):
@@ -67,7 +71,9 @@ def test_dh_robots_match_textbook_product(name, dh, base, tool):
 @pytest.mark.parametrize("convention", ["standard", "modified"])
 def test_from_dh_with_offsets_matches_textbook(convention):
     rng = np.random.default_rng(1)
-    rows = np.column_stack([rng.uniform(-np.pi, np.pi, 5), rng.uniform(-0.5, 0.5, (5, 2)), rng.uniform(-1, 1, 5)])
+    rows = np.column_stack(
+        [rng.uniform(-np.pi, np.pi, 5), rng.uniform(-0.5, 0.5, (5, 2)), rng.uniform(-1, 1, 5)]
+    )
     tool = make_transform((0.01, 0.02, 0.1), (0.1, 0.2, 0.3))
     base = make_transform((0.3, -0.2, 0.5), (0.0, 0.0, 1.0))
     spec = RobotSpec.from_dh(
@@ -156,7 +162,9 @@ def test_human_arm_joint_conventions():
     np.testing.assert_allclose(elbow[1], [0, -0.3, 0], atol=1e-12)  # abduction: sideways, away from the body
     np.testing.assert_allclose(elbow[2], [0.3, 0, 0], atol=1e-12)  # negative flexion: forwards
     np.testing.assert_allclose(wrist[3], [0.25, 0, -0.3], atol=1e-12)  # elbow flexion: forearm forwards
-    np.testing.assert_allclose(wrist[4], [0, 0.25, -0.3], atol=1e-12)  # internal rotation: forearm towards the body
+    np.testing.assert_allclose(
+        wrist[4], [0, 0.25, -0.3], atol=1e-12
+    )  # internal rotation: forearm towards the body
 
 
 @pytest.mark.parametrize(
@@ -188,7 +196,10 @@ def test_composite_inertial_parallel_axis():
 
 def test_rpy_round_trip_including_gimbal_lock():
     rng = np.random.default_rng(0)
-    cases = [rng.uniform(-np.pi, np.pi, 3) for _ in range(100)] + [(0.3, np.pi / 2, -0.2), (0.1, -np.pi / 2, 0.4)]
+    cases = [rng.uniform(-np.pi, np.pi, 3) for _ in range(100)] + [
+        (0.3, np.pi / 2, -0.2),
+        (0.1, -np.pi / 2, 0.4),
+    ]
     for rpy in cases:
         rotation = rpy_to_matrix(rpy)
         np.testing.assert_allclose(rpy_to_matrix(matrix_to_rpy(rotation)), rotation, atol=1e-12)

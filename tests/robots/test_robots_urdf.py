@@ -27,7 +27,11 @@ def test_urdf_pybullet_contract(robots, bullet, name):
         if j == n:
             assert (joint_name, joint_type, link_name) == ("tool_joint", p.JOINT_FIXED, "tool_link")
             continue
-        assert (joint_name, joint_type, link_name) == (robot.joint_names[j], p.JOINT_REVOLUTE, spec.link_names[j])
+        assert (joint_name, joint_type, link_name) == (
+            robot.joint_names[j],
+            p.JOINT_REVOLUTE,
+            spec.link_names[j],
+        )
         if spec.continuous[j]:
             assert lower > upper  # PyBullet's marker for an unlimited (continuous) joint
         else:

@@ -52,7 +52,9 @@ def test_robot_ik_forwards_options_to_solve_ik(sawyer):
 # ---------------------------------------------------------------------------- solve_near
 def test_solve_near_returns_the_solution_nearest_the_reference(sawyer):
     reference = np.radians([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])
-    nearby = reference + np.array([[0.10, -0.05, 0.08, 0.05, -0.10, 0.06, 0.02], [-0.08, 0.04, -0.05, -0.06, 0.05, 0.02, -0.04]])
+    nearby = reference + np.array(
+        [[0.10, -0.05, 0.08, 0.05, -0.10, 0.06, 0.02], [-0.08, 0.04, -0.05, -0.06, 0.05, 0.02, -0.04]]
+    )
     poses = sawyer.fk(nearby)
     far = poses[:1].clone()
     far[0, :3, 3] += torch.tensor([3.0, 0.0, 0.0])  # 3 m away: no solution
@@ -98,9 +100,13 @@ def test_workspace_reach_and_shoulder_match_the_link_frames(sawyer, workspace):
     distances = (frames[:, -1, :3, 3] - frames[:, 1, :3, 3]).norm(dim=1)
     assert float(distances.max()) <= workspace.max_reach + 1e-9
     assert float(distances.max()) > 0.97 * workspace.max_reach
-    axis_xy = sawyer.fk(sawyer.home[None], all_links=True)[0, 0, :2, 3].numpy()  # link 0 lies on joint 0's axis
+    axis_xy = sawyer.fk(sawyer.home[None], all_links=True)[
+        0, 0, :2, 3
+    ].numpy()  # link 0 lies on joint 0's axis
     radii = np.linalg.norm(workspace.shoulders[:, :2] - axis_xy, axis=1)
-    assert np.ptp(radii) < 1e-6 and np.ptp(workspace.shoulders[:, 2]) < 1e-9  # a circle about joint 0's vertical axis
+    assert (
+        np.ptp(radii) < 1e-6 and np.ptp(workspace.shoulders[:, 2]) < 1e-9
+    )  # a circle about joint 0's vertical axis
     on_shoulder = workspace.test(workspace.shoulders[100])
     assert on_shoulder.shoulder_distance == pytest.approx(0.0, abs=1e-12)
     with pytest.raises(ValueError, match="shoulder_link"):

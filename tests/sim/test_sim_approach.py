@@ -37,7 +37,9 @@ def test_round_objects_from_the_side_along_shoulder_direction(shape, x, y):
     assert TABLE_Z < plan.grasp_point[2] <= TABLE_Z + spec.height
     # pre-grasp and approach lie back along the approach direction, towards the robot
     back = plan.grasp_point - plan.target_point
-    assert np.dot(back, plan.approach_dir) > 0 and np.allclose(np.cross(back, plan.approach_dir), 0, atol=1e-12)
+    assert np.dot(back, plan.approach_dir) > 0 and np.allclose(
+        np.cross(back, plan.approach_dir), 0, atol=1e-12
+    )
     assert np.linalg.norm(plan.target_point[:2] - np.array([x, y])) > dims[0]  # clear of the object
     assert np.linalg.norm(plan.approach_pose[:3, 3] - plan.grasp_point) > np.linalg.norm(back)
 

@@ -9,9 +9,13 @@ from lfd.sim.camera import Camera, look_at, perspective, project_points, to_pybu
 
 def test_matrices_match_pybullet():
     eye, target, up = np.array([0.1, 0.2, 0.5]), np.array([0.6, 0.0, -0.3]), np.array([0.0, 0.0, 1.0])
-    np.testing.assert_allclose(to_pybullet(look_at(eye, target, up)), p.computeViewMatrix(eye, target, up), atol=1e-6)
     np.testing.assert_allclose(
-        to_pybullet(perspective(45.0, 1.25, 0.05, 4.0)), p.computeProjectionMatrixFOV(45.0, 1.25, 0.05, 4.0), atol=1e-6
+        to_pybullet(look_at(eye, target, up)), p.computeViewMatrix(eye, target, up), atol=1e-6
+    )
+    np.testing.assert_allclose(
+        to_pybullet(perspective(45.0, 1.25, 0.05, 4.0)),
+        p.computeProjectionMatrixFOV(45.0, 1.25, 0.05, 4.0),
+        atol=1e-6,
     )
 
 

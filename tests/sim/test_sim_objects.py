@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from lfd.sim.scene import TABLE_RGBA
 from lfd.sim.objects import SHAPES, ObjectSpec, PlacementRanges, sample_object, sample_objects
+from lfd.sim.scene import TABLE_RGBA
 
 
 def test_spec_validation_names_the_field():

@@ -60,7 +60,9 @@ def test_contacts(scene, robot):
     assert not scene.arm_touches("table") and not scene.arm_touches("object")
     # tool straight down into the table, through the box
     res = robot.ik(
-        torch.tensor([[0.6, 0.0, TABLE_Z - 0.02]], dtype=torch.float64), q0=robot.home[None], position_only=True
+        torch.tensor([[0.6, 0.0, TABLE_Z - 0.02]], dtype=torch.float64),
+        q0=robot.home[None],
+        position_only=True,
     )
     scene.set_joints(res.q[0])
     assert scene.arm_touches("table") or scene.arm_touches("object")

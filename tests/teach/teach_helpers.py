@@ -25,5 +25,3 @@ def drag_line(session, a, b, n: int = 20) -> list:
     """Drag the tool from ``a`` to ``b`` in ``n`` equal updates; the list of DragResults."""
     a, b = np.asarray(a, float), np.asarray(b, float)
     return [session.drag(a + (b - a) * s) for s in np.linspace(0.0, 1.0, n + 1)[1:]]
-
-

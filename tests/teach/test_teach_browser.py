@@ -40,7 +40,9 @@ VIEW = {"width": 900, "height": 600}
 def browser():
     from playwright.sync_api import sync_playwright
 
-    assert Path(CHROMIUM).exists(), f"{CHROMIUM} missing: apt-get install -y chromium (see the README's test command)"
+    assert Path(CHROMIUM).exists(), (
+        f"{CHROMIUM} missing: apt-get install -y chromium (see the README's test command)"
+    )
     profile = tempfile.mkdtemp(prefix="lfd-teach-chromium-")
     with sync_playwright() as pw:
         context = pw.chromium.launch_persistent_context(

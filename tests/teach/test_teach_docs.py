@@ -13,7 +13,9 @@ import lfd.teach
 from lfd.teach import collision, drag_ik, execute, kinematics, scene, session
 
 
-@pytest.mark.parametrize("module", [collision, drag_ik, execute, kinematics, scene, session], ids=lambda m: m.__name__)
+@pytest.mark.parametrize(
+    "module", [collision, drag_ik, execute, kinematics, scene, session], ids=lambda m: m.__name__
+)
 def test_doctests(module):
     result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from teach_helpers import BOXES, FakeClock, drag_line
 
-from lfd.visuomotor.data.episodes import EpisodeRecord
-from lfd.model_reaching.data import load_demo_csv, make_demonstration
 from lfd.dmp import DMP
+from lfd.model_reaching.data import load_demo_csv, make_demonstration
 from lfd.teach import TeachSession
 from lfd.teach.collision import CollisionChecker
 from lfd.teach.export import dmp_options
+from lfd.visuomotor.data.episodes import EpisodeRecord
 
 LIFT = 0.42  # m, clears the wall of boxes.yaml
 

@@ -5,14 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
+from teach_helpers import BOXES, FakeClock, drag_line
 
 from lfd.robots import load_robot
 from lfd.teach import TeachSession
 from lfd.teach.collision import CollisionChecker
 from lfd.teach.drag_ik import DragIK
 from lfd.teach.kinematics import ChainKinematics
-
-from teach_helpers import BOXES, FakeClock, drag_line
 
 ABOVE_WALL = 0.42  # m: tool height that clears the boxes.yaml wall (top 0.30 m)
 
@@ -112,7 +111,9 @@ def test_self_collision_is_refused_by_the_sliders():
     s.close()
 
 
-@pytest.mark.parametrize(("name", "wam_q3"), [("wam4", "fixed"), ("wam4", "free"), ("pr2_right_arm", "fixed")])
+@pytest.mark.parametrize(
+    ("name", "wam_q3"), [("wam4", "fixed"), ("wam4", "free"), ("pr2_right_arm", "fixed")]
+)
 def test_ik_is_continuous_when_dragging_past_the_workspace_boundary(name, wam_q3):
     s = TeachSession(robot=name, scene=None, clock=FakeClock(), max_joint_step=0.15, wam_q3=wam_q3)
     p0 = s.tool_position

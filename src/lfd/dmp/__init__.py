@@ -86,12 +86,12 @@ from .stepping import DMPRunner, DMPState
 from .transform import RolloutOperator
 
 __all__ = [
-    "CartesianDMP",
     "DEFAULT_FORMULATION",
     "DEFAULT_RIDGE",
     "DMP",
     "FIT_METHODS",
     "FORMULATIONS",
+    "CartesianDMP",
     "DMPLayer",
     "DMPRunner",
     "DMPState",

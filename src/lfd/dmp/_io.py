@@ -55,7 +55,9 @@ def read_json(path, kind: str) -> tuple[dict, dict | None]:
     if found != kind:
         raise ValueError(f"{path} does not hold a {kind} (type field: {found!r})")
     if payload.get("version") != FORMAT_VERSION:
-        raise ValueError(f"{path}: unsupported format version {payload.get('version')!r}, expected {FORMAT_VERSION}")
+        raise ValueError(
+            f"{path}: unsupported format version {payload.get('version')!r}, expected {FORMAT_VERSION}"
+        )
     if not isinstance(payload.get("params"), dict):
         raise ValueError(f"{path}: missing 'params' object")
     fitted = payload.get("fitted")

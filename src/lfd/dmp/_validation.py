@@ -17,7 +17,12 @@ def positive_int(name: str, value) -> int:
 
 def positive_float(name: str, value) -> float:
     """``value`` as a finite ``float > 0``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value) or value <= 0:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Real)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
         raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
     return float(value)
 

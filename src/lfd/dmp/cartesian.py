@@ -160,10 +160,17 @@ class CartesianDMP:
         # y = -e behaves as the position of a linear DMP with goal 0 (exactly so for rotations
         # about a fixed axis): its exact trajectory fit gives the orientation weights
         self.orientation_ = DMP(
-            self.n_basis, self.gains.alpha_z, self.gains.beta_z, self.gains.alpha_s, self.gains.overlap,
-            self.formulation, self.ridge,
+            self.n_basis,
+            self.gains.alpha_z,
+            self.gains.beta_z,
+            self.gains.alpha_s,
+            self.gains.overlap,
+            self.formulation,
+            self.ridge,
         ).fit(times, -error)
-        w_rot = self.orientation_.weights_ if self.orientation == "log" else self._ude_weights(times, q, error)
+        w_rot = (
+            self.orientation_.weights_ if self.orientation == "log" else self._ude_weights(times, q, error)
+        )
         self.weights_ = np.concatenate([self.position_.weights_, w_rot], axis=-2)
         self.start_ = np.concatenate([pose[..., 0, :3], q[..., 0, :]], axis=-1)
         self.goal_ = np.concatenate([pose[..., -1, :3], goal], axis=-1)
@@ -235,7 +242,9 @@ class CartesianDMP:
                 e0 = quat.unwrap(pair)[..., 1, :]
             y = self.orientation_.rollout(t=times, y0=-e0, goal=np.zeros_like(e0), tau=tau, weights=w_rot)
             y = np.broadcast_to(np.asarray(y), (*batch, times.shape[0], 3))
-            orientation = quat.normalise(quat.multiply(quat.exp(y), np.broadcast_to(qg, (*batch, 4))[..., None, :]))
+            orientation = quat.normalise(
+                quat.multiply(quat.exp(y), np.broadcast_to(qg, (*batch, 4))[..., None, :])
+            )
         return np.concatenate([position, orientation], axis=-1)
 
     def _integrate_ude(self, times, q0, goal, tau, weights, batch) -> np.ndarray:

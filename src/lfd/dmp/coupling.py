@@ -66,7 +66,9 @@ class ObstacleAvoidance:
 
     KINDS = ("park", "hoffmann")
 
-    def __init__(self, points, kind: str = "park", gain: float | None = None, beta: float | None = None, dims=None):
+    def __init__(
+        self, points, kind: str = "park", gain: float | None = None, beta: float | None = None, dims=None
+    ):
         if kind not in self.KINDS:
             raise ValueError(f"kind must be one of {self.KINDS}, got {kind!r}")
         self.kind = kind
@@ -76,7 +78,9 @@ class ObstacleAvoidance:
         self.beta = check.positive_float("beta", default_beta if beta is None else beta)
         self.dims = None if dims is None else np.asarray(dims, dtype=int)
         if kind == "hoffmann" and self.points.shape[-1] not in (2, 3):
-            raise ValueError(f"kind='hoffmann' needs 2-D or 3-D obstacles, got points of shape {self.points.shape}")
+            raise ValueError(
+                f"kind='hoffmann' needs 2-D or 3-D obstacles, got points of shape {self.points.shape}"
+            )
 
     @property
     def points(self) -> np.ndarray:
@@ -94,7 +98,9 @@ class ObstacleAvoidance:
         """Acceleration ``(..., D)`` in units/s^2 for positions ``y`` and velocities ``yd`` ``(..., D)``."""
         x, v = (y, yd) if self.dims is None else (y[..., self.dims], yd[..., self.dims])
         if x.shape[-1] != self.points.shape[-1]:
-            raise ValueError(f"obstacles have {self.points.shape[-1]} coordinates, the DMP {x.shape[-1]} (see dims)")
+            raise ValueError(
+                f"obstacles have {self.points.shape[-1]} coordinates, the DMP {x.shape[-1]} (see dims)"
+            )
         offset = x[..., None, :] - self.points  # (..., N, d): from obstacle to x
         velocity = np.broadcast_to(v[..., None, :], offset.shape)
         acc = (self._park if self.kind == "park" else self._hoffmann)(offset, velocity).sum(axis=-2)
@@ -167,9 +173,11 @@ class JointLimits:
         if self.lower.shape != self.upper.shape or np.any(self.lower >= self.upper):
             raise ValueError("lower and upper must have the same shape (D,) with lower < upper")
         span = self.upper - self.lower
-        self.margin = 0.1 * span if margin is None else np.broadcast_to(
-            check.finite_array("margin", margin, (0, 1)), span.shape
-        ).copy()
+        self.margin = (
+            0.1 * span
+            if margin is None
+            else np.broadcast_to(check.finite_array("margin", margin, (0, 1)), span.shape).copy()
+        )
         if np.any(self.margin <= 0) or np.any(2 * self.margin > span):
             raise ValueError("margin must be > 0 and at most half of upper - lower")
         self.gain = check.positive_float("gain", gain)
@@ -186,7 +194,9 @@ class JointLimits:
         for sign, distance in ((1.0, y - self.lower), (-1.0, self.upper - y)):
             depth = np.clip(1.0 - distance / self.margin, 0.0, 1.0)  # 0 outside the band, 1 at the limit
             towards = np.minimum(sign * yd, 0.0)  # velocity component towards this limit (<= 0)
-            acc = acc + np.where(depth > 0, sign * (self.gain * self.margin * depth**2 - self.damping * towards), 0.0)
+            acc = acc + np.where(
+                depth > 0, sign * (self.gain * self.margin * depth**2 - self.damping * towards), 0.0
+            )
         return acc
 
     def project(self, y: np.ndarray, yd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

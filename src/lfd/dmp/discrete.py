@@ -241,12 +241,22 @@ class DMP(Primitive):
         if coupling:
             return self._coupled_rollout(times, y0, goal, tau, weights, yd0, coupling, return_derivatives)
         return rollout_with_gains(
-            y0, goal, weights, times, tau, self.gains, return_derivatives, formulation=self.formulation, yd0=yd0
+            y0,
+            goal,
+            weights,
+            times,
+            tau,
+            self.gains,
+            return_derivatives,
+            formulation=self.formulation,
+            yd0=yd0,
         )
 
     def _coupled_rollout(self, times, y0, goal, tau, weights, yd0, coupling, return_derivatives):
         """Step-wise rollout with coupling terms (numpy in/out), same grid refinement as the closed form."""
-        if isinstance(tau, torch.Tensor) or any(isinstance(x, torch.Tensor) for x in (y0, goal, weights, yd0)):
+        if isinstance(tau, torch.Tensor) or any(
+            isinstance(x, torch.Tensor) for x in (y0, goal, weights, yd0)
+        ):
             raise ValueError("coupling terms need numpy inputs (the coupled rollout is not differentiable)")
         arrays = {"y0": (y0, (1, 2)), "goal": (goal, (1, 2)), "weights": (weights, (2, 3))}
         if yd0 is not None:
@@ -254,9 +264,17 @@ class DMP(Primitive):
         values = {name: check.finite_array(name, x, dims) for name, (x, dims) in arrays.items()}
         tau = check.positive_float("tau", float(tau))
         positions, velocities = integrate(
-            times - times[0], y0=values["y0"], goal=values["goal"], weights=values["weights"], tau=tau,
-            yd0=values.get("yd0"), n_basis=self.n_basis, gains=self.gains, formulation=self.formulation,
-            coupling=coupling, substeps=transform.grid_substeps(torch.from_numpy(times / tau)),
+            times - times[0],
+            y0=values["y0"],
+            goal=values["goal"],
+            weights=values["weights"],
+            tau=tau,
+            yd0=values.get("yd0"),
+            n_basis=self.n_basis,
+            gains=self.gains,
+            formulation=self.formulation,
+            coupling=coupling,
+            substeps=transform.grid_substeps(torch.from_numpy(times / tau)),
         )
         if not return_derivatives:
             return positions
@@ -264,7 +282,9 @@ class DMP(Primitive):
             raise ValueError("return_derivatives with coupling needs at least 3 samples")
         return positions, velocities, np.gradient(velocities, times, axis=-2, edge_order=2)
 
-    def step(self, state, dt: float, goal=None, *, y0=None, tau=None, weights=None, coupling=(), substeps: int = 1):
+    def step(
+        self, state, dt: float, goal=None, *, y0=None, tau=None, weights=None, coupling=(), substeps: int = 1
+    ):
         """Advance a running movement by ``dt`` seconds (online execution; pure function).
 
         Args:
@@ -285,8 +305,15 @@ class DMP(Primitive):
             for name, value in (("y0", y0), ("goal", goal), ("tau", tau), ("weights", weights))
         )
         return advance(
-            state, dt, y0=check.finite_array("y0", y0, (1, 2)), goal=check.finite_array("goal", goal, (1, 2)),
-            weights=check.finite_array("weights", weights, (2, 3)), tau=check.positive_float("tau", float(tau)),
-            n_basis=self.n_basis, gains=self.gains, formulation=self.formulation, coupling=coupling,
+            state,
+            dt,
+            y0=check.finite_array("y0", y0, (1, 2)),
+            goal=check.finite_array("goal", goal, (1, 2)),
+            weights=check.finite_array("weights", weights, (2, 3)),
+            tau=check.positive_float("tau", float(tau)),
+            n_basis=self.n_basis,
+            gains=self.gains,
+            formulation=self.formulation,
+            coupling=coupling,
             substeps=substeps,
         )

@@ -37,6 +37,7 @@ __all__ = [
     "lwr_weights",
 ]
 
+
 def demo_derivatives(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Velocity and acceleration of sampled positions by second-order finite differences.
 
@@ -56,7 +57,13 @@ def demo_derivatives(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def forcing_target(
-    y: np.ndarray, dy: np.ndarray, ddy: np.ndarray, goal: np.ndarray, tau: float, alpha_z: float, beta_z: float
+    y: np.ndarray,
+    dy: np.ndarray,
+    ddy: np.ndarray,
+    goal: np.ndarray,
+    tau: float,
+    alpha_z: float,
+    beta_z: float,
 ) -> np.ndarray:
     """Forcing term that would reproduce the demonstration exactly.
 
@@ -165,4 +172,3 @@ class TrajectoryFit:
         if z0 is not None:
             free = free + self.initial[:, 1:] * torch.from_numpy(z0)[..., None, :]
         return (self.solver @ (positions - free)).transpose(-1, -2).numpy()
-

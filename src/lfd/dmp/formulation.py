@@ -102,4 +102,3 @@ def unscale_weights(
         )
     inverse = np.divide(1.0, displacement, out=np.zeros_like(displacement), where=~zero_length)
     return v * inverse[..., None]
-

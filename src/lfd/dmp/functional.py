@@ -226,11 +226,14 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
         named["yd0"] = (yd0, (1, 2))
     as_numpy = not any(isinstance(x, Tensor) for x, _ in (*named.values(), (tau, None)))
     if as_numpy:
-        values = {name: torch.from_numpy(check.finite_array(name, x, dims)) for name, (x, dims) in named.items()}
+        values = {
+            name: torch.from_numpy(check.finite_array(name, x, dims)) for name, (x, dims) in named.items()
+        }
     else:
         reference = next(x for x in (weights, y0, goal, tau) if isinstance(x, Tensor))
         values = {
-            name: torch.as_tensor(x, dtype=reference.dtype, device=reference.device) for name, (x, _) in named.items()
+            name: torch.as_tensor(x, dtype=reference.dtype, device=reference.device)
+            for name, (x, _) in named.items()
         }
     if not isinstance(tau, Tensor):
         tau = _tau_value(tau)
@@ -251,7 +254,16 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
 
 
 def rollout_with_gains(
-    y0, goal, weights, t: np.ndarray, tau, gains: DiscreteGains, return_derivatives=False, *, formulation, yd0=None
+    y0,
+    goal,
+    weights,
+    t: np.ndarray,
+    tau,
+    gains: DiscreteGains,
+    return_derivatives=False,
+    *,
+    formulation,
+    yd0=None,
 ):
     """:func:`rollout_batch` with an already validated grid ``t``, resolved gains and formulation."""
 
@@ -331,7 +343,9 @@ def rollout_batch(
     if coupling:
         from .discrete import DMP  # the coupled rollout lives with the estimator (step-wise integration)
 
-        dmp = DMP(np.shape(weights)[-1], gains.alpha_z, gains.beta_z, gains.alpha_s, gains.overlap, formulation)
+        dmp = DMP(
+            np.shape(weights)[-1], gains.alpha_z, gains.beta_z, gains.alpha_s, gains.overlap, formulation
+        )
         return dmp.rollout(times, y0, goal, tau, weights, return_derivatives, yd0=yd0, coupling=coupling)
     return rollout_with_gains(
         y0, goal, weights, times, tau, gains, return_derivatives, formulation=formulation, yd0=yd0

@@ -119,11 +119,17 @@ class DMPLayer(nn.Module):
             raise ValueError(f"weights must have shape (B, D, {self.n_basis}), got {tuple(weights.shape)}")
         for name, value in (("y0", y0), ("goal", goal), ("yd0", y0 if yd0 is None else yd0)):
             if value.shape != weights.shape[:2]:
-                raise ValueError(f"{name} must have shape {tuple(weights.shape[:2])} (B, D), got {tuple(value.shape)}")
+                raise ValueError(
+                    f"{name} must have shape {tuple(weights.shape[:2])} (B, D), got {tuple(value.shape)}"
+                )
         if isinstance(tau, Tensor) and not (tau.ndim == 0 or tau.shape == weights.shape[:1]):
-            raise ValueError(f"tau must be a scalar or have shape ({weights.shape[0]},), got {tuple(tau.shape)}")
+            raise ValueError(
+                f"tau must be a scalar or have shape ({weights.shape[0]},), got {tuple(tau.shape)}"
+            )
         if tau is not None and not isinstance(tau, Tensor):
             tau = check.positive_float("tau", tau)
         operator = self.operator(tau, weights.dtype, weights.device)
         z0 = None if yd0 is None else yd0 * operator.tau[..., None]
-        return discrete_rollout(operator, y0, goal, weights, return_derivatives, formulation=self.formulation, z0=z0)
+        return discrete_rollout(
+            operator, y0, goal, weights, return_derivatives, formulation=self.formulation, z0=z0
+        )

@@ -118,7 +118,9 @@ class RhythmicDMP(Primitive):
         goal = np.trapezoid(y, t, axis=-2) / duration
         dy, ddy = demo_derivatives(t, y)
         if method == "trajectory":
-            solver = TrajectoryFit.from_operator(rhythmic_operator(t, tau, self.n_basis, self.gains), self.ridge)
+            solver = TrajectoryFit.from_operator(
+                rhythmic_operator(t, tau, self.n_basis, self.gains), self.ridge
+            )
             self.weights_ = solver.weights(y, goal, tau * dy[..., 0, :])
         else:
             target = forcing_target(y, dy, ddy, goal, tau, self.alpha_z, self.beta_z)
@@ -168,7 +170,11 @@ class RhythmicDMP(Primitive):
             ValueError: shape mismatch, NaN/inf, ``tau <= 0``, bad ``t``, non-finite ``r``, or
                 a missing value on an unfitted DMP.
         """
-        if isinstance(r, bool) or not isinstance(r, (int, float, np.floating, np.integer)) or not np.isfinite(r):
+        if (
+            isinstance(r, bool)
+            or not isinstance(r, (int, float, np.floating, np.integer))
+            or not np.isfinite(r)
+        ):
             raise ValueError(f"r must be a finite number, got {r!r}")
         weights = self._fitted("weights", weights)
         if tuple(np.shape(weights))[-1:] != (self.n_basis,) or len(np.shape(weights)) not in (2, 3):

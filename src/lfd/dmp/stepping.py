@@ -103,8 +103,21 @@ class _Stepper:
         return y1, yd1
 
 
-def advance(state: DMPState, dt: float, *, y0, goal, weights, tau: float, n_basis: int, gains: DiscreteGains,
-            formulation: str, coupling=(), substeps: int = 1, stepper: _Stepper | None = None) -> DMPState:
+def advance(
+    state: DMPState,
+    dt: float,
+    *,
+    y0,
+    goal,
+    weights,
+    tau: float,
+    n_basis: int,
+    gains: DiscreteGains,
+    formulation: str,
+    coupling=(),
+    substeps: int = 1,
+    stepper: _Stepper | None = None,
+) -> DMPState:
     """Advance ``state`` by ``dt`` seconds (pure function; see the module docstring).
 
     Args:
@@ -118,8 +131,13 @@ def advance(state: DMPState, dt: float, *, y0, goal, weights, tau: float, n_basi
     dt = check.positive_float("dt", dt)
     substeps = check.positive_int("substeps", substeps)
     stepper = _Stepper(n_basis, gains) if stepper is None else stepper
-    v = scale_weights(np.asarray(weights, dtype=np.float64), np.asarray(y0), np.asarray(goal), formulation,
-                      gains.alpha_z * gains.beta_z)
+    v = scale_weights(
+        np.asarray(weights, dtype=np.float64),
+        np.asarray(y0),
+        np.asarray(goal),
+        formulation,
+        gains.alpha_z * gains.beta_z,
+    )
     y, yd = np.asarray(state.y, dtype=np.float64), np.asarray(state.yd, dtype=np.float64)
     h = dt / tau / substeps
     theta = state.t / tau
@@ -129,24 +147,51 @@ def advance(state: DMPState, dt: float, *, y0, goal, weights, tau: float, n_basi
     return DMPState(y, yd, state.t + dt)
 
 
-def integrate(t: np.ndarray, *, y0, goal, weights, tau: float, yd0, n_basis: int, gains: DiscreteGains,
-              formulation: str, coupling=(), substeps: int = 1):
+def integrate(
+    t: np.ndarray,
+    *,
+    y0,
+    goal,
+    weights,
+    tau: float,
+    yd0,
+    n_basis: int,
+    gains: DiscreteGains,
+    formulation: str,
+    coupling=(),
+    substeps: int = 1,
+):
     """Positions and velocities ``(..., T, D)`` on the grid ``t`` (seconds, from ``t[0]``) by stepping.
 
     Inputs broadcast like :func:`lfd.dmp.rollout_batch`; used when coupling terms make the
     motion nonlinear (then the closed-form map does not apply).
     """
     y0, goal, weights = (np.asarray(x, dtype=np.float64) for x in (y0, goal, weights))
-    batch = np.broadcast_shapes(y0.shape, goal.shape, weights.shape[:-1],
-                                () if yd0 is None else np.shape(yd0))
+    batch = np.broadcast_shapes(
+        y0.shape, goal.shape, weights.shape[:-1], () if yd0 is None else np.shape(yd0)
+    )
     start = np.broadcast_to(y0, batch).copy()
-    velocity = np.zeros(batch) if yd0 is None else np.broadcast_to(np.asarray(yd0, dtype=np.float64), batch).copy()
+    velocity = (
+        np.zeros(batch) if yd0 is None else np.broadcast_to(np.asarray(yd0, dtype=np.float64), batch).copy()
+    )
     state = DMPState(start, velocity, 0.0)
     stepper = _Stepper(n_basis, gains)
     positions, velocities = [state.y], [state.yd]
     for dt in np.diff(t):
-        state = advance(state, float(dt), y0=y0, goal=goal, weights=weights, tau=tau, n_basis=n_basis, gains=gains,
-                        formulation=formulation, coupling=coupling, substeps=substeps, stepper=stepper)
+        state = advance(
+            state,
+            float(dt),
+            y0=y0,
+            goal=goal,
+            weights=weights,
+            tau=tau,
+            n_basis=n_basis,
+            gains=gains,
+            formulation=formulation,
+            coupling=coupling,
+            substeps=substeps,
+            stepper=stepper,
+        )
         positions.append(state.y)
         velocities.append(state.yd)
     return np.stack(positions, axis=-2), np.stack(velocities, axis=-2)
@@ -180,24 +225,32 @@ class DMPRunner:
         (2,)
     """
 
-    def __init__(self, dmp, y0=None, goal=None, tau=None, weights=None, yd0=None, coupling=(), substeps: int = 1):
+    def __init__(
+        self, dmp, y0=None, goal=None, tau=None, weights=None, yd0=None, coupling=(), substeps: int = 1
+    ):
         self.dmp = dmp
         self.y0 = check.finite_array("y0", dmp._fitted("y0", y0), (1, 2))
         self.goal = check.finite_array("goal", dmp._fitted("goal", goal), (1, 2))
         self.tau = check.positive_float("tau", float(dmp._fitted("tau", tau)))
         self.weights = check.finite_array("weights", dmp._fitted("weights", weights), (2, 3))
         if self.weights.shape[-1] != dmp.n_basis:
-            raise ValueError(f"weights must end with K = {dmp.n_basis} basis functions, got {self.weights.shape}")
+            raise ValueError(
+                f"weights must end with K = {dmp.n_basis} basis functions, got {self.weights.shape}"
+            )
         for name, value in (("y0", self.y0), ("goal", self.goal)):
             if value.shape[-1] != self.weights.shape[-2]:
                 raise ValueError(f"{name} must have {self.weights.shape[-2]} DoF, got shape {value.shape}")
         if yd0 is None:
             yd0 = getattr(dmp, "yd0_", None)
         start_velocity = np.zeros_like(self.y0) if yd0 is None else check.finite_array("yd0", yd0, (1, 2))
-        batch = np.broadcast_shapes(self.y0.shape, self.goal.shape, self.weights.shape[:-1], start_velocity.shape)
+        batch = np.broadcast_shapes(
+            self.y0.shape, self.goal.shape, self.weights.shape[:-1], start_velocity.shape
+        )
         self.coupling = list(coupling)
         self.substeps = check.positive_int("substeps", substeps)
-        self._start = DMPState(np.broadcast_to(self.y0, batch).copy(), np.broadcast_to(start_velocity, batch).copy())
+        self._start = DMPState(
+            np.broadcast_to(self.y0, batch).copy(), np.broadcast_to(start_velocity, batch).copy()
+        )
         self.state = self._start
         self._stepper = _Stepper(dmp.n_basis, dmp.gains)
 
@@ -209,9 +262,18 @@ class DMPRunner:
                 raise ValueError(f"goal must have {self.goal.shape[-1]} DoF, got shape {goal.shape}")
             self.goal = goal
         self.state = advance(
-            self.state, dt, y0=self.y0, goal=self.goal, weights=self.weights, tau=self.tau,
-            n_basis=self.dmp.n_basis, gains=self.dmp.gains, formulation=self.dmp.formulation,
-            coupling=self.coupling, substeps=self.substeps, stepper=self._stepper,
+            self.state,
+            dt,
+            y0=self.y0,
+            goal=self.goal,
+            weights=self.weights,
+            tau=self.tau,
+            n_basis=self.dmp.n_basis,
+            gains=self.dmp.gains,
+            formulation=self.dmp.formulation,
+            coupling=self.coupling,
+            substeps=self.substeps,
+            stepper=self._stepper,
         )
         return self.state
 

@@ -40,7 +40,14 @@ from dataclasses import dataclass
 import torch
 from torch import Tensor
 
-__all__ = ["RolloutOperator", "build_operator", "build_refined_operator", "grid_substeps", "substeps", "transition"]
+__all__ = [
+    "RolloutOperator",
+    "build_operator",
+    "build_refined_operator",
+    "grid_substeps",
+    "substeps",
+    "transition",
+]
 
 #: Output samples per block on non-uniform grids: O(T * BLOCK * K) time, O(BLOCK^2)
 #: memory, and a Python loop over T / BLOCK blocks.
@@ -139,7 +146,9 @@ def _forced_response_uniform(theta: Tensor, features: Tensor, alpha_z: float, be
     """
     n_steps = theta.shape[-1]
     step = theta[..., 1:2] - theta[..., :1]
-    propagators = transition(step * torch.arange(n_steps, dtype=theta.dtype, device=theta.device), alpha_z, beta_z)
+    propagators = transition(
+        step * torch.arange(n_steps, dtype=theta.dtype, device=theta.device), alpha_z, beta_z
+    )
     g0, g1 = _hold_gains(step, alpha_z, beta_z)  # (..., 1, 2)
     from_end = (propagators @ g1[..., None])[..., 0]  # (..., T, 2): E(j h) G1
     from_start = (propagators @ g0[..., None])[..., 0]  # E(j h) G0
@@ -226,7 +235,15 @@ class RolloutOperator:
             self.beta_z,
         )
 
-    def apply(self, y0: Tensor, goal: Tensor, v: Tensor, z0: Tensor | None = None, *, return_derivatives: bool = False):
+    def apply(
+        self,
+        y0: Tensor,
+        goal: Tensor,
+        v: Tensor,
+        z0: Tensor | None = None,
+        *,
+        return_derivatives: bool = False,
+    ):
         """Evaluate the trajectory.
 
         Every output is one matrix product: the rows ``[1, E_ee, E_ez, Phi_e]`` (positions;
@@ -260,7 +277,9 @@ class RolloutOperator:
         tau = self.tau[..., None, None]
         scaled_velocity = rows(zero, 1)
         force = torch.nn.functional.pad(self.features, (len(columns) - 1, 0))
-        acceleration = (force - self.alpha_z * self.beta_z * rows(zero, 0) - self.alpha_z * scaled_velocity) / tau**2
+        acceleration = (
+            force - self.alpha_z * self.beta_z * rows(zero, 0) - self.alpha_z * scaled_velocity
+        ) / tau**2
         stacked = _contract(torch.cat([position, scaled_velocity / tau, acceleration], dim=-2), inputs)
         return stacked.split(position.shape[-2], dim=-2)
 
@@ -273,7 +292,9 @@ def _contract(rows: Tensor, inputs: Tensor) -> Tensor:
     return (inputs @ rows.transpose(-1, -2)).transpose(-1, -2)
 
 
-def build_operator(theta: Tensor, features: Tensor, tau: Tensor, alpha_z: float, beta_z: float) -> RolloutOperator:
+def build_operator(
+    theta: Tensor, features: Tensor, tau: Tensor, alpha_z: float, beta_z: float
+) -> RolloutOperator:
     """Build the :class:`RolloutOperator` for one normalised time grid.
 
     Args:
@@ -346,7 +367,9 @@ def build_refined_operator(
             def gather(name: str) -> Tensor:
                 return torch.cat([getattr(op, name) for _, op in parts.values()])[order]
 
-            return RolloutOperator(gather("initial"), gather("forced"), gather("features"), tau, alpha_z, beta_z)
+            return RolloutOperator(
+                gather("initial"), gather("forced"), gather("features"), tau, alpha_z, beta_z
+            )
     factor = grid_substeps(theta) if factor is None else factor
     fine = refine(theta, factor)
     operator = build_operator(fine, features_of(fine), tau, alpha_z, beta_z)

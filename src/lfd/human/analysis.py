@@ -161,8 +161,13 @@ class ArmAnalysis:
             "subject": self.subject,
             "settings": self.settings,
             "quality": self.quality,
-            "units": {"angles": "deg", "velocities": "deg/s", "accelerations": "deg/s^2", "torques": "N m",
-                      "positions": "m, trunk frame (x forward, y left, z up, origin spine_shoulder)"},  # fmt: skip
+            "units": {
+                "angles": "deg",
+                "velocities": "deg/s",
+                "accelerations": "deg/s^2",
+                "torques": "N m",
+                "positions": "m, trunk frame (x forward, y left, z up, origin spine_shoulder)",
+            },  # fmt: skip
             "frames": self.table(),
         }
         return _atomic_write(path, json.dumps(clean(doc), indent=1) + "\n")
@@ -178,7 +183,11 @@ class ArmAnalysis:
              gif_frames: int = 150) -> list[Path]:  # fmt: skip
         """All outputs (CSV, MOT, JSON, and figures) into ``out_dir``; returns the paths."""
         out = Path(out_dir)
-        paths = [self.to_csv(out / f"{stem}.csv"), self.to_mot(out / f"{stem}.mot"), self.to_json(out / f"{stem}.json")]
+        paths = [
+            self.to_csv(out / f"{stem}.csv"),
+            self.to_mot(out / f"{stem}.mot"),
+            self.to_json(out / f"{stem}.json"),
+        ]
         if plots:
             paths += self.plot(out, gif=gif, gif_frames=gif_frames)
         return paths
@@ -262,13 +271,24 @@ def analyze_arm(
     _check_choice("sex", sex, ("male", "female"))
     _check_choice("filter", filter, FILTERS)
     _check_choice("fit", fit, FITS)
-    for key, value in (("body_mass", body_mass), ("max_gap", max_gap), ("bone_tolerance", bone_tolerance), ("gravity", gravity)):
-        if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0) or (key == "body_mass" and value <= 0):
-            raise ValueError(f"{key} must be a {'positive' if key == 'body_mass' else 'non-negative'} number, got {value!r}")
+    for key, value in (
+        ("body_mass", body_mass),
+        ("max_gap", max_gap),
+        ("bone_tolerance", bone_tolerance),
+        ("gravity", gravity),
+    ):
+        if not (isinstance(value, (int, float)) and np.isfinite(value) and value >= 0) or (
+            key == "body_mass" and value <= 0
+        ):
+            raise ValueError(
+                f"{key} must be a {'positive' if key == 'body_mass' else 'non-negative'} number, got {value!r}"
+            )
     needed = [f"shoulder_{side}", f"elbow_{side}", f"wrist_{side}", "shoulder_left", "shoulder_right"]
     missing = [n for n in dict.fromkeys(needed) if n not in skeleton.names]
     if missing:
-        raise ValueError(f"{skeleton.source or 'skeleton'}: missing joint(s) {missing} for the {side} arm; has {skeleton.names}")
+        raise ValueError(
+            f"{skeleton.source or 'skeleton'}: missing joint(s) {missing} for the {side} arm; has {skeleton.names}"
+        )
     if skeleton.n_frames < 2:
         raise ValueError(f"{skeleton.source or 'skeleton'}: need at least 2 frames, got {skeleton.n_frames}")
     names, t = skeleton.names, skeleton.t
@@ -282,7 +302,9 @@ def analyze_arm(
         pos, swapped = repair_swaps(pos, names)
         # The raw (inferred) values travel with their labels too.
     quality["swap_frames"] = int(swapped.any(1).sum())
-    quality["swap_events"] = int((np.diff(swapped.astype(np.int8), axis=0) != 0).any(1).sum() + swapped[0].any())
+    quality["swap_events"] = int(
+        (np.diff(swapped.astype(np.int8), axis=0) != 0).any(1).sum() + swapped[0].any()
+    )
     raw = pos.copy()
     outliers = 0
     if hampel:
@@ -306,7 +328,9 @@ def analyze_arm(
     upper = np.linalg.norm(positions[:, 1] - positions[:, 0], axis=1)
     fore = np.linalg.norm(positions[:, 2] - positions[:, 1], axis=1)
     if not np.isfinite(upper).any() or not np.isfinite(fore).any():
-        raise ValueError(f"{skeleton.source or 'skeleton'}: the {side} arm has no frame with shoulder, elbow and wrist")
+        raise ValueError(
+            f"{skeleton.source or 'skeleton'}: the {side} arm has no frame with shoulder, elbow and wrist"
+        )
     lengths = {"upper_arm": float(np.nanmedian(upper)), "forearm": float(np.nanmedian(fore))}
     if hand_length is None and skeleton.has(f"hand_tip_{side}", f"wrist_{side}"):
         hand = np.linalg.norm(smooth[:, names.index(f"hand_tip_{side}")] - smooth[:, chain[2]], axis=1)
@@ -319,7 +343,11 @@ def analyze_arm(
     model_pos = mirror(positions - positions[:, :1], side)  # right-arm model, shoulder at the origin
     ik = arm_ik(model_pos[:, 0], model_pos[:, 1], model_pos[:, 2], "right", singular_deg=singular_deg)
     missing_frames = ~np.isfinite(ik.q).all(1)
-    options = {"max_order": poly_max_order, "window": poly_window} if fit == "polynomial" else {"cutoff": spline_cutoff}
+    options = (
+        {"max_order": poly_max_order, "window": poly_window}
+        if fit == "polynomial"
+        else {"cutoff": spline_cutoff}
+    )
     q, qd, qdd = fit_derivatives(t, ik.q, fit, **options)
     # The fit may overshoot a limit the IK clamped to; the reported angles respect the limits.
     q = np.where(np.isfinite(q), np.clip(q, LIMITS[0], LIMITS[1]), np.nan)

@@ -44,7 +44,7 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["ArmIKResult", "LIMITS", "arm_fk", "arm_ik", "mirror"]
+__all__ = ["LIMITS", "ArmIKResult", "arm_fk", "arm_ik", "mirror"]
 
 # (abduction, flexion, rotation, elbow flexion) limits in rad (SPEC 3, = load_robot("human_arm")).
 LIMITS = np.deg2rad(np.array([[-90.0, -130.0, -90.0, 0.0], [90.0, 45.0, 90.0, 150.0]]))
@@ -204,7 +204,9 @@ def arm_ik(
             raise ValueError(f"{name} must have shape (T, 3), got {np.shape(x)}")
     s, e, w = (mirror(np.asarray(x, dtype=float), side) for x in (shoulder, elbow, wrist))
     if not (s.shape == e.shape == w.shape):
-        raise ValueError(f"shoulder, elbow and wrist must have the same shape, got {s.shape}, {e.shape}, {w.shape}")
+        raise ValueError(
+            f"shoulder, elbow and wrist must have the same shape, got {s.shape}, {e.shape}, {w.shape}"
+        )
     eps = np.sin(np.deg2rad(singular_deg))
     upper, fore = e - s, w - e
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -237,7 +239,9 @@ def arm_ik(
         q[:, 0], q[:, 1], q[:, 2] = q1, q2, solve(q1, q2)
     if elbow_singular.any():
         q[:, 2] = _interpolate_over(q[:, 2], elbow_singular)
-    branch = np.where(np.isfinite(q[:, 1]), np.cos(q[:, 1]) < 0, branch).astype(np.int8)  # after the interpolation
+    branch = np.where(np.isfinite(q[:, 1]), np.cos(q[:, 1]) < 0, branch).astype(
+        np.int8
+    )  # after the interpolation
     clamped = np.zeros(len(q), bool)
     if clamp:
         limited = np.clip(q, LIMITS[0], LIMITS[1])

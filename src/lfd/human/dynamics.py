@@ -55,7 +55,10 @@ def arm_model(
     spec = robot.spec
     load_point = np.array([0.0, 0.0, -(forearm_length + 0.5 * hand_length)])  # forearm link frame
     mass, com, inertia = composite_inertial(
-        [(spec.link_masses[3], spec.link_coms[3], spec.link_inertias[3]), (hand_load, load_point, np.zeros((3, 3)))]
+        [
+            (spec.link_masses[3], spec.link_coms[3], spec.link_inertias[3]),
+            (hand_load, load_point, np.zeros((3, 3))),
+        ]
     )
     masses, coms, inertias = spec.link_masses.copy(), spec.link_coms.copy(), spec.link_inertias.copy()
     masses[3], coms[3], inertias[3] = mass, com, inertia
@@ -74,7 +77,9 @@ def _single_thread():
         torch.set_num_threads(before)
 
 
-def arm_torques(robot: Robot, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, gravity: np.ndarray) -> np.ndarray:
+def arm_torques(
+    robot: Robot, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, gravity: np.ndarray
+) -> np.ndarray:
     """Joint torques (T, 4) N m for per-frame gravity.
 
     Args:
@@ -97,6 +102,8 @@ def arm_torques(robot: Robot, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, gr
         for k in range(3):
             unit = np.zeros(3)
             unit[k] = 1.0
-            total = total + g[ok, k : k + 1] * robot.inverse_dynamics(qt, zero, zero, gravity=tuple(unit)).numpy()
+            total = (
+                total + g[ok, k : k + 1] * robot.inverse_dynamics(qt, zero, zero, gravity=tuple(unit)).numpy()
+            )
     tau[ok] = total
     return tau

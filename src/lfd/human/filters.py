@@ -19,7 +19,14 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage, signal
 
-__all__ = ["FILTERS", "butterworth_filter", "butterworth_sos", "filter_positions", "hampel_filter", "median_filter"]
+__all__ = [
+    "FILTERS",
+    "butterworth_filter",
+    "butterworth_sos",
+    "filter_positions",
+    "hampel_filter",
+    "median_filter",
+]
 
 FILTERS = ("butterworth", "median", "none")
 
@@ -58,7 +65,9 @@ def _flat(x: np.ndarray) -> tuple[np.ndarray, tuple[int, ...]]:
 def median_filter(x: np.ndarray, kernel: int = 5) -> np.ndarray:
     """Running median along time, odd ``kernel`` samples, edges reflected. ``x (T, ...)``."""
     if not isinstance(kernel, (int, np.integer)) or kernel < 1 or kernel % 2 == 0:
-        raise ValueError(f"median kernel must be a positive odd integer (3 or 5 as in the thesis), got {kernel!r}")
+        raise ValueError(
+            f"median kernel must be a positive odd integer (3 or 5 as in the thesis), got {kernel!r}"
+        )
     flat, shape = _flat(x)
     out = _per_segment(flat, lambda seg: ndimage.median_filter(seg, size=(kernel, 1), mode="nearest"), kernel)
     return out.reshape(shape)
@@ -79,7 +88,9 @@ def butterworth_sos(cutoff: float, rate: float, order: int = 2, passes: int = 2)
     warped = np.tan(np.pi * cutoff / rate) / correction
     design = np.arctan(warped) * rate / np.pi
     if design >= rate / 2:
-        raise ValueError(f"butterworth cutoff {cutoff} Hz is too close to the Nyquist frequency {rate / 2} Hz")
+        raise ValueError(
+            f"butterworth cutoff {cutoff} Hz is too close to the Nyquist frequency {rate / 2} Hz"
+        )
     return signal.butter(order, design, btype="low", fs=rate, output="sos")
 
 
@@ -116,7 +127,9 @@ def hampel_filter(x: np.ndarray, window: int = 7, n_sigma: float = 3.0) -> tuple
         raise ValueError(f"hampel n_sigma must be positive, got {n_sigma!r}")
     flat, shape = _flat(x)
     med = _per_segment(flat, lambda s: ndimage.median_filter(s, size=(window, 1), mode="nearest"), window)
-    mad = _per_segment(np.abs(flat - med), lambda s: ndimage.median_filter(s, size=(window, 1), mode="nearest"), window)
+    mad = _per_segment(
+        np.abs(flat - med), lambda s: ndimage.median_filter(s, size=(window, 1), mode="nearest"), window
+    )
     outliers = np.abs(flat - med) > n_sigma * 1.4826 * mad
     outliers &= np.isfinite(flat)
     out = np.where(outliers, med, flat)

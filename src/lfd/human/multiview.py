@@ -127,18 +127,29 @@ def _read_qca(path: Path) -> Calibration:
             f = lambda key: float(intr[key])  # noqa: E731
             K.append([[f("focalLengthU") / 64, 0, f("centerPointU") / 64 - left],
                       [0, f("focalLengthV") / 64, f("centerPointV") / 64 - top], [0, 0, 1]])  # fmt: skip
-            dist.append([f("radialDistortion1"), f("radialDistortion2"), f("tangentalDistortion1"), f("tangentalDistortion2")])
+            dist.append(
+                [
+                    f("radialDistortion1"),
+                    f("radialDistortion2"),
+                    f("tangentalDistortion1"),
+                    f("tangentalDistortion2"),
+                ]
+            )
             m = np.array([[float(tr[f"r{i}{j}"]) for j in (1, 2, 3)] for i in (1, 2, 3)])
             pos = np.array([float(tr[k]) for k in "xyz"]) / 1000.0
         except (AttributeError, KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"calibration {path}, camera {cam.get('serial')!r}: missing or bad field ({exc})") from exc
+            raise ValueError(
+                f"calibration {path}, camera {cam.get('serial')!r}: missing or bad field ({exc})"
+            ) from exc
         rot = _FLIP @ m
         names.append(cam.get("serial") or f"cam{len(names) + 1:02d}")
         R.append(rot)
         t.append(-rot @ pos)
     if not names:
         raise ValueError(f"calibration {path}: no <camera> entries")
-    return Calibration(tuple(names), np.array(K), np.array(dist), np.array(R), np.array(t), np.array(size), str(path))
+    return Calibration(
+        tuple(names), np.array(K), np.array(dist), np.array(R), np.array(t), np.array(size), str(path)
+    )
 
 
 def _from_entries(entries: list[tuple[str, dict]], path: Path) -> Calibration:
@@ -154,11 +165,15 @@ def _from_entries(entries: list[tuple[str, dict]], path: Path) -> Calibration:
             t.append(np.asarray(cam["translation"], float).reshape(3))
             size.append(np.asarray(cam.get("size", [np.nan, np.nan]), float).reshape(2))
         except (KeyError, ValueError, TypeError) as exc:
-            raise ValueError(f"calibration {path}, camera {name!r}: needs matrix (3x3), rotation, translation ({exc})") from exc
+            raise ValueError(
+                f"calibration {path}, camera {name!r}: needs matrix (3x3), rotation, translation ({exc})"
+            ) from exc
         names.append(str(cam.get("name", name)))
     if not names:
         raise ValueError(f"calibration {path}: no cameras")
-    return Calibration(tuple(names), np.array(K), np.array(dist), np.array(R), np.array(t), np.array(size), str(path))
+    return Calibration(
+        tuple(names), np.array(K), np.array(dist), np.array(R), np.array(t), np.array(size), str(path)
+    )
 
 
 def read_calibration(path: str | os.PathLike, n_cameras: int | None = None) -> Calibration:
@@ -194,7 +209,9 @@ def read_calibration(path: str | os.PathLike, n_cameras: int | None = None) -> C
     else:
         raise ValueError(f"calibration {p}: unknown format; expected .qca.txt, .toml or .json")
     if n_cameras is not None and calib.n_cameras != n_cameras:
-        raise ValueError(f"calibration {p} has {calib.n_cameras} cameras ({', '.join(calib.names)}), expected {n_cameras}")
+        raise ValueError(
+            f"calibration {p} has {calib.n_cameras} cameras ({', '.join(calib.names)}), expected {n_cameras}"
+        )
     return calib
 
 
@@ -288,7 +305,11 @@ def triangulate(
         shape = used.shape[1:]
         best_err, points, chosen = np.full(shape, np.inf), np.full(shape + (3,), np.nan), np.zeros_like(used)
         for k in range(C + 1 - min_views):  # k views left out, fewest first
-            level_err, level_X, level_used = np.full(shape, np.inf), np.full(shape + (3,), np.nan), np.zeros_like(used)
+            level_err, level_X, level_used = (
+                np.full(shape, np.inf),
+                np.full(shape + (3,), np.nan),
+                np.zeros_like(used),
+            )
             for keep in itertools.combinations(range(C), C - k):
                 mask = np.zeros(C, bool)
                 mask[list(keep)] = True

@@ -48,7 +48,9 @@ def _four_panels(plt, t, series, ylabel: str, title: str, path: Path, labels=("f
     return path
 
 
-def plot_analysis(result, out_dir: str | os.PathLike, gif: bool = True, max_gif_frames: int = 150) -> list[Path]:
+def plot_analysis(
+    result, out_dir: str | os.PathLike, gif: bool = True, max_gif_frames: int = 150
+) -> list[Path]:
     """Write the figures (and the GIF) of ``result`` into ``out_dir``; returns their paths."""
     plt = _plt()
     out = Path(out_dir)
@@ -77,7 +79,9 @@ def plot_analysis(result, out_dir: str | os.PathLike, gif: bool = True, max_gif_
     paths.append(_four_panels(plt, t, [deg(result.q), deg(result.q_ik)], "deg", f"{result.side} arm joint angles",
                               out / "angles.png", labels=("fit", "per-frame IK")))  # fmt: skip
     paths.append(_four_panels(plt, t, [deg(result.qd)], "deg/s", "joint velocities", out / "velocities.png"))
-    paths.append(_four_panels(plt, t, [deg(result.qdd)], "deg/s²", "joint accelerations", out / "accelerations.png"))
+    paths.append(
+        _four_panels(plt, t, [deg(result.qdd)], "deg/s²", "joint accelerations", out / "accelerations.png")
+    )
     paths.append(_four_panels(plt, t, [result.tau], "N m", f"joint torques (Newton-Euler, {result.subject['body_mass']:g} kg "
                               f"{result.subject['sex']})", out / "torques.png"))  # fmt: skip
     if gif:
@@ -85,7 +89,9 @@ def plot_analysis(result, out_dir: str | os.PathLike, gif: bool = True, max_gif_
     return paths
 
 
-def stick_figure_gif(result, path: str | os.PathLike, max_frames: int = 150, fps: float | None = None) -> Path:
+def stick_figure_gif(
+    result, path: str | os.PathLike, max_frames: int = 150, fps: float | None = None
+) -> Path:
     """3-D stick figure of raw vs reconstructed shoulder-elbow-wrist, at most ``max_frames`` frames."""
     plt = _plt()
     from PIL import Image
@@ -100,7 +106,10 @@ def stick_figure_gif(result, path: str | os.PathLike, max_frames: int = 150, fps
     ax = fig.add_subplot(projection="3d")
     for f in frames:
         ax.cla()
-        for data, colour, label in ((result.raw_positions, "0.55", "raw"), (result.reconstructed, "C0", "model")):
+        for data, colour, label in (
+            (result.raw_positions, "0.55", "raw"),
+            (result.reconstructed, "C0", "model"),
+        ):
             p = data[f]
             if np.isfinite(p).all():
                 ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color=colour, lw=2, ms=4, label=label)

@@ -43,7 +43,7 @@ import numpy as np
 
 from .skeleton import KINECT_V2_JOINTS, Skeleton, canonical_joint_name
 
-__all__ = ["FORMATS", "SkeletonFormatError", "UIPRMD_JOINTS", "read_skeleton"]
+__all__ = ["FORMATS", "UIPRMD_JOINTS", "SkeletonFormatError", "read_skeleton"]
 
 FORMATS = ("kinect_csv", "ntu", "uiprmd", "trc", "csv")
 
@@ -124,7 +124,9 @@ def _infer_format(path: Path) -> str:
         return "ntu"
     if name.endswith(".trc"):
         return "trc"
-    if re.search(r"_positions\.txt$", name) or (name.endswith(".txt") and path.parent.name.lower() == "positions"):
+    if re.search(r"_positions\.txt$", name) or (
+        name.endswith(".txt") and path.parent.name.lower() == "positions"
+    ):
         return "uiprmd"
     if name.endswith(".csv"):
         for line in _lines(path):
@@ -164,7 +166,13 @@ def read_skeleton(path: str | os.PathLike, format: str | None = None, **options)
     if not path.exists():
         raise FileNotFoundError(f"skeleton file not found: {path}")
     fmt = format or _infer_format(path)
-    readers = {"kinect_csv": _read_kinect_csv, "ntu": _read_ntu, "uiprmd": _read_uiprmd, "trc": _read_trc, "csv": _read_csv}
+    readers = {
+        "kinect_csv": _read_kinect_csv,
+        "ntu": _read_ntu,
+        "uiprmd": _read_uiprmd,
+        "trc": _read_trc,
+        "csv": _read_csv,
+    }
     if fmt not in readers:
         raise ValueError(f"unknown skeleton format {fmt!r}; valid formats: {', '.join(FORMATS)}")
     reader = readers[fmt]
@@ -197,7 +205,10 @@ def _read_kinect_csv(path: Path, *, rate: float = 30.0) -> Skeleton:
             tokens = tokens[:-1]  # trailing comma
         if len(tokens) != width:
             raise SkeletonFormatError(
-                path, number, "columns", f"expected {width} values (25 joints x x,y,z,state), got {len(tokens)}"
+                path,
+                number,
+                "columns",
+                f"expected {width} values (25 joints x x,y,z,state), got {len(tokens)}",
             )
         rows.append(_parse_row(tokens, path, number, field_names))
     if not rows:
@@ -208,7 +219,10 @@ def _read_kinect_csv(path: Path, *, rate: float = 30.0) -> Skeleton:
     if bad.any():
         frame, joint = np.argwhere(bad)[0]
         raise SkeletonFormatError(
-            path, int(frame) + 1, f"{KINECT_V2_JOINTS[joint]}.tracking_state", f"expected 0, 1 or 2, got {state[frame, joint]}"
+            path,
+            int(frame) + 1,
+            f"{KINECT_V2_JOINTS[joint]}.tracking_state",
+            f"expected 0, 1 or 2, got {state[frame, joint]}",
         )
     return Skeleton(
         t=np.arange(len(rows)) / rate,
@@ -243,13 +257,30 @@ class _Tokens:
         try:
             value = int(tokens[0])
         except ValueError:
-            raise SkeletonFormatError(self.path, number, field, f"expected an integer, got {tokens[0]!r}") from None
+            raise SkeletonFormatError(
+                self.path, number, field, f"expected an integer, got {tokens[0]!r}"
+            ) from None
         if value < low or (high is not None and value > high):
-            raise SkeletonFormatError(self.path, number, field, f"expected an integer in [{low}, {high}], got {value}")
+            raise SkeletonFormatError(
+                self.path, number, field, f"expected an integer in [{low}, {high}], got {value}"
+            )
         return value
 
 
-_NTU_JOINT_FIELDS = ["x", "y", "z", "depth_x", "depth_y", "colour_x", "colour_y", "orient_w", "orient_x", "orient_y", "orient_z", "tracking_state"]
+_NTU_JOINT_FIELDS = [
+    "x",
+    "y",
+    "z",
+    "depth_x",
+    "depth_y",
+    "colour_x",
+    "colour_y",
+    "orient_w",
+    "orient_x",
+    "orient_y",
+    "orient_z",
+    "tracking_state",
+]
 
 
 def _read_ntu(path: Path, *, rate: float = 30.0, body: int | str | None = None) -> Skeleton:
@@ -305,7 +336,9 @@ def _uiprmd_angles_path(path: Path) -> Path:
     for candidate in (folder / (angles_name + ".gz"), folder / angles_name):
         if candidate.exists():
             return candidate
-    raise FileNotFoundError(f"{path}: matching UI-PRMD angles file not found (looked for {folder / angles_name}[.gz])")
+    raise FileNotFoundError(
+        f"{path}: matching UI-PRMD angles file not found (looked for {folder / angles_name}[.gz])"
+    )
 
 
 def _read_table(path: Path, width: int, field_names: list[str]) -> np.ndarray:
@@ -315,7 +348,9 @@ def _read_table(path: Path, width: int, field_names: list[str]) -> np.ndarray:
             continue
         tokens = [t for t in line.strip().rstrip(",").split(",")]
         if len(tokens) != width:
-            raise SkeletonFormatError(path, number, "columns", f"expected {width} comma-separated values, got {len(tokens)}")
+            raise SkeletonFormatError(
+                path, number, "columns", f"expected {width} comma-separated values, got {len(tokens)}"
+            )
         rows.append(_parse_row(tokens, path, number, field_names))
     if not rows:
         raise SkeletonFormatError(path, None, "content", "file is empty")
@@ -336,7 +371,9 @@ def _euler_matrices(angles_deg: np.ndarray, order: str) -> np.ndarray:
     return flat.reshape(*angles_deg.shape[:-1], 3, 3)
 
 
-def uiprmd_global_positions(offsets: np.ndarray, angles_deg: np.ndarray, euler_order: str = "ZXY") -> np.ndarray:
+def uiprmd_global_positions(
+    offsets: np.ndarray, angles_deg: np.ndarray, euler_order: str = "ZXY"
+) -> np.ndarray:
     """Global joint positions (T, 22, 3) from UI-PRMD rows: offsets (T, 22, 3) and local Euler angles (T, 22, 3).
 
     The waist row of ``offsets`` is its absolute position; every other row is the joint's
@@ -355,18 +392,30 @@ def uiprmd_global_positions(offsets: np.ndarray, angles_deg: np.ndarray, euler_o
     return pos
 
 
-def _read_uiprmd(path: Path, *, rate: float = 30.0, euler_order: str = "ZXY", angles_path: str | os.PathLike | None = None) -> Skeleton:
+def _read_uiprmd(
+    path: Path, *, rate: float = 30.0, euler_order: str = "ZXY", angles_path: str | os.PathLike | None = None
+) -> Skeleton:
     rate = _check_rate(rate, path)
-    if not (isinstance(euler_order, str) and len(euler_order) == 3 and (euler_order.isupper() or euler_order.islower())
-            and set(euler_order.lower()) <= set("xyz") and euler_order[0] != euler_order[1] != euler_order[2]):
-        raise ValueError(f"euler_order must be a 3-letter sequence like 'YXZ' (intrinsic) or 'yxz' (extrinsic), got {euler_order!r}")
+    if not (
+        isinstance(euler_order, str)
+        and len(euler_order) == 3
+        and (euler_order.isupper() or euler_order.islower())
+        and set(euler_order.lower()) <= set("xyz")
+        and euler_order[0] != euler_order[1] != euler_order[2]
+    ):
+        raise ValueError(
+            f"euler_order must be a 3-letter sequence like 'YXZ' (intrinsic) or 'yxz' (extrinsic), got {euler_order!r}"
+        )
     angles_file = Path(angles_path) if angles_path is not None else _uiprmd_angles_path(path)
     names = [f"{j}.{c}" for j in UIPRMD_JOINTS for c in "xyz"]
     offsets = _read_table(path, 66, names).reshape(-1, 22, 3)
     angles = _read_table(angles_file, 66, names).reshape(-1, 22, 3)
     if len(angles) != len(offsets):
         raise SkeletonFormatError(
-            angles_file, None, "rows", f"has {len(angles)} frames but the positions file {path} has {len(offsets)}"
+            angles_file,
+            None,
+            "rows",
+            f"has {len(angles)} frames but the positions file {path} has {len(offsets)}",
         )
     positions = uiprmd_global_positions(offsets, angles, euler_order) * _UNITS["cm"]
     return Skeleton(
@@ -382,7 +431,9 @@ def _read_uiprmd(path: Path, *, rate: float = 30.0, euler_order: str = "ZXY", an
 def _read_trc(path: Path, *, up: tuple[float, float, float] = (0.0, 1.0, 0.0)) -> Skeleton:
     lines = _lines(path)
     if len(lines) < 5 or not lines[0].startswith("PathFileType"):
-        raise SkeletonFormatError(path, 1, "PathFileType", "not an OpenSim .trc file (first line must start with PathFileType)")
+        raise SkeletonFormatError(
+            path, 1, "PathFileType", "not an OpenSim .trc file (first line must start with PathFileType)"
+        )
     keys, values = lines[1].split("\t"), lines[2].split("\t")
     header = {k.strip(): v.strip() for k, v in zip(keys, values)}
     for key in ("DataRate", "NumFrames", "NumMarkers", "Units"):
@@ -390,13 +441,19 @@ def _read_trc(path: Path, *, up: tuple[float, float, float] = (0.0, 1.0, 0.0)) -
             raise SkeletonFormatError(path, 2, key, "missing from the header")
     units = header["Units"].lower()
     if units not in _UNITS:
-        raise SkeletonFormatError(path, 3, "Units", f"expected one of {sorted(_UNITS)}, got {header['Units']!r}")
+        raise SkeletonFormatError(
+            path, 3, "Units", f"expected one of {sorted(_UNITS)}, got {header['Units']!r}"
+        )
     n_markers = int(_float(header["NumMarkers"], path, 3, "NumMarkers"))
     markers = [m.strip() for m in lines[3].split("\t")[2:] if m.strip()]
     if len(markers) != n_markers:
-        raise SkeletonFormatError(path, 4, "marker names", f"header says NumMarkers={n_markers}, found {len(markers)} names")
+        raise SkeletonFormatError(
+            path, 4, "marker names", f"header says NumMarkers={n_markers}, found {len(markers)} names"
+        )
     if lines[3].split("\t")[:2] != ["Frame#", "Time"]:
-        raise SkeletonFormatError(path, 4, "Frame#/Time", "the marker-name line must start with Frame# and Time")
+        raise SkeletonFormatError(
+            path, 4, "Frame#/Time", "the marker-name line must start with Frame# and Time"
+        )
     width = 2 + 3 * n_markers
     field_names = ["Frame#", "Time"] + [f"{m}.{c}" for m in markers for c in "XYZ"]
     rows = []
@@ -407,8 +464,18 @@ def _read_trc(path: Path, *, up: tuple[float, float, float] = (0.0, 1.0, 0.0)) -
         while len(tokens) > width and tokens[-1].strip() == "":
             tokens.pop()
         if len(tokens) != width:
-            raise SkeletonFormatError(path, number, "columns", f"expected {width} tab-separated values (Frame#, Time, {n_markers} markers x 3), got {len(tokens)}")
-        rows.append([np.nan if tok.strip() == "" and i >= 2 else _float(tok, path, number, field_names[i]) for i, tok in enumerate(tokens)])
+            raise SkeletonFormatError(
+                path,
+                number,
+                "columns",
+                f"expected {width} tab-separated values (Frame#, Time, {n_markers} markers x 3), got {len(tokens)}",
+            )
+        rows.append(
+            [
+                np.nan if tok.strip() == "" and i >= 2 else _float(tok, path, number, field_names[i])
+                for i, tok in enumerate(tokens)
+            ]
+        )
     if not rows:
         raise SkeletonFormatError(path, None, "data", "no data rows")
     data = np.array(rows)
@@ -437,7 +504,9 @@ def _canonical_names(names: list[str], path: Path, line: int | None) -> tuple[st
     seen: dict[str, str] = {}
     for raw, can in zip(names, canonical):
         if can in seen:
-            raise SkeletonFormatError(path, line, "joint names", f"{raw!r} and {seen[can]!r} both mean joint {can!r}")
+            raise SkeletonFormatError(
+                path, line, "joint names", f"{raw!r} and {seen[can]!r} both mean joint {can!r}"
+            )
         seen[can] = raw
     return tuple(canonical)
 
@@ -454,14 +523,21 @@ def _read_csv(path: Path, *, units: str = "m", up: tuple[float, float, float] = 
     lower = [h.lower() for h in header]
     time_key = next((k for k in ("t", "time", "timestamp") if k in lower), None)
     if time_key is None:
-        raise SkeletonFormatError(path, header_line, "t", f"header needs a time column 't' or 'time', got {header}")
+        raise SkeletonFormatError(
+            path, header_line, "t", f"header needs a time column 't' or 'time', got {header}"
+        )
     it = lower.index(time_key)
     body = numbered[1:]
     if not body:
         raise SkeletonFormatError(path, None, "data", "no data rows after the header")
     for number, line in body:
         if len(line.split(",")) != len(header):
-            raise SkeletonFormatError(path, number, "columns", f"expected {len(header)} values as in the header, got {len(line.split(','))}")
+            raise SkeletonFormatError(
+                path,
+                number,
+                "columns",
+                f"expected {len(header)} values as in the header, got {len(line.split(','))}",
+            )
     if "joint" in lower:  # long format
         return _read_csv_long(path, header_line, lower, it, body, scale, up)
     return _read_csv_wide(path, header_line, header, it, body, scale, up)
@@ -470,7 +546,9 @@ def _read_csv(path: Path, *, units: str = "m", up: tuple[float, float, float] = 
 def _read_csv_long(path, header_line, lower, it, body, scale, up) -> Skeleton:
     for key in ("x", "y", "z"):
         if key not in lower:
-            raise SkeletonFormatError(path, header_line, key, f"long-format CSV needs columns t, joint, x, y, z; got {lower}")
+            raise SkeletonFormatError(
+                path, header_line, key, f"long-format CSV needs columns t, joint, x, y, z; got {lower}"
+            )
     ij, ix = lower.index("joint"), [lower.index(k) for k in ("x", "y", "z")]
     itr = next((lower.index(k) for k in ("tracked", "state", "tracking_state") if k in lower), None)
     times: list[float] = []
@@ -492,7 +570,10 @@ def _read_csv_long(path, header_line, lower, it, body, scale, up) -> Skeleton:
             raise SkeletonFormatError(path, number, "joint", "empty joint name")
         if joint not in names:
             names.append(joint)
-        xyz = [np.nan if tok[i].strip() == "" else _float(tok[i], path, number, "xyz"[k]) for k, i in enumerate(ix)]
+        xyz = [
+            np.nan if tok[i].strip() == "" else _float(tok[i], path, number, "xyz"[k])
+            for k, i in enumerate(ix)
+        ]
         tracked = True if itr is None else _float(tok[itr], path, number, lower[itr]) > 0
         records.append((index_of_time[t], names.index(joint), xyz, tracked))
     positions = np.full((len(times), len(names), 3), np.nan)
@@ -511,7 +592,9 @@ def _read_csv_wide(path, header_line, header, it, body, scale, up) -> Skeleton:
             continue
         match = re.fullmatch(r"(.+?)[ _.\-:]?([xyzXYZ])", col)
         if not match:
-            raise SkeletonFormatError(path, header_line, col, "wide CSV columns must be <joint>_x, <joint>_y, <joint>_z")
+            raise SkeletonFormatError(
+                path, header_line, col, "wide CSV columns must be <joint>_x, <joint>_y, <joint>_z"
+            )
         joints.setdefault(match.group(1), [None, None, None])["xyz".index(match.group(2).lower())] = i
     for joint, cols in joints.items():
         for axis, col in zip("xyz", cols):
@@ -534,6 +617,15 @@ def _read_csv_wide(path, header_line, header, it, body, scale, up) -> Skeleton:
 
 def _iter_files(folder: Path) -> Iterator[Path]:
     """Skeleton files in a folder (sorted), skipping UI-PRMD angles files."""
-    patterns = ("*.csv", "*.skeleton", "*.trc", "*_positions.txt", "*.csv.gz", "*.skeleton.gz", "*.trc.gz", "*_positions.txt.gz")
+    patterns = (
+        "*.csv",
+        "*.skeleton",
+        "*.trc",
+        "*_positions.txt",
+        "*.csv.gz",
+        "*.skeleton.gz",
+        "*.trc.gz",
+        "*_positions.txt.gz",
+    )
     found = sorted({p for pattern in patterns for p in folder.rglob(pattern)})
     yield from found

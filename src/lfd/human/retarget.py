@@ -49,7 +49,7 @@ from lfd.robots.ik import solve_ik
 
 from .arm_ik import mirror
 
-__all__ = ["RetargetResult", "WAM_MOUNT", "retarget_wam4", "retarget_wrist_path", "time_scale"]
+__all__ = ["WAM_MOUNT", "RetargetResult", "retarget_wam4", "retarget_wrist_path", "time_scale"]
 
 # Columns: the WAM base axes in the (right-arm) trunk frame: x forward, y up, z outward (-y).
 WAM_MOUNT = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -184,7 +184,14 @@ def _speed_ratio(q: np.ndarray, t: np.ndarray | None, vmax: np.ndarray) -> float
 
 
 def retarget_wam4(
-    shoulder, elbow, wrist, side: str = "right", *, singular_deg: float = 10.0, mount="side", t=None,
+    shoulder,
+    elbow,
+    wrist,
+    side: str = "right",
+    *,
+    singular_deg: float = 10.0,
+    mount="side",
+    t=None,
     n_mounts: int = 300,
 ) -> RetargetResult:
     """WAM 4-DoF joint angles reproducing the arm posture (see module docstring).
@@ -231,8 +238,14 @@ def retarget_wam4(
         else:
             raise ValueError(f"mount must be 'side', 'auto' or a (3, 3) rotation, got {mount!r}")
     mount = np.asarray(mount, float)
-    if mount.shape != (3, 3) or not np.allclose(mount.T @ mount, np.eye(3), atol=1e-6) or np.linalg.det(mount) < 0:
-        raise ValueError(f"mount must be a (3, 3) rotation matrix (columns = base axes), got {mount.tolist()}")
+    if (
+        mount.shape != (3, 3)
+        or not np.allclose(mount.T @ mount, np.eye(3), atol=1e-6)
+        or np.linalg.det(mount) < 0
+    ):
+        raise ValueError(
+            f"mount must be a (3, 3) rotation matrix (columns = base axes), got {mount.tolist()}"
+        )
     q, clamped, singular, f, err = _wam_posture(s, e, w, mount, singular_deg, robot)
     return RetargetResult(q, clamped, singular, f, err, 1.0, "wam4", mount if side == "right" else
                           np.diag([1.0, -1.0, 1.0]) @ mount)  # fmt: skip
@@ -313,7 +326,9 @@ def retarget_wrist_path(
             qt = torch.from_numpy(np.clip(qt.numpy() + step, lo, hi))
         miss = np.linalg.norm(target[t] - model.fk(qt[None])[0, :3, 3].numpy())
         if miss > 10 * tol:  # stuck at a limit or far from the start: LM with restarts from here
-            sol = solve_ik(model, torch.from_numpy(target[t][None]), qt[None], position_only=True, tol_pos=tol)
+            sol = solve_ik(
+                model, torch.from_numpy(target[t][None]), qt[None], position_only=True, tol_pos=tol
+            )
             if sol.pos_error[0] < miss:
                 qt = sol.q[0]
                 miss = float(sol.pos_error[0])

@@ -115,19 +115,25 @@ class Skeleton:
             raise ValueError(f"Skeleton.t contains NaN or inf{where}")
         if np.any(np.diff(self.t) <= 0):
             bad = int(np.argmax(np.diff(self.t) <= 0)) + 1
-            raise ValueError(f"Skeleton.t must be strictly increasing; frame {bad} has t={self.t[bad]}{where}")
+            raise ValueError(
+                f"Skeleton.t must be strictly increasing; frame {bad} has t={self.t[bad]}{where}"
+            )
         if len(set(self.names)) != len(self.names):
             raise ValueError(f"Skeleton.names must be unique, got {self.names}{where}")
         shape = (len(self.t), len(self.names), 3)
         if self.positions.shape != shape:
-            raise ValueError(f"Skeleton.positions must have shape (T, J, 3) = {shape}, got {self.positions.shape}{where}")
+            raise ValueError(
+                f"Skeleton.positions must have shape (T, J, 3) = {shape}, got {self.positions.shape}{where}"
+            )
         finite = np.isfinite(self.positions).all(axis=2)
         if self.tracked is None:
             self.tracked = finite
         else:
             self.tracked = np.asarray(self.tracked, dtype=bool)
             if self.tracked.shape != shape[:2]:
-                raise ValueError(f"Skeleton.tracked must have shape (T, J) = {shape[:2]}, got {self.tracked.shape}{where}")
+                raise ValueError(
+                    f"Skeleton.tracked must have shape (T, J) = {shape[:2]}, got {self.tracked.shape}{where}"
+                )
             self.tracked = self.tracked & finite
         up = np.asarray(self.up, dtype=float)
         if up.shape != (3,) or not np.all(np.isfinite(up)) or np.linalg.norm(up) < 1e-9:

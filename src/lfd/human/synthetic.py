@@ -55,7 +55,9 @@ class SyntheticRecording:
     corrupted: dict
 
 
-def camera_pose(yaw_deg: float = 0.0, distance: float = 2.5, height: float = 0.0, pitch_deg: float = 0.0) -> np.ndarray:
+def camera_pose(
+    yaw_deg: float = 0.0, distance: float = 2.5, height: float = 0.0, pitch_deg: float = 0.0
+) -> np.ndarray:
     """(4, 4) pose mapping world points (x forward of the person, y left, z up) into a Kinect-like
     camera frame (x, y up, z away from the sensor) facing the person; ``yaw_deg`` turns the camera
     about the vertical, ``pitch_deg`` tilts it."""
@@ -110,7 +112,11 @@ def synthetic_recording(
     rng = np.random.default_rng(seed)
     t = np.arange(int(round(duration * rate))) / rate
     q, qd, qdd, tau = {}, {}, {}, {}
-    lengths = {"upper_arm": upper_arm_length, "forearm": forearm_length, "hand": 0.19 if sex == "male" else 0.18}
+    lengths = {
+        "upper_arm": upper_arm_length,
+        "forearm": forearm_length,
+        "hand": 0.19 if sex == "male" else 0.18,
+    }
     # Trunk sway (world frame): a slow lean forward/sideways, so gravity moves in the trunk frame.
     lean_f = np.deg2rad(6.0) * np.sin(2 * np.pi * 0.11 * t + rng.uniform(0, 6.3))
     lean_s = np.deg2rad(4.0) * np.sin(2 * np.pi * 0.07 * t + rng.uniform(0, 6.3))
@@ -129,7 +135,9 @@ def synthetic_recording(
         freq = rng.uniform(0.15, 0.6, (4, n_freq))
         phase = rng.uniform(0, 2 * np.pi, (4, n_freq))
         centre = np.deg2rad([35.0, -45.0, 10.0, 70.0])
-        amplitude = np.deg2rad(np.array([22.0, 30.0, 28.0, 40.0]))[:, None] * rng.dirichlet(np.ones(n_freq), 4)
+        amplitude = np.deg2rad(np.array([22.0, 30.0, 28.0, 40.0]))[:, None] * rng.dirichlet(
+            np.ones(n_freq), 4
+        )
         q[side], qd[side], qdd[side] = _sines(t, centre, amplitude, freq, phase)
         shoulder = np.array([0.0, sign * 0.18, spine - 0.03])
         elbow, wrist = arm_fk(q[side], upper_arm_length, forearm_length)
@@ -150,7 +158,9 @@ def synthetic_recording(
         j = int(rng.choice(arm))
         start, length = int(rng.integers(5, T - 10)), int(rng.integers(1, 6))
         tracked[start : start + length, j] = False
-        positions[start : start + length, j] += rng.normal(0.0, 0.05, (len(range(start, min(start + length, T))), 3))
+        positions[start : start + length, j] += rng.normal(
+            0.0, 0.05, (len(range(start, min(start + length, T))), 3)
+        )
         corrupted["dropouts"].append((names[j], start, start + length))
     wrist = names.index("wrist_right")
     if long_gap > 0:
@@ -169,5 +179,7 @@ def synthetic_recording(
             positions[start:stop, [li, ri]] = positions[start:stop, [ri, li]]
             tracked[start:stop, [li, ri]] = tracked[start:stop, [ri, li]]
         corrupted["swap"] = (start, stop)
-    skeleton = Skeleton(t, names, positions, tracked, source=f"synthetic(seed={seed})", up=pose[:3, :3] @ [0.0, 0.0, 1.0])
+    skeleton = Skeleton(
+        t, names, positions, tracked, source=f"synthetic(seed={seed})", up=pose[:3, :3] @ [0.0, 0.0, 1.0]
+    )
     return SyntheticRecording(skeleton, q, qd, qdd, tau, gravity, lengths, corrupted)

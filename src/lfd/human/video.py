@@ -67,7 +67,18 @@ _ALL_LEFT = [i for i, n in enumerate(MEDIAPIPE_LANDMARKS) if "left" in n]
 _ALL_RIGHT = [MEDIAPIPE_LANDMARKS.index(MEDIAPIPE_LANDMARKS[i].replace("left", "right")) for i in _ALL_LEFT]
 _TORSO = [MEDIAPIPE_LANDMARKS.index(n) for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 # Connections drawn on the video frame (arm and torso).
-ARM_EDGES = ((11, 13), (13, 15), (12, 14), (14, 16), (11, 12), (11, 23), (12, 24), (23, 24), (15, 19), (16, 20))
+ARM_EDGES = (
+    (11, 13),
+    (13, 15),
+    (12, 14),
+    (14, 16),
+    (11, 12),
+    (11, 23),
+    (12, 24),
+    (23, 24),
+    (15, 19),
+    (16, 20),
+)
 
 
 # ---------------------------------------------------------------------------- decoding
@@ -228,7 +239,9 @@ def load_pose_estimator(static: bool = False, min_detection_confidence: float = 
         solution_base.SolutionBase._modify_calculator_options = _set_calculator_options
         from mediapipe.python.solutions import pose as mp_pose
     except ImportError as exc:
-        raise ImportError('the video pose estimator needs MediaPipe: pip install "lfd[video]" (mediapipe==0.10.14)') from exc
+        raise ImportError(
+            'the video pose estimator needs MediaPipe: pip install "lfd[video]" (mediapipe==0.10.14)'
+        ) from exc
     return mp_pose.Pose(static_image_mode=static, model_complexity=1, smooth_landmarks=not static,
                         enable_segmentation=False, min_detection_confidence=min_detection_confidence,
                         min_tracking_confidence=min_tracking_confidence)  # fmt: skip
@@ -332,7 +345,9 @@ class VideoKeypoints:
         the world landmarks' depth mirrored (``z -> -z`` about the hips: the relabelled estimate
         is the mirror image of the person through the image plane)."""
         flips = self.front_back_flips(switch)
-        out = dataclasses.replace(self, pixels=self.pixels.copy(), visibility=self.visibility.copy(), world=self.world.copy())
+        out = dataclasses.replace(
+            self, pixels=self.pixels.copy(), visibility=self.visibility.copy(), world=self.world.copy()
+        )
         for arr in (out.pixels, out.visibility, out.world):
             sub = arr[flips]
             sub[:, _ALL_LEFT], sub[:, _ALL_RIGHT] = arr[flips][:, _ALL_RIGHT], arr[flips][:, _ALL_LEFT]
@@ -352,7 +367,9 @@ class VideoKeypoints:
         if not 0.0 <= min_visibility <= 1.0:
             raise ValueError(f"min_visibility must be in [0, 1], got {min_visibility!r}")
         if not self.detected.any():
-            raise ValueError(f"no person found in any of the {self.n_frames} frames of {self.source or 'the video'}")
+            raise ValueError(
+                f"no person found in any of the {self.n_frames} frames of {self.source or 'the video'}"
+            )
         kp = self.repaired() if repair_flips else self
         tracked = (kp.visibility >= min_visibility) & kp.detected[:, None]
         return Skeleton(kp.t, CANONICAL_NAMES, kp.world, tracked, source=f"{kp.source} (mediapipe)",
@@ -380,7 +397,9 @@ class VideoKeypoints:
 
         cols = self.table()
         data = np.column_stack(list(cols.values()))
-        lines = [",".join(cols)] + [",".join("" if not np.isfinite(v) else f"{v:.6g}" for v in row) for row in data]
+        lines = [",".join(cols)] + [
+            ",".join("" if not np.isfinite(v) else f"{v:.6g}" for v in row) for row in data
+        ]
         return _atomic_write(path, "\n".join(lines) + "\n")
 
     def save(self, path: str | os.PathLike) -> Path:
@@ -448,7 +467,9 @@ def estimate_keypoints(
         FileNotFoundError, ValueError (unreadable video, bad arguments), ImportError (no mediapipe).
     """
     if not (max_jump > 0 and max_speed >= 0 and reacquire_s >= 0):
-        raise ValueError(f"max_jump must be > 0, max_speed and reacquire_s >= 0; got {max_jump!r}, {max_speed!r}, {reacquire_s!r}")
+        raise ValueError(
+            f"max_jump must be > 0, max_speed and reacquire_s >= 0; got {max_jump!r}, {max_speed!r}, {reacquire_s!r}"
+        )
     info = video_info(video)
     tracker = load_pose_estimator(False, min_detection_confidence, min_tracking_confidence)
     searcher = None
@@ -474,7 +495,9 @@ def estimate_keypoints(
                 if np.linalg.norm(centre - last[1]) > last[2] * (max_jump + max_speed * (t - last[0])):
                     # Someone else: look for the followed person around where they were.
                     if searcher is None:
-                        searcher = load_pose_estimator(True, min_detection_confidence, min_tracking_confidence)
+                        searcher = load_pose_estimator(
+                            True, min_detection_confidence, min_tracking_confidence
+                        )
                     x0, y0, x1, y1 = (last[3] / scale).astype(int)
                     crop = np.ascontiguousarray(rgb[max(y0, 0) : max(y1, 0), max(x0, 0) : max(x1, 0)])
                     again = None

@@ -10,6 +10,7 @@ The libraries themselves are not needed: pyarrow, PyAV and h5py write the files.
 See ``docs/formats.md``.
 """
 
+from lfd.interop.lerobot.reader import LeRobotDataModule, LeRobotFolder, read_info
 from lfd.interop.lerobot.writer import (
     CODEBASE_VERSION,
     LeRobotEpisode,
@@ -18,9 +19,7 @@ from lfd.interop.lerobot.writer import (
     task_string,
     update_chunk_file_indices,
 )
-from lfd.interop.lerobot.reader import LeRobotDataModule, LeRobotFolder, read_info
 from lfd.interop.robomimic import export_robomimic
-
 
 __all__ = [
     "CODEBASE_VERSION",

@@ -143,7 +143,11 @@ def export_robomimic(
             demo = grp.create_group(f"demo_{r.index}")
             demo.attrs["num_samples"] = n
             for key, value in obs.items():
-                kw = {"compression": compression, "chunks": (1, *value.shape[1:])} if value.dtype == np.uint8 and compression else {}
+                kw = (
+                    {"compression": compression, "chunks": (1, *value.shape[1:])}
+                    if value.dtype == np.uint8 and compression
+                    else {}
+                )
                 demo.create_dataset(f"obs/{key}", data=value, **kw)
                 demo.create_dataset(f"next_obs/{key}", data=np.concatenate([value[1:], value[-1:]]), **kw)
             a = r.arrays
@@ -152,14 +156,23 @@ def export_robomimic(
             done[-1] = 1.0
             demo.create_dataset("rewards", data=done)
             demo.create_dataset("dones", data=done.astype(np.int64))
-            demo.create_dataset("states", data=np.concatenate([obs["robot0_joint_pos"], obs["robot0_joint_vel"], obs["object"]], axis=1))
+            demo.create_dataset(
+                "states",
+                data=np.concatenate(
+                    [obs["robot0_joint_pos"], obs["robot0_joint_vel"], obs["object"]], axis=1
+                ),
+            )
             demo.attrs["model_file"] = ""
             demo.attrs["lfd_split"] = r.split
             demo.attrs["lfd_object"] = json.dumps(r.obj.to_dict())
             total += n
         grp.attrs["total"] = total
         grp.attrs["env_args"] = json.dumps(
-            {"env_name": ENV_NAME, "type": GYM_ENV_TYPE, "env_kwargs": {"lfd_generator_config": cfg.to_dict(), "control_dt": cfg.control_dt}}
+            {
+                "env_name": ENV_NAME,
+                "type": GYM_ENV_TYPE,
+                "env_kwargs": {"lfd_generator_config": cfg.to_dict(), "control_dt": cfg.control_dt},
+            }
         )
         grp.attrs["action_space"] = "joint_velocity"
         grp.attrs["action_scale"] = scale

@@ -207,6 +207,8 @@ def decode_video_frames(path: str | Path, timestamps, tolerance_s: float = 1e-4)
 def write_mp4(path: str | Path, frames, fps: float, codec: str = "h264", crf: int = 23) -> Path:
     """Write a whole clip ``(T, H, W, 3)`` uint8 to ``path`` (H.264 by default, plays anywhere)."""
     frames = np.asarray(frames)
-    with VideoFileWriter(path, fps=fps, width=frames.shape[2], height=frames.shape[1], codec=codec, crf=crf, g=12) as w:
+    with VideoFileWriter(
+        path, fps=fps, width=frames.shape[2], height=frames.shape[1], codec=codec, crf=crf, g=12
+    ) as w:
         w.write_episode(frames)
     return Path(path)

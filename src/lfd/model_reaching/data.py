@@ -114,10 +114,20 @@ class InverseDataConfig:
             raise ValueError(f"InverseDataConfig.orders: expected blend orders 3 and/or 5, got {self.orders}")
         for name in ("duration", "time_constant", "dt"):
             if not getattr(self, name) > 0:
-                raise ValueError(f"InverseDataConfig.{name}: expected seconds > 0, got {getattr(self, name)!r}")
-        for name, low in (("n_demo_steps", 3), ("n_goals", 0), ("cross_paths", 0), ("n_steps", 2), ("n_seeds", 1)):
+                raise ValueError(
+                    f"InverseDataConfig.{name}: expected seconds > 0, got {getattr(self, name)!r}"
+                )
+        for name, low in (
+            ("n_demo_steps", 3),
+            ("n_goals", 0),
+            ("cross_paths", 0),
+            ("n_steps", 2),
+            ("n_seeds", 1),
+        ):
             if int(getattr(self, name)) < low:
-                raise ValueError(f"InverseDataConfig.{name}: expected an int >= {low}, got {getattr(self, name)!r}")
+                raise ValueError(
+                    f"InverseDataConfig.{name}: expected an int >= {low}, got {getattr(self, name)!r}"
+                )
 
     @classmethod
     def from_mapping(cls, values: Mapping | InverseDataConfig | None) -> InverseDataConfig:
@@ -127,7 +137,9 @@ class InverseDataConfig:
         values = dict(values or {})
         unknown = sorted(set(values) - {f.name for f in fields(cls)})
         if unknown:
-            raise ValueError(f"InverseDataConfig: unknown field(s) {unknown}; expected some of {[f.name for f in fields(cls)]}")
+            raise ValueError(
+                f"InverseDataConfig: unknown field(s) {unknown}; expected some of {[f.name for f in fields(cls)]}"
+            )
         return cls(**values)
 
 
@@ -185,17 +197,23 @@ def load_demo_csv(path: str | Path, n_joints: int = 7, n_steps: int = 100) -> Jo
                 header = {name.lower(): i for i, name in enumerate(fields)}
                 missing = [c for c in wanted if c not in header]
                 if missing:
-                    raise DemoFileError(f"{path}:{line_no}: header is missing column(s) {', '.join(missing)}; expected {', '.join(wanted)}")
+                    raise DemoFileError(
+                        f"{path}:{line_no}: header is missing column(s) {', '.join(missing)}; expected {', '.join(wanted)}"
+                    )
                 continue
             row = []
             for name in wanted:
                 col = header[name]
                 if col >= len(fields) or fields[col] == "":
-                    raise DemoFileError(f"{path}:{line_no}: column '{name}': value missing ({len(fields)} fields in this row)")
+                    raise DemoFileError(
+                        f"{path}:{line_no}: column '{name}': value missing ({len(fields)} fields in this row)"
+                    )
                 try:
                     value = float(fields[col])
                 except ValueError:
-                    raise DemoFileError(f"{path}:{line_no}: column '{name}': {fields[col]!r} is not a number") from None
+                    raise DemoFileError(
+                        f"{path}:{line_no}: column '{name}': {fields[col]!r} is not a number"
+                    ) from None
                 if not math.isfinite(value):
                     raise DemoFileError(f"{path}:{line_no}: column '{name}': {fields[col]!r} is not finite")
                 row.append(value)
@@ -215,7 +233,13 @@ def load_demo_csv(path: str | Path, n_joints: int = 7, n_steps: int = 100) -> Jo
 
 
 def scripted_demo(
-    robot, start: np.ndarray, goal_pose: np.ndarray, duration: float = 4.0, n_steps: int = 100, n_seeds: int = 64, seed: int = 0
+    robot,
+    start: np.ndarray,
+    goal_pose: np.ndarray,
+    duration: float = 4.0,
+    n_steps: int = 100,
+    n_seeds: int = 64,
+    seed: int = 0,
 ) -> JointDemonstration:
     """A demonstration from ``start (n,)`` (rad) to the IK solution of ``goal_pose (4, 4)``
     nearest the start, timed by a rest-to-rest quintic in joint space.
@@ -225,7 +249,9 @@ def scripted_demo(
     """
     solution = solve_near(robot, goal_pose[None], start, n_seeds=n_seeds, seed=seed)
     if not bool(solution.success[0]):
-        raise ValueError(f"scripted_demo: no IK solution for the demonstration goal pose\n{np.round(goal_pose, 4)}")
+        raise ValueError(
+            f"scripted_demo: no IK solution for the demonstration goal pose\n{np.round(goal_pose, 4)}"
+        )
     t = np.linspace(0.0, duration, n_steps)
     q, _, _ = via_quintic(t, np.array([0.0, duration]), np.stack([start, solution.q[0].numpy()]))
     return JointDemonstration(t=t, q=q, source="scripted")
@@ -251,10 +277,14 @@ def make_demonstration(
         demo = load_demo_csv(demo_csv, robot.n_dof, config.n_demo_steps)
         outside = ~robot.within_limits(torch.from_numpy(demo.q)).numpy()
         if outside.any():
-            raise DemoFileError(f"{demo.source}: {int(outside.sum())} resampled sample(s) outside the {robot.name} joint limits")
+            raise DemoFileError(
+                f"{demo.source}: {int(outside.sum())} resampled sample(s) outside the {robot.name} joint limits"
+            )
         return demo
     if orientation_deg is None:
-        raise ValueError("make_demonstration: give an orientation_deg for the scripted demonstration or a demo_csv file")
+        raise ValueError(
+            "make_demonstration: give an orientation_deg for the scripted demonstration or a demo_csv file"
+        )
     start = np.radians(np.asarray(config.start_deg, dtype=np.float64))
     goal_pose = make_transform(config.demo_goal, np.radians(np.asarray(orientation_deg, dtype=np.float64)))
     return scripted_demo(robot, start, goal_pose, config.duration, config.n_demo_steps, seed=config.seed)
@@ -284,7 +314,9 @@ class InverseData:
     n_failed: int
 
 
-def build_inverse_data(robot, demo: JointDemonstration, config: InverseDataConfig | None = None) -> InverseData:
+def build_inverse_data(
+    robot, demo: JointDemonstration, config: InverseDataConfig | None = None
+) -> InverseData:
     """Training paths of one task's inverse model (settings: :class:`InverseDataConfig`).
 
     ``config.n_goals`` goals are drawn uniformly in a box of half-widths ``goal_spread`` (m)
@@ -315,14 +347,18 @@ def build_inverse_data(robot, demo: JointDemonstration, config: InverseDataConfi
     ends = [goal_q]
     if len(goal_q) > 1:
         for _ in range(c.cross_paths):
-            origin = (np.arange(len(goal_q)) + rng.integers(1, len(goal_q), len(goal_q))) % len(goal_q)  # never the goal itself
+            origin = (np.arange(len(goal_q)) + rng.integers(1, len(goal_q), len(goal_q))) % len(
+                goal_q
+            )  # never the goal itself
             p = np.linspace(0.0, 1.0, demo.q.shape[0])[None, :, None]
             paths.append(goal_q[origin][:, None] + p * (goal_q - goal_q[origin])[:, None])
             ends.append(goal_q)
     t, q, qd = follow_paths(np.concatenate(paths), c.time_constant, c.dt, c.n_steps)
     goals = robot.fk_positions(np.concatenate(ends)).numpy()
     errors = robot.fk_positions(q).numpy() - goals[:, None, :]
-    return InverseData(demo=demo, goals=goals, t=t, q=q, errors=errors, velocities=qd, n_failed=int((~ok).sum()))
+    return InverseData(
+        demo=demo, goals=goals, t=t, q=q, errors=errors, velocities=qd, n_failed=int((~ok).sum())
+    )
 
 
 # ---------------------------------------------------------------------------- forward-model samples
@@ -387,7 +423,12 @@ class SawyerFKDataModule(L.LightningDataModule):
                 raise ValueError(f"SawyerFKDataModule.{name}: expected an int >= 1, got {value!r}")
         self.robot_name = robot
         self.batch_size, self.batches_per_epoch = int(batch_size), int(batches_per_epoch)
-        self.n_val, self.n_test, self.eval_batch_size, self.seed = int(n_val), int(n_test), int(eval_batch_size), int(seed)
+        self.n_val, self.n_test, self.eval_batch_size, self.seed = (
+            int(n_val),
+            int(n_test),
+            int(eval_batch_size),
+            int(seed),
+        )
         self._stream: FKSampleStream | None = None
         self._fixed: dict[str, TensorDataset] = {}
 
@@ -441,13 +482,22 @@ class SawyerInverseDataModule(L.LightningDataModule):
         batch_size: int = 128,
     ) -> None:
         super().__init__()
-        tasks = {k: dict(v) for k, v in (tasks or {k: {"orientation_deg": v} for k, v in TASK_ORIENTATIONS_DEG.items()}).items()}
+        tasks = {
+            k: dict(v)
+            for k, v in (
+                tasks or {k: {"orientation_deg": v} for k, v in TASK_ORIENTATIONS_DEG.items()}
+            ).items()
+        }
         for name, task in tasks.items():
             unknown = set(task) - {"orientation_deg", "demo_csv"}
             if unknown or not task:
-                raise ValueError(f"SawyerInverseDataModule.tasks.{name}: expected orientation_deg and/or demo_csv, got {sorted(task)}")
+                raise ValueError(
+                    f"SawyerInverseDataModule.tasks.{name}: expected orientation_deg and/or demo_csv, got {sorted(task)}"
+                )
         if not 0.0 <= val_fraction < 1.0:
-            raise ValueError(f"SawyerInverseDataModule.val_fraction: expected a number in [0, 1), got {val_fraction}")
+            raise ValueError(
+                f"SawyerInverseDataModule.val_fraction: expected a number in [0, 1), got {val_fraction}"
+            )
         self.tasks = tasks
         self.robot_name = robot
         self.config = InverseDataConfig.from_mapping(config)
@@ -460,7 +510,9 @@ class SawyerInverseDataModule(L.LightningDataModule):
         if not self.data:
             robot = load_robot(self.robot_name)
             for name, task in self.tasks.items():
-                demo = make_demonstration(robot, task.get("orientation_deg"), task.get("demo_csv"), self.config)
+                demo = make_demonstration(
+                    robot, task.get("orientation_deg"), task.get("demo_csv"), self.config
+                )
                 self.data[name] = build_inverse_data(robot, demo, self.config)
                 self._splits[name] = self._split(self.data[name])
         return self.data
@@ -532,10 +584,16 @@ class SawyerModelsDataModule(L.LightningDataModule):
         return self.inverse.prepare()
 
     def train_dataloader(self) -> CombinedLoader:
-        return CombinedLoader({"forward": self.forward.train_dataloader(), "inverse": self.inverse.loaders("train")}, mode="max_size_cycle")
+        return CombinedLoader(
+            {"forward": self.forward.train_dataloader(), "inverse": self.inverse.loaders("train")},
+            mode="max_size_cycle",
+        )
 
     def val_dataloader(self) -> CombinedLoader:
-        return CombinedLoader({"forward": self.forward.val_dataloader(), "inverse": self.inverse.loaders("val")}, mode="max_size")
+        return CombinedLoader(
+            {"forward": self.forward.val_dataloader(), "inverse": self.inverse.loaders("val")},
+            mode="max_size",
+        )
 
     def test_dataloader(self) -> DataLoader:
         return self.forward.test_dataloader()

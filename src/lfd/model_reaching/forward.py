@@ -26,8 +26,8 @@ import lightning as L
 import torch
 from torch import Tensor, nn
 
-from lfd.training import make_activation, make_optimizer, save_own_hyperparameters
 from lfd.robots import load_robot
+from lfd.training import make_activation, make_optimizer, save_own_hyperparameters
 
 __all__ = [
     "ForwardModel",
@@ -45,7 +45,9 @@ _OUTPUT_STATS_SAMPLES = 65_536
 def position_errors_mm(predicted: Tensor, target: Tensor) -> Tensor:
     """Euclidean distances ``(B,)`` in millimetres between positions ``(B, 3)`` given in metres."""
     if predicted.shape != target.shape or predicted.shape[-1] != 3:
-        raise ValueError(f"position_errors_mm: need two (B, 3) arrays, got {tuple(predicted.shape)} and {tuple(target.shape)}")
+        raise ValueError(
+            f"position_errors_mm: need two (B, 3) arrays, got {tuple(predicted.shape)} and {tuple(target.shape)}"
+        )
     return 1000.0 * (predicted - target).norm(dim=-1)
 
 
@@ -77,7 +79,9 @@ class _Block(nn.Module):
 
     def __init__(self, width: int, act: str) -> None:
         super().__init__()
-        self.body = nn.Sequential(nn.LayerNorm(width), nn.Linear(width, width), make_activation(act), nn.Linear(width, width))
+        self.body = nn.Sequential(
+            nn.LayerNorm(width), nn.Linear(width, width), make_activation(act), nn.Linear(width, width)
+        )
 
     def forward(self, x: Tensor) -> Tensor:
         return x + self.body(x)
@@ -157,7 +161,12 @@ class ForwardModel(L.LightningModule):
         """Rotate points ``x (B, 3)`` by ``angle (B,)`` rad about joint 0's axis (Rodrigues)."""
         a, v = self.axis, x - self.pivot
         cos, sin = torch.cos(angle)[:, None], torch.sin(angle)[:, None]
-        return self.pivot + v * cos + torch.cross(a.expand_as(v), v, dim=-1) * sin + a * (v @ a)[:, None] * (1.0 - cos)
+        return (
+            self.pivot
+            + v * cos
+            + torch.cross(a.expand_as(v), v, dim=-1) * sin
+            + a * (v @ a)[:, None] * (1.0 - cos)
+        )
 
     def to_model_frame(self, q: Tensor, x: Tensor) -> Tensor:
         """World positions ``x (B, 3)`` in the frame the MLP predicts in (turning with joint 0

@@ -77,13 +77,22 @@ class InverseModel(L.LightningModule):
         (``SawyerInverseDataModule.adaptation_data()``, which ``train.py`` hands over)."""
         if isinstance(data, Mapping):
             if self.hparams.task not in data:
-                raise ValueError(f"InverseModel.task {self.hparams.task!r} is not among the data's tasks {sorted(data)}")
+                raise ValueError(
+                    f"InverseModel.task {self.hparams.task!r} is not among the data's tasks {sorted(data)}"
+                )
             data = data[self.hparams.task]
         e = torch.from_numpy(data.errors.reshape(-1, 3))
         v = torch.from_numpy(data.velocities.reshape(-1, data.velocities.shape[-1]))
         if v.shape[-1] != self.hparams.n_joints:
-            raise ValueError(f"InverseModel({self.hparams.task}): data has {v.shape[-1]} joints, model {self.hparams.n_joints}")
-        for name, value in (("e_mean", e.mean(0)), ("e_std", e.std(0)), ("v_mean", v.mean(0)), ("v_std", v.std(0).clamp_min(1e-6))):
+            raise ValueError(
+                f"InverseModel({self.hparams.task}): data has {v.shape[-1]} joints, model {self.hparams.n_joints}"
+            )
+        for name, value in (
+            ("e_mean", e.mean(0)),
+            ("e_std", e.std(0)),
+            ("v_mean", v.mean(0)),
+            ("v_std", v.std(0).clamp_min(1e-6)),
+        ):
             getattr(self, name).copy_(value)
         self.demo = data.demo
 
@@ -126,7 +135,11 @@ class InverseModel(L.LightningModule):
         """The demonstration as checkpoint content: tensors and a string (loadable with ``weights_only=True``)."""
         if self.demo is None:
             return None
-        return {"t": torch.from_numpy(self.demo.t), "q": torch.from_numpy(self.demo.q), "source": self.demo.source}
+        return {
+            "t": torch.from_numpy(self.demo.t),
+            "q": torch.from_numpy(self.demo.q),
+            "source": self.demo.source,
+        }
 
     def load_demo_state(self, state: Mapping[str, Any] | None) -> None:
         if state is None:

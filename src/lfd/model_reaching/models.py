@@ -73,7 +73,9 @@ class SawyerModels(L.LightningModule):
         forward, inverse = dict(forward or {}), dict(inverse or {})
         if "task" in inverse:
             raise ValueError("SawyerModels.inverse: 'task' is set per task, from `tasks`")
-        self.save_hyperparameters({"forward": forward, "inverse": inverse, "tasks": list(tasks), "kind": self.kind})
+        self.save_hyperparameters(
+            {"forward": forward, "inverse": inverse, "tasks": list(tasks), "kind": self.kind}
+        )
         self.forward_model = ForwardModel(**forward)
         self.inverse_models = nn.ModuleDict({task: InverseModel(task=task, **inverse) for task in tasks})
         self._val: dict[str, list[float]] = {}
@@ -87,7 +89,9 @@ class SawyerModels(L.LightningModule):
         """Take each inverse model's normalisation statistics and demonstration from its
         task's training data ``{task: InverseData}`` (``SawyerModelsDataModule.adaptation_data()``)."""
         if set(data) != set(self.tasks):
-            raise ValueError(f"SawyerModels.tasks {sorted(self.tasks)} differ from the datamodule's tasks {sorted(data)}")
+            raise ValueError(
+                f"SawyerModels.tasks {sorted(self.tasks)} differ from the datamodule's tasks {sorted(data)}"
+            )
         for task, model in self.inverse_models.items():
             model.adapt(data[task])
 
@@ -134,7 +138,9 @@ class SawyerModels(L.LightningModule):
         print(format_error_table(summary))
 
     def configure_optimizers(self) -> dict[str, Any]:
-        groups = self.forward_model.parameter_groups() + [g for m in self.inverse_models.values() for g in m.parameter_groups()]
+        groups = self.forward_model.parameter_groups() + [
+            g for m in self.inverse_models.values() for g in m.parameter_groups()
+        ]
         hp = self.forward_model.hparams
         return make_optimizer(self, groups, hp.scheduler, hp.pct_start)
 
@@ -149,7 +155,9 @@ class SawyerModels(L.LightningModule):
     def forward_error_summary(self, q: Tensor, x: Tensor, batch_size: int = 20_000) -> dict[str, float]:
         """:func:`~lfd.model_reaching.forward.error_summary` (mm) of the forward model on ``(q, x)``."""
         with torch.no_grad():
-            errors = [self.forward_model.loss(qb, xb)[1] for qb, xb in zip(q.split(batch_size), x.split(batch_size))]
+            errors = [
+                self.forward_model.loss(qb, xb)[1] for qb, xb in zip(q.split(batch_size), x.split(batch_size))
+            ]
         return error_summary(torch.cat(errors))
 
 

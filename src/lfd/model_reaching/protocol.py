@@ -41,19 +41,25 @@ import numpy as np
 import torch
 
 from lfd.model_reaching.data import SAWYER_START_DEG, SawyerFKDataModule
-from lfd.visuomotor.eval.evaluator import find_checkpoints
-from lfd.visuomotor.eval.rollout import ReachTrace, closed_loop_reach
-from lfd.model_reaching.report import ORIGINAL_EPISODES, SCENARIOS, protocol_tables, write_report
 from lfd.model_reaching.models import SawyerModels, load_sawyer_models
+from lfd.model_reaching.report import ORIGINAL_EPISODES, SCENARIOS, protocol_tables, write_report
 from lfd.rl import refine
 from lfd.robots import Workspace, load_robot, rotation_log
 from lfd.robots.spec import matrix_to_rpy
 from lfd.sim.arms import ARMS, replay_in_pybullet
+from lfd.visuomotor.eval.evaluator import find_checkpoints
+from lfd.visuomotor.eval.rollout import ReachTrace, closed_loop_reach
 
 __all__ = ["GOALS", "ORIGINAL_EPISODES", "SawyerProtocol"]
 
 #: The five goals of the original protocol (m, Sawyer world frame).
-GOALS = ((0.237, -0.466, -0.04), (-0.217, -0.474, -0.04), (1.110, -0.551, -0.04), (-0.179, -0.678, -0.04), (0.217, -0.680, -0.04))
+GOALS = (
+    (0.237, -0.466, -0.04),
+    (-0.217, -0.474, -0.04),
+    (1.110, -0.551, -0.04),
+    (-0.179, -0.678, -0.04),
+    (0.217, -0.680, -0.04),
+)
 
 
 def models_robot(models: SawyerModels):
@@ -113,7 +119,12 @@ class SawyerProtocol:
         self.goals = np.asarray(goals, dtype=np.float64).reshape(-1, 3)
         self.start = np.radians(np.asarray(start_deg, dtype=np.float64))
         self.tasks = None if tasks is None else list(tasks)
-        self.simulator, self.dt, self.max_steps, self.threshold = simulator, float(dt), int(max_steps), float(threshold)
+        self.simulator, self.dt, self.max_steps, self.threshold = (
+            simulator,
+            float(dt),
+            int(max_steps),
+            float(threshold),
+        )
         self.n_basis, self.n_seeds, self.pybullet_replay = int(n_basis), int(n_seeds), bool(pybullet_replay)
         self.power = {
             "n_rollouts": 10,
@@ -127,7 +138,9 @@ class SawyerProtocol:
         }
         self.n_fk_test, self.fk_seed = int(n_fk_test), int(fk_seed)
 
-    def resolve_checkpoints(self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None) -> dict[str, Path]:
+    def resolve_checkpoints(
+        self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None
+    ) -> dict[str, Path]:
         """``{"sawyer_models": path}``: the configured checkpoint (or ``given["sawyer_models"]``),
         else the newest ``sawyer_models`` one under ``output_root``."""
         path = self.checkpoint if self.checkpoint is not None else (given or {}).get(SawyerModels.kind)
@@ -143,7 +156,9 @@ class SawyerProtocol:
             )
         return {SawyerModels.kind: found}
 
-    def run(self, datamodule=None, checkpoints: Mapping[str, str | Path] | None = None, out_dir: str | Path = ".") -> dict[str, Any]:
+    def run(
+        self, datamodule=None, checkpoints: Mapping[str, str | Path] | None = None, out_dir: str | Path = "."
+    ) -> dict[str, Any]:
         """Run the protocol with the ``checkpoints["sawyer_models"]`` models and write the
         outputs to ``out_dir``; returns the metrics.
 
@@ -152,7 +167,9 @@ class SawyerProtocol:
         goals and forward-model test set (``n_fk_test``, ``fk_seed``).
         """
         if not checkpoints or SawyerModels.kind not in checkpoints:
-            raise ValueError(f"SawyerProtocol.run: checkpoints must hold a '{SawyerModels.kind}' path, got {checkpoints!r}")
+            raise ValueError(
+                f"SawyerProtocol.run: checkpoints must hold a '{SawyerModels.kind}' path, got {checkpoints!r}"
+            )
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         ckpt = Path(checkpoints[SawyerModels.kind])
@@ -174,7 +191,11 @@ class SawyerProtocol:
         workspace = Workspace(robot)
         metrics: dict[str, Any] = {"settings": self.settings(), "tasks": {}}
         if self.n_fk_test:
-            q, x = SawyerFKDataModule(robot=robot.name, n_test=self.n_fk_test, seed=fk_seed).fixed_set("test").tensors
+            q, x = (
+                SawyerFKDataModule(robot=robot.name, n_test=self.n_fk_test, seed=fk_seed)
+                .fixed_set("test")
+                .tensors
+            )
             metrics["forward_error_mm"] = models.forward_error_summary(q, x)
         for task in tasks:
             metrics["tasks"][task] = self.evaluate_task(models, robot, workspace, task)
@@ -192,7 +213,14 @@ class SawyerProtocol:
             arm = ARMS[self.simulator](robot, self.dt)
             inverse = models.inverse_models[task]
             reaches = closed_loop_reach(
-                models.forward_model, inverse, robot, self.goals[reachable], self.start, arm, self.max_steps, self.threshold
+                models.forward_model,
+                inverse,
+                robot,
+                self.goals[reachable],
+                self.start,
+                arm,
+                self.max_steps,
+                self.threshold,
             )
             traces = dict(zip(reachable, reaches))
         goals_out = []
@@ -211,7 +239,9 @@ class SawyerProtocol:
             "_demo_path": robot.fk_positions(demo.q).numpy(),
         }
 
-    def reach_metrics(self, robot, trace: ReachTrace, goal: np.ndarray, rotation: np.ndarray) -> dict[str, Any]:
+    def reach_metrics(
+        self, robot, trace: ReachTrace, goal: np.ndarray, rotation: np.ndarray
+    ) -> dict[str, Any]:
         final = robot.fk(torch.from_numpy(trace.q[-1:]))[0, :3, :3]
         angle = float(rotation_log((torch.from_numpy(rotation) @ final.T)[None])[0].norm())
         return {
@@ -223,7 +253,9 @@ class SawyerProtocol:
         }
 
     def power_runs(self, robot, t: np.ndarray, q: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
-        runs = [refine(robot, t, q, goal, self.n_basis, seed=seed, **self.power) for seed in range(self.n_seeds)]
+        runs = [
+            refine(robot, t, q, goal, self.n_basis, seed=seed, **self.power) for seed in range(self.n_seeds)
+        ]
         out: dict[str, Any] = {
             "iterations": [r.iterations for r in runs],
             "rollouts": [r.rollouts for r in runs],
@@ -235,7 +267,9 @@ class SawyerProtocol:
             "_path": robot.fk_positions(runs[0].trajectory).numpy(),
         }
         if self.pybullet_replay:
-            out["pybullet_final_error_m"] = float(np.linalg.norm(replay_in_pybullet(robot, runs[0].trajectory, float(t[1] - t[0])) - goal))
+            out["pybullet_final_error_m"] = float(
+                np.linalg.norm(replay_in_pybullet(robot, runs[0].trajectory, float(t[1] - t[0])) - goal)
+            )
         return out
 
     def settings(self) -> dict[str, Any]:

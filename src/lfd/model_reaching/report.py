@@ -15,11 +15,11 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from lfd.io.files import json_bytes, write_bytes_atomic  # noqa: E402
-from lfd.model_reaching.forward import format_error_table  # noqa: E402
+from lfd.io.files import json_bytes, write_bytes_atomic
+from lfd.model_reaching.forward import format_error_table
 
 __all__ = ["ORIGINAL_EPISODES", "SCENARIOS", "protocol_tables", "reach_table", "write_report"]
 
@@ -40,7 +40,11 @@ def protocol_tables(metrics: Mapping[str, Any], goals: np.ndarray) -> str:
     parts = []
     if "forward_error_mm" in metrics:
         parts.append("## Forward model\n\n" + format_error_table(metrics["forward_error_mm"]))
-    head = "| goal | position (m) | reach test | " + " | ".join(f"{t}: {SCENARIO_LABELS[s]}" for t in tasks for s in SCENARIOS) + " |"
+    head = (
+        "| goal | position (m) | reach test | "
+        + " | ".join(f"{t}: {SCENARIO_LABELS[s]}" for t in tasks for s in SCENARIOS)
+        + " |"
+    )
     lines = [head, "|" + "---|" * (3 + 2 * len(tasks))]
     for i, goal in enumerate(goals):
         cells = []
@@ -49,8 +53,16 @@ def protocol_tables(metrics: Mapping[str, Any], goals: np.ndarray) -> str:
             for s in SCENARIOS:
                 cells.append(episodes_cell(entry["power"][s]) if "power" in entry else "-")
         reasons = {t: metrics["tasks"][t]["goals"][i]["reach_test"]["reason"] for t in tasks}
-        reason = reasons[tasks[0]] if len(set(reasons.values())) == 1 else "; ".join(f"{t}: {r}" for t, r in reasons.items())
-        lines.append(f"| {i + 1} | ({goal[0]:.3f}, {goal[1]:.3f}, {goal[2]:.3f}) | {reason} | " + " | ".join(cells) + " |")
+        reason = (
+            reasons[tasks[0]]
+            if len(set(reasons.values())) == 1
+            else "; ".join(f"{t}: {r}" for t, r in reasons.items())
+        )
+        lines.append(
+            f"| {i + 1} | ({goal[0]:.3f}, {goal[1]:.3f}, {goal[2]:.3f}) | {reason} | "
+            + " | ".join(cells)
+            + " |"
+        )
     total_cells = [
         f"{metrics['totals'][t][s]['episodes']:.1f} ({metrics['totals'][t][s]['converged']}/{metrics['totals'][t][s]['runs']})"
         for t in tasks
@@ -64,6 +76,7 @@ def protocol_tables(metrics: Mapping[str, Any], goals: np.ndarray) -> str:
     parts.append(reach_table(metrics, tasks))
     parts.append(original_table())
     return "\n\n".join(parts) + "\n"
+
 
 def reach_table(metrics: Mapping[str, Any], tasks: Sequence[str]) -> str:
     """The closed-loop reaches with the models, one row per task x reachable goal."""
@@ -88,9 +101,13 @@ def reach_table(metrics: Mapping[str, Any], tasks: Sequence[str]) -> str:
         f"< {settings['threshold_m'] * 100:.1f} cm or {settings['max_steps']} steps)\n\n" + "\n".join(lines)
     )
 
+
 def write_report(out_dir: Path, metrics: dict[str, Any], goals: np.ndarray) -> None:
     """``protocol.md``, ``protocol.csv``, ``reach.csv``, the plots and ``metrics.json`` in ``out_dir``."""
-    write_bytes_atomic(out_dir / "protocol.md", ("# Sawyer forward/inverse models + DMP + PoWER\n\n" + metrics["tables"]).encode())
+    write_bytes_atomic(
+        out_dir / "protocol.md",
+        ("# Sawyer forward/inverse models + DMP + PoWER\n\n" + metrics["tables"]).encode(),
+    )
     write_bytes_atomic(out_dir / "protocol.csv", protocol_csv(metrics).encode())
     write_bytes_atomic(out_dir / "reach.csv", reach_csv(metrics).encode())
     for task, data in metrics["tasks"].items():
@@ -105,12 +122,22 @@ def episodes_cell(runs: Mapping[str, Any]) -> str:
 
 def original_table() -> str:
     lines = [
-        "| goal | " + " | ".join(f"{t}: {SCENARIO_LABELS[s]}" for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |",
+        "| goal | "
+        + " | ".join(f"{t}: {SCENARIO_LABELS[s]}" for t in ORIGINAL_EPISODES for s in SCENARIOS)
+        + " |",
         "|---|" + "---:|" * 4,
     ]
     for i in range(len(next(iter(ORIGINAL_EPISODES.values()))["models"])):
-        lines.append(f"| {i + 1} | " + " | ".join(str(ORIGINAL_EPISODES[t][s][i]) for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |")
-    lines.append("| total | " + " | ".join(str(sum(ORIGINAL_EPISODES[t][s])) for t in ORIGINAL_EPISODES for s in SCENARIOS) + " |")
+        lines.append(
+            f"| {i + 1} | "
+            + " | ".join(str(ORIGINAL_EPISODES[t][s][i]) for t in ORIGINAL_EPISODES for s in SCENARIOS)
+            + " |"
+        )
+    lines.append(
+        "| total | "
+        + " | ".join(str(sum(ORIGINAL_EPISODES[t][s])) for t in ORIGINAL_EPISODES for s in SCENARIOS)
+        + " |"
+    )
     return "## Original (SPEC 5), episodes to convergence\n\n" + "\n".join(lines)
 
 
@@ -163,7 +190,10 @@ def protocol_csv(metrics: Mapping[str, Any]) -> str:
                     zip(runs["iterations"], runs["rollouts"], runs["converged"], runs["final_error_m"])
                 ):
                     replay = runs.get("pybullet_final_error_m", "") if seed == 0 else ""
-                    rows.append(base + [s, seed, it, ro, ok, f"{err:.6f}", replay if replay == "" else f"{replay:.6f}"])
+                    rows.append(
+                        base
+                        + [s, seed, it, ro, ok, f"{err:.6f}", replay if replay == "" else f"{replay:.6f}"]
+                    )
     return _csv(rows)
 
 
@@ -171,7 +201,9 @@ def reach_csv(metrics: Mapping[str, Any]) -> str:
     keys = ["steps", "reached", "final_error_m", "estimated_error_m", "orientation_error_deg"]
     rows: list[list[Any]] = [["task", "goal", *keys]]
     for task, data in metrics["tasks"].items():
-        rows += [[task, i + 1, *(e["reach"][k] for k in keys)] for i, e in enumerate(data["goals"]) if "reach" in e]
+        rows += [
+            [task, i + 1, *(e["reach"][k] for k in keys)] for i, e in enumerate(data["goals"]) if "reach" in e
+        ]
     return _csv(rows)
 
 
@@ -187,18 +219,35 @@ def plot_paths(path: Path, task: str, goals: np.ndarray, data: Mapping[str, Any]
             c = colours(i)
             if "reach" in entry:
                 trace = data["_traces"][i]
-                ax.plot(trace.x[:, a], trace.x[:, b], "-", color=c, lw=1.5, label=f"goal {i + 1}: models" if a == 0 and b == 1 else None)
+                ax.plot(
+                    trace.x[:, a],
+                    trace.x[:, b],
+                    "-",
+                    color=c,
+                    lw=1.5,
+                    label=f"goal {i + 1}: models" if a == 0 and b == 1 else None,
+                )
                 for s, style in (("models", "--"), ("demo", ":")):
                     x = entry["power"][s]["_path"]
                     ax.plot(x[:, a], x[:, b], style, color=c, lw=1.2)
                 ax.plot(goals[i, a], goals[i, b], "o", color=c, ms=8, mfc="none")
             else:
-                ax.plot(goals[i, a], goals[i, b], "x", color="r", ms=10, mew=2, label=f"goal {i + 1}: unreachable" if b == 1 else None)
+                ax.plot(
+                    goals[i, a],
+                    goals[i, b],
+                    "x",
+                    color="r",
+                    ms=10,
+                    mew=2,
+                    label=f"goal {i + 1}: unreachable" if b == 1 else None,
+                )
         ax.set_xlabel(f"{'xyz'[a]} (m)")
         ax.set_ylabel(f"{'xyz'[b]} (m)")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
-    axes[0].set_title("top view: solid models' reach, dashed PoWER from it, dotted PoWER from the demo", fontsize=8)
+    axes[0].set_title(
+        "top view: solid models' reach, dashed PoWER from it, dotted PoWER from the demo", fontsize=8
+    )
     axes[1].set_title("side view", fontsize=9)
     axes[0].legend(fontsize=7, loc="best")
     fig.suptitle(f"Sawyer, task '{task}': end-effector paths", fontsize=10)
@@ -216,7 +265,13 @@ def plot_power(path: Path, task: str, data: Mapping[str, Any]) -> None:
             continue
         for s, style in (("models", "-"), ("demo", ":")):
             curve = 100 * np.asarray(entry["power"][s]["_error_curve"])
-            ax.plot(np.arange(len(curve)), curve, style, color=colours(i), label=f"goal {i + 1}, {SCENARIO_LABELS[s]}")
+            ax.plot(
+                np.arange(len(curve)),
+                curve,
+                style,
+                color=colours(i),
+                label=f"goal {i + 1}, {SCENARIO_LABELS[s]}",
+            )
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
     ax.set_yscale("log")
     ax.set_xlabel("PoWER iteration (episode)")

@@ -48,10 +48,10 @@ from .rewards import (
 from .rollout import DMPRollout
 
 __all__ = [
+    "POWER_VARIANTS",
     "DMPRollout",
     "JointGoalReward",
     "ObstacleReward",
-    "POWER_VARIANTS",
     "PowerHistory",
     "PowerResult",
     "SearchProblem",

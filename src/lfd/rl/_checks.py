@@ -37,7 +37,9 @@ def as_finite_array(
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
     if shape is not None:
-        if array.ndim != len(shape) or any(want is not None and got != want for got, want in zip(array.shape, shape)):
+        if array.ndim != len(shape) or any(
+            want is not None and got != want for got, want in zip(array.shape, shape)
+        ):
             wanted = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
             raise ValueError(f"{name} must have shape {wanted}, got {array.shape}")
     elif ndim is not None and array.ndim != ndim:

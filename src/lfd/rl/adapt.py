@@ -120,13 +120,17 @@ def adapt_to_goal(
             raise ValueError("robot is required for a task-space goal")
         target = as_finite_array(goal, "goal")
         if target.shape not in ((3,), (4, 4)):
-            raise ValueError(f"goal must be a (3,) position or a (4, 4) pose in task space, got shape {target.shape}")
+            raise ValueError(
+                f"goal must be a (3,) position or a (4, 4) pose in task space, got shape {target.shape}"
+            )
         joint_goal = goal_configuration(robot, target, dmp.goal_)
         reward = TaskGoalReward(robot, target if target.shape == (3,) else target[:3, 3], w1)
     return power(dmp, reward, goal=joint_goal, tol=tol, sigma=sigma, sigma_goal=sigma_goal, **power_options)
 
 
-def refine(robot, t, q, goal, n_basis: int = 20, w1: float = 0.9, seed: int = 0, **power_options) -> PowerResult:
+def refine(
+    robot, t, q, goal, n_basis: int = 20, w1: float = 0.9, seed: int = 0, **power_options
+) -> PowerResult:
     """Fit a DMP (``n_basis`` per joint) to ``q (T, n)`` at times ``t (T,)`` and refine it
     with PoWER (weights and goal) towards the end-effector position ``goal (3,)`` (m).
 

@@ -23,7 +23,7 @@ import numpy as np
 from ._checks import check_float
 from .problem import PowerResult, Recorder, SearchProblem, check_common
 
-__all__ = ["cmaes", "cma_parameters"]
+__all__ = ["cma_parameters", "cmaes"]
 
 
 def cma_parameters(n: int, popsize: int) -> dict:
@@ -121,11 +121,17 @@ def cmaes(
         inv_sqrt_y = eigvecs @ ((eigvecs.T @ y_w) / sqrt_vals)  # C^-1/2 y_w
         p_sigma = (1 - p["cs"]) * p_sigma + math.sqrt(p["cs"] * (2 - p["cs"]) * p["mueff"]) * inv_sqrt_y
         norm_ps = np.linalg.norm(p_sigma)
-        h_sigma = norm_ps / math.sqrt(1 - (1 - p["cs"]) ** (2 * evaluations / popsize)) / p["chi_n"] < 1.4 + 2 / (n + 1)
+        h_sigma = norm_ps / math.sqrt(1 - (1 - p["cs"]) ** (2 * evaluations / popsize)) / p[
+            "chi_n"
+        ] < 1.4 + 2 / (n + 1)
         p_c = (1 - p["cc"]) * p_c + h_sigma * math.sqrt(p["cc"] * (2 - p["cc"]) * p["mueff"]) * y_w
         rank_mu = (y[order].T * p["weights"]) @ y[order]
         delta_h = (1 - h_sigma) * p["cc"] * (2 - p["cc"])
-        cov = ((1 - p["c1"] - p["cmu"]) * cov + p["c1"] * (np.outer(p_c, p_c) + delta_h * cov) + p["cmu"] * rank_mu)
+        cov = (
+            (1 - p["c1"] - p["cmu"]) * cov
+            + p["c1"] * (np.outer(p_c, p_c) + delta_h * cov)
+            + p["cmu"] * rank_mu
+        )
         sigma *= math.exp((p["cs"] / p["damps"]) * (norm_ps / p["chi_n"] - 1))
         recorder.policy(theta0 + mean / scale, returns, sigma / sigma0)
     return recorder.result(iteration)

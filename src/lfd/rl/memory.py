@@ -35,7 +35,9 @@ def keep_best(params, returns, new_params, new_returns, m: int) -> tuple[np.ndar
     """
     m = check_int(m, "m", minimum=1)
     params = np.concatenate([np.asarray(params, dtype=np.float64), np.asarray(new_params, dtype=np.float64)])
-    returns = np.concatenate([np.asarray(returns, dtype=np.float64), np.asarray(new_returns, dtype=np.float64)])
+    returns = np.concatenate(
+        [np.asarray(returns, dtype=np.float64), np.asarray(new_returns, dtype=np.float64)]
+    )
     if params.ndim != 2 or returns.shape != params.shape[:1]:
         raise ValueError(f"params {params.shape} and returns {returns.shape} must be (N, P) and (N,)")
     order = np.argsort(-returns, kind="stable")[:m]

@@ -82,7 +82,9 @@ def pibb(
         _, returns = recorder.samples(theta + eps)
         costs = -np.log(np.maximum(returns, 1e-300))
         spread = costs.max() - costs.min()
-        probabilities = np.exp(-eliteness * (costs - costs.min()) / spread) if spread > 0 else np.ones(n_rollouts)
+        probabilities = (
+            np.exp(-eliteness * (costs - costs.min()) / spread) if spread > 0 else np.ones(n_rollouts)
+        )
         probabilities /= probabilities.sum()
         theta = theta + probabilities @ eps
         variance = np.clip(probabilities @ np.square(eps), low * np.square(std0), high * np.square(std0))

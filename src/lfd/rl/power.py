@@ -273,7 +273,9 @@ def power(
                 relative = np.sqrt(np.clip(ratio, low, high))
             theta = theta + step
         recorder.policy(theta, sample_returns, float(np.sqrt(np.mean(np.square(relative * anneal)))))
-        memory = keep_best(*memory, _row(problem, theta, recorder), np.array([recorder.policy_return]), n_best)
+        memory = keep_best(
+            *memory, _row(problem, theta, recorder), np.array([recorder.policy_return]), n_best
+        )
     return recorder.result(iteration)
 
 

@@ -147,14 +147,20 @@ class SearchProblem:
         if tol is not None:
             tol = check_float(tol, "tol", low=0.0, strict_low=True)
             if self.error is None:
-                raise ValueError("tol needs an error function: pass error=... or a reward with an error method")
+                raise ValueError(
+                    "tol needs an error function: pass error=... or a reward with an error method"
+                )
         self.tol = tol
         self.lower, self.upper = _limits(lower, upper, self.n_dof)
         self.limit_penalty = check_float(limit_penalty, "limit_penalty", low=0.0)
         self.explore_goal = bool(explore_goal)
         self.per_basis = bool(per_basis)
         self.split = self.n_dof * self.n_basis
-        self.theta0 = np.concatenate([self.weights0.ravel(), self.goal0]) if self.explore_goal else self.weights0.ravel()
+        self.theta0 = (
+            np.concatenate([self.weights0.ravel(), self.goal0])
+            if self.explore_goal
+            else self.weights0.ravel()
+        )
         self.size = self.theta0.size
         displacement = np.abs(self.goal0 - self.rollout.y0)
         self.goal_floor = max(GOAL_FLOOR * float(displacement.max(initial=0.0)), 1e-3)
@@ -162,7 +168,11 @@ class SearchProblem:
     def unpack(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(B, P)`` parameters -> weights ``(B, D, K)`` and goals ``(B, D)``."""
         weights = theta[:, : self.split].reshape(-1, self.n_dof, self.n_basis)
-        goals = theta[:, self.split :] if self.explore_goal else np.broadcast_to(self.goal0, (theta.shape[0], self.n_dof))
+        goals = (
+            theta[:, self.split :]
+            if self.explore_goal
+            else np.broadcast_to(self.goal0, (theta.shape[0], self.n_dof))
+        )
         return weights, goals
 
     def goal_of(self, theta: np.ndarray) -> np.ndarray:

@@ -33,12 +33,12 @@ import torch
 from ._checks import as_finite_array, check_float, check_trajectories, to_numpy
 
 __all__ = [
-    "returns_from_distances",
-    "limit_violation",
     "JointGoalReward",
     "ObstacleReward",
     "TaskGoalReward",
     "ViaPointReward",
+    "limit_violation",
+    "returns_from_distances",
 ]
 
 
@@ -222,10 +222,14 @@ class ViaPointReward(_CostReward):
 
     def _distances(self, trajectories: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if trajectories.shape[1] != self.n_steps:
-            raise ValueError(f"trajectories must have T = {self.n_steps} samples, got {trajectories.shape[1]}")
+            raise ValueError(
+                f"trajectories must have T = {self.n_steps} samples, got {trajectories.shape[1]}"
+            )
         i, a = self.index, self.fraction
         at_via = (1.0 - a) * trajectories[:, i] + a * trajectories[:, i + 1]
-        return np.linalg.norm(at_via - self.point, axis=-1), np.linalg.norm(trajectories[:, -1] - self.goal, axis=-1)
+        return np.linalg.norm(at_via - self.point, axis=-1), np.linalg.norm(
+            trajectories[:, -1] - self.goal, axis=-1
+        )
 
     def costs(self, trajectories: np.ndarray) -> np.ndarray:
         """Per-sample costs ``(B, T)``."""
@@ -266,14 +270,18 @@ class ObstacleReward(_CostReward):
         self.goal = as_finite_array(goal, "goal", ndim=1)
         self.n_dof = self.goal.shape[0]
         if points is None and self.centre.shape[0] != self.n_dof:
-            raise ValueError(f"centre must have {self.n_dof} entries in joint space, got {self.centre.shape[0]}")
+            raise ValueError(
+                f"centre must have {self.n_dof} entries in joint space, got {self.centre.shape[0]}"
+            )
         if points is not None and not callable(points):
             raise ValueError(f"points must be callable, got {type(points).__name__}")
         self.points = points
         self.width = check_float(width, "width", low=0.0, strict_low=True)
 
     def _distances(self, trajectories: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        mapped = trajectories if self.points is None else np.asarray(self.points(trajectories), dtype=np.float64)
+        mapped = (
+            trajectories if self.points is None else np.asarray(self.points(trajectories), dtype=np.float64)
+        )
         penetration = np.maximum(self.radius - np.linalg.norm(mapped - self.centre, axis=-1), 0.0)
         return penetration, np.linalg.norm(trajectories[:, -1] - self.goal, axis=-1)
 
@@ -287,7 +295,9 @@ class ObstacleReward(_CostReward):
     def clearance(self, trajectories) -> np.ndarray:
         """Smallest distance to the obstacle centre minus the radius ``(B,)`` (negative: collision)."""
         trajectories = self._check(trajectories)
-        mapped = trajectories if self.points is None else np.asarray(self.points(trajectories), dtype=np.float64)
+        mapped = (
+            trajectories if self.points is None else np.asarray(self.points(trajectories), dtype=np.float64)
+        )
         return np.linalg.norm(mapped - self.centre, axis=-1).min(axis=1) - self.radius
 
     def error(self, trajectories) -> np.ndarray:

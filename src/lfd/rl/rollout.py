@@ -76,8 +76,12 @@ class DMPRollout:
         if not self.goal_scaled and np.abs(far_forced - self.forced).max() > 1e-6 * scale:
             raise ValueError("dmp's rollout is neither goal-scaled nor goal-independent in its weights")
         # one check of the closed form against the DMP's own rollout, at the DMP's parameters
-        expected = np.asarray(dmp.rollout(t=self.t, y0=self.y0, goal=dmp.goal_, weights=dmp.weights_), dtype=np.float64)
-        got = self(np.asarray(dmp.weights_, dtype=np.float64)[None], np.asarray(dmp.goal_, dtype=np.float64)[None])[0]
+        expected = np.asarray(
+            dmp.rollout(t=self.t, y0=self.y0, goal=dmp.goal_, weights=dmp.weights_), dtype=np.float64
+        )
+        got = self(
+            np.asarray(dmp.weights_, dtype=np.float64)[None], np.asarray(dmp.goal_, dtype=np.float64)[None]
+        )[0]
         if not np.allclose(got, expected, rtol=1e-6, atol=1e-6 * (1.0 + np.abs(expected).max())):
             raise ValueError("dmp's rollout is not the linear map DMPRollout assumes (unsupported DMP)")
 

@@ -32,8 +32,8 @@ from .workspace import ReachTest, Workspace
 
 __all__ = [
     "IKResult",
-    "Robot",
     "ReachTest",
+    "Robot",
     "RobotSpec",
     "Workspace",
     "available_robots",

@@ -93,7 +93,9 @@ def wam4_ik_closed_form(position, q3: float = 0.0, robot: Robot | None = None) -
     a, c = _elbow_terms(q4)
     v = np.sin(q3) * a
     radial_sq = (x.square() + y.square())[:, None] - v.square()
-    u = torch.sqrt(radial_sq.clamp_min(0.0)) * torch.tensor([1.0, -1.0, 1.0, -1.0], dtype=p.dtype, device=p.device)
+    u = torch.sqrt(radial_sq.clamp_min(0.0)) * torch.tensor(
+        [1.0, -1.0, 1.0, -1.0], dtype=p.dtype, device=p.device
+    )
     q1 = _wrap(torch.atan2(y, x)[:, None] - torch.atan2(v, u))
     a_cos = np.cos(q3) * a
     q2 = torch.atan2(c * u - a_cos * z[:, None], a_cos * u + c * z[:, None])

@@ -31,7 +31,7 @@ import numpy as np
 from .robot import Robot
 from .spec import RobotSpec, composite_inertial, cylinder_inertia, make_transform, segment_inertials
 
-__all__ = ["available_robots", "load_robot", "WAM4_DH", "WAM4_TOOL_D"]
+__all__ = ["WAM4_DH", "WAM4_TOOL_D", "available_robots", "load_robot"]
 
 _DEG = np.pi / 180.0
 
@@ -46,7 +46,9 @@ def _pr2_right_arm() -> RobotSpec:
     masses = [25.8, 2.75, 6.02, 1.90, 2.58, 0.61, 0.58 + 0.43]
     radii = [0.12, 0.08, 0.06, 0.05, 0.05, 0.04, 0.04]
     x, y, z = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
-    xyz = np.array([(0, -0.188, 0), (0.1, 0, 0), (0, 0, 0), (0.4, 0, 0), (0, 0, 0), (0.321, 0, 0), (0, 0, 0)], float)
+    xyz = np.array(
+        [(0, -0.188, 0), (0.1, 0, 0), (0, 0, 0), (0.4, 0, 0), (0, 0, 0), (0.321, 0, 0), (0, 0, 0)], float
+    )
     axes = np.array([z, y, x, y, x, y, x])
     tool = make_transform((0.18, 0.0, 0.0))
     coms, inertias = segment_inertials(xyz, axes, tool[:3, 3], masses, radii)
@@ -172,7 +174,9 @@ def _human_arm(
         return mass[key], com, cylinder_inertia(mass[key], radius, lengths[key], down)
 
     upper = segment("upper_arm", 0.0, _COM_UPPER_ARM)
-    lower = composite_inertial([segment("forearm", 0.0, _COM_FOREARM), segment("hand", forearm_length, _COM_HAND)])
+    lower = composite_inertial(
+        [segment("forearm", 0.0, _COM_FOREARM), segment("hand", forearm_length, _COM_HAND)]
+    )
     zero = (0.0, np.zeros(3), np.zeros((3, 3)))
     inertials = [zero, zero, upper, lower]
     return RobotSpec(
@@ -190,7 +194,12 @@ def _human_arm(
         link_masses=[m for m, _, _ in inertials],
         link_coms=[c for _, c, _ in inertials],
         link_inertias=[i for _, _, i in inertials],
-        link_radii=[0.05, 0.05, _SEGMENT_RADIUS_FRACTION * upper_arm_length, _SEGMENT_RADIUS_FRACTION * forearm_length],
+        link_radii=[
+            0.05,
+            0.05,
+            _SEGMENT_RADIUS_FRACTION * upper_arm_length,
+            _SEGMENT_RADIUS_FRACTION * forearm_length,
+        ],
         base_transform=np.eye(4),
         tool_transform=make_transform(forearm_length * down),
         home=[0.0, 0.0, 0.0, np.pi / 2],

@@ -69,7 +69,9 @@ def rotation_log(rotation: Tensor) -> Tensor:
     accurate near both 0 and pi.
     """
     r = rotation
-    skew = 0.5 * torch.stack((r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]), dim=1)
+    skew = 0.5 * torch.stack(
+        (r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]), dim=1
+    )
     sin = skew.norm(dim=1)
     cos = 0.5 * (r.diagonal(dim1=1, dim2=2).sum(1) - 1.0)
     angle = torch.atan2(sin, cos)
@@ -177,7 +179,9 @@ def _targets(target) -> tuple[Tensor, Tensor | None]:
     elif t.ndim == 3 and t.shape[1:] == (4, 4):
         pos, rot = t[:, :3, 3], t[:, :3, :3]
     else:
-        raise ValueError(f"target must have shape (B, 4, 4) (pose) or (B, 3) (position), got {tuple(t.shape)}")
+        raise ValueError(
+            f"target must have shape (B, 4, 4) (pose) or (B, 3) (position), got {tuple(t.shape)}"
+        )
     if not bool(torch.isfinite(t).all()):
         raise ValueError("target contains NaN or inf")
     return pos, rot
@@ -218,7 +222,9 @@ def solve_ik(
         residual; no exception. Not differentiable (runs under ``torch.no_grad``).
     """
     if max_iters < 1 or restarts < 0 or restart_batch < 1 or tol_pos <= 0 or tol_rot <= 0:
-        raise ValueError("solve_ik needs max_iters >= 1, restarts >= 0, restart_batch >= 1 and positive tolerances")
+        raise ValueError(
+            "solve_ik needs max_iters >= 1, restarts >= 0, restart_batch >= 1 and positive tolerances"
+        )
     t_pos, t_rot = _targets(target)
     if position_only:
         t_rot = None
@@ -234,7 +240,9 @@ def solve_ik(
     generator = torch.Generator().manual_seed(seed)
     with torch.no_grad():
         best_q = robot.clamp(start).clone()
-        best_err = torch.full((batch, 3 if t_rot is None else 6), torch.inf, dtype=like.dtype, device=like.device)
+        best_err = torch.full(
+            (batch, 3 if t_rot is None else 6), torch.inf, dtype=like.dtype, device=like.device
+        )
         attempts = torch.zeros(batch, dtype=torch.int64, device=like.device)
         pending = torch.arange(batch, device=like.device)
         full, rest = divmod(restarts, restart_batch)
@@ -257,7 +265,11 @@ def solve_ik(
             pending = pending[_score(best_err[pending], tol_pos, tol_rot) > 1.0]
         pos, rot_err = _split_errors(best_err)
     return IKResult(
-        q=best_q, success=(pos <= tol_pos) & (rot_err <= tol_rot), pos_error=pos, rot_error=rot_err, attempts=attempts
+        q=best_q,
+        success=(pos <= tol_pos) & (rot_err <= tol_rot),
+        pos_error=pos,
+        rot_error=rot_err,
+        attempts=attempts,
     )
 
 
@@ -299,13 +311,17 @@ def solve_near(robot: Robot, poses, reference, n_seeds: int = 16, seed: int = 0)
     if poses.ndim != 3 or poses.shape[1:] != (4, 4):
         raise ValueError(f"solve_near: poses must have shape (G, 4, 4), got {tuple(poses.shape)}")
     if ref.shape != (n,):
-        raise ValueError(f"solve_near: reference must have shape ({n},) for robot {robot.name!r}, got {tuple(ref.shape)}")
+        raise ValueError(
+            f"solve_near: reference must have shape ({n},) for robot {robot.name!r}, got {tuple(ref.shape)}"
+        )
     n_targets = poses.shape[0]
     gen = torch.Generator().manual_seed(seed)
     n_near = (n_seeds - 1) // 2
     near = ref + 0.3 * torch.randn(n_targets, n_near, n, generator=gen, dtype=torch.float64)
     uniform = robot.sample_q(n_targets * (n_seeds - 1 - n_near), gen).reshape(n_targets, -1, n)
-    seeds = torch.cat([ref.expand(n_targets, 1, n), robot.clamp(near.reshape(-1, n)).reshape(near.shape), uniform], 1)
+    seeds = torch.cat(
+        [ref.expand(n_targets, 1, n), robot.clamp(near.reshape(-1, n)).reshape(near.shape), uniform], 1
+    )
     targets = poses[:, None].expand(n_targets, n_seeds, 4, 4).reshape(-1, 4, 4)
     result = solve_ik(robot, targets, seeds.reshape(-1, n), restarts=0)
     q = result.q.reshape(n_targets, n_seeds, n)

@@ -219,7 +219,9 @@ class Robot:
         key = (like.device, like.dtype)
         if key not in self._cache:
             tensors = {
-                k: torch.tensor(np.array(v), device=like.device, dtype=torch.bool if v.dtype == bool else like.dtype)
+                k: torch.tensor(
+                    np.array(v), device=like.device, dtype=torch.bool if v.dtype == bool else like.dtype
+                )
                 for k, v in self._numpy_constants.items()
             }
             tensors["next_origins_t"] = tensors["next_origins_t"].unbind(0)
@@ -296,7 +298,9 @@ class Robot:
         """
         q = q if isinstance(q, Tensor) else torch.from_numpy(np.asarray(q, dtype=np.float64))
         if q.ndim == 0 or q.shape[-1] != self.n_dof:
-            raise ValueError(f"q must have shape (..., {self.n_dof}) for robot {self.name!r}, got {tuple(q.shape)}")
+            raise ValueError(
+                f"q must have shape (..., {self.n_dof}) for robot {self.name!r}, got {tuple(q.shape)}"
+            )
         return self.fk(q.reshape(-1, self.n_dof))[:, :3, 3].reshape(*q.shape[:-1], 3)
 
     def _fk_tool(self, q: Tensor) -> Tensor:
@@ -306,7 +310,9 @@ class Robot:
         frames, tool = self._chain(q, keep_frames=True)
         c = self._constants(q)
         batch = q.shape[0]
-        rotations = (c.axis_frames @ frames[:, :3].reshape(self.n_dof, 3, 3 * batch)).view(self.n_dof, 3, 3, batch)
+        rotations = (c.axis_frames @ frames[:, :3].reshape(self.n_dof, 3, 3 * batch)).view(
+            self.n_dof, 3, 3, batch
+        )
         links = torch.cat((rotations, frames[:, 3:]), dim=1)
         return _to_homogeneous(torch.cat((links, tool[None])))
 
@@ -335,7 +341,9 @@ class Robot:
         q = self._batch(q)
         qd, qdd = self._batch(qd, "qd", like=q), self._batch(qdd, "qdd", like=q)
         if qd.shape != q.shape or qdd.shape != q.shape:
-            raise ValueError(f"q, qd and qdd must have the same shape, got {[tuple(x.shape) for x in (q, qd, qdd)]}")
+            raise ValueError(
+                f"q, qd and qdd must have the same shape, got {[tuple(x.shape) for x in (q, qd, qdd)]}"
+            )
         g = torch.as_tensor(gravity, dtype=q.dtype, device=q.device)
         if g.shape != (3,) or not bool(torch.isfinite(g).all()):
             raise ValueError(f"gravity must be 3 finite numbers, got {gravity!r}")
@@ -361,7 +369,9 @@ class Robot:
         ang_acc = torch.cat((alpha_parent, alpha), dim=-1)
         ang_vel = torch.cat((omega_parent, omega), dim=-1)
         offset = torch.cat((step, com), dim=-1)
-        centripetal = ang_vel * (ang_vel * offset).sum(1, keepdim=True) - offset * ang_vel.square().sum(1, keepdim=True)
+        centripetal = ang_vel * (ang_vel * offset).sum(1, keepdim=True) - offset * ang_vel.square().sum(
+            1, keepdim=True
+        )
         transport, spin = (_cross(ang_acc, offset) + centripetal).tensor_split([batch], dim=-1)
         acc_com = _mix(c.prefix_sums[:n], transport) - g[:, None] + spin
 

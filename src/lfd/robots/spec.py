@@ -69,7 +69,9 @@ def matrix_to_rpy(rotation: np.ndarray) -> np.ndarray:
     return np.array([np.arctan2(m[2, 1], m[2, 2]), pitch, np.arctan2(m[1, 0], m[0, 0])])
 
 
-def make_transform(xyz: Sequence[float] = (0.0, 0.0, 0.0), rpy: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+def make_transform(
+    xyz: Sequence[float] = (0.0, 0.0, 0.0), rpy: Sequence[float] = (0.0, 0.0, 0.0)
+) -> np.ndarray:
     """Homogeneous transform (4, 4) ``Trans(xyz) @ Rot(rpy)`` as in a URDF ``<origin>``."""
     t = np.eye(4)
     t[:3, :3] = rpy_to_matrix(rpy)
@@ -85,7 +87,9 @@ def _rot_z(angle: float) -> np.ndarray:
     return make_transform(rpy=(0.0, 0.0, angle))
 
 
-def dh_transform(alpha: float, a: float, d: float, theta: float, convention: DHConvention = "standard") -> np.ndarray:
+def dh_transform(
+    alpha: float, a: float, d: float, theta: float, convention: DHConvention = "standard"
+) -> np.ndarray:
     """One Denavit-Hartenberg link transform (4, 4).
 
     ``standard``: ``Rz(theta) Tz(d) Tx(a) Rx(alpha)``;
@@ -124,7 +128,9 @@ def cylinder_inertia(mass: float, radius: float, length: float, direction: Seque
     return transverse * np.eye(3) + (axial - transverse) * np.outer(u, u)
 
 
-def composite_inertial(parts: Sequence[tuple[float, np.ndarray, np.ndarray]]) -> tuple[float, np.ndarray, np.ndarray]:
+def composite_inertial(
+    parts: Sequence[tuple[float, np.ndarray, np.ndarray]],
+) -> tuple[float, np.ndarray, np.ndarray]:
     """Combine rigidly joined bodies ``(mass, com (3,), inertia about com (3, 3))``.
 
     Returns the total ``(mass, com, inertia about the combined com)`` by the
@@ -186,7 +192,9 @@ def _set(spec: RobotSpec, field: str, value) -> None:
 
 def _check_rigid(transform: np.ndarray, name: str) -> None:
     rot = transform[:3, :3]
-    if not (np.allclose(rot @ rot.T, np.eye(3), atol=1e-9) and np.isclose(np.linalg.det(rot), 1.0, atol=1e-9)):
+    if not (
+        np.allclose(rot @ rot.T, np.eye(3), atol=1e-9) and np.isclose(np.linalg.det(rot), 1.0, atol=1e-9)
+    ):
         raise ValueError(f"RobotSpec.{name} must be a rigid transform (orthonormal rotation, det +1)")
     if not np.allclose(transform[3], [0.0, 0.0, 0.0, 1.0]):
         raise ValueError(f"RobotSpec.{name} bottom row must be [0, 0, 0, 1]")
@@ -273,7 +281,9 @@ class RobotSpec:
             raise ValueError("RobotSpec.joint_axis rows must be non-zero")
         _set(self, "joint_axis", _frozen_array(self.joint_axis / norms[:, None], (n, 3), "joint_axis"))
         if np.any(self.lower >= self.upper):
-            raise ValueError(f"RobotSpec needs lower < upper for every joint, got {self.lower} and {self.upper}")
+            raise ValueError(
+                f"RobotSpec needs lower < upper for every joint, got {self.lower} and {self.upper}"
+            )
         if np.any(self.upper - self.lower > 2 * np.pi + 1e-9, where=self.continuous):
             raise ValueError("RobotSpec continuous joints must span at most 2*pi between lower and upper")
         if np.any(self.home < self.lower) or np.any(self.home > self.upper):
@@ -356,7 +366,9 @@ class RobotSpec:
         return cls(
             name=name,
             joint_names=tuple(joint_names),
-            link_names=tuple(link_names) if link_names is not None else tuple(f"{j}_link" for j in joint_names),
+            link_names=tuple(link_names)
+            if link_names is not None
+            else tuple(f"{j}_link" for j in joint_names),
             joint_xyz=xyz,
             joint_rpy=rpy,
             joint_axis=axis,

@@ -90,7 +90,9 @@ def spec_to_urdf(spec: RobotSpec) -> str:
         '<?xml version="1.0"?>',
         f"<robot name={quoteattr(spec.name)}>",
         '  <material name="lfd_grey"><color rgba="0.6 0.6 0.65 1"/></material>',
-        _link("base_link", zero_inertial, _shapes(first_origin[:3, 3], spec.link_radii[0], with_sphere=False)),
+        _link(
+            "base_link", zero_inertial, _shapes(first_origin[:3, 3], spec.link_radii[0], with_sphere=False)
+        ),
     ]
     for i in range(n):
         parent = "base_link" if i == 0 else spec.link_names[i - 1]
@@ -104,7 +106,9 @@ def spec_to_urdf(spec: RobotSpec) -> str:
             '    <dynamics damping="0" friction="0"/>\n  </joint>'
         )
         inertial = _inertial(spec.link_masses[i], spec.link_coms[i], spec.link_inertias[i])
-        parts.append(_link(spec.link_names[i], inertial, _shapes(segments[i], spec.link_radii[i], with_sphere=True)))
+        parts.append(
+            _link(spec.link_names[i], inertial, _shapes(segments[i], spec.link_radii[i], with_sphere=True))
+        )
     parts += [
         f'  <joint name="tool_joint" type="fixed">\n    <parent link={quoteattr(spec.link_names[-1])}/>\n'
         f'    <child link="tool_link"/>\n    {_origin(spec.tool_transform)}\n  </joint>',

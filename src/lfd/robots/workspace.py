@@ -69,9 +69,13 @@ class Workspace:
         seed: seed of the sampling and of the IK seeds.
     """
 
-    def __init__(self, robot: Robot, shoulder_link: int = 1, n_samples: int = 100_000, n_seeds: int = 32, seed: int = 0) -> None:
+    def __init__(
+        self, robot: Robot, shoulder_link: int = 1, n_samples: int = 100_000, n_seeds: int = 32, seed: int = 0
+    ) -> None:
         if not 0 <= shoulder_link < robot.n_dof:
-            raise ValueError(f"Workspace.shoulder_link: expected 0 <= link < {robot.n_dof}, got {shoulder_link}")
+            raise ValueError(
+                f"Workspace.shoulder_link: expected 0 <= link < {robot.n_dof}, got {shoulder_link}"
+            )
         if n_samples < 1 or n_seeds < 1:
             raise ValueError(f"Workspace: need n_samples >= 1 and n_seeds >= 1, got {n_samples}, {n_seeds}")
         self.robot, self.n_seeds, self.seed = robot, n_seeds, seed
@@ -89,7 +93,12 @@ class Workspace:
             raise ValueError(f"Workspace.test: goal must be 3 finite numbers (m), got {goal!r}")
         distance = float(np.linalg.norm(self.shoulders - goal, axis=1).min())
         home = self.robot.home.numpy()
-        result = self.robot.ik(torch.from_numpy(goal[None]).expand(self.n_seeds, 3), q0=self._seeds(home), position_only=True, restarts=0)
+        result = self.robot.ik(
+            torch.from_numpy(goal[None]).expand(self.n_seeds, 3),
+            q0=self._seeds(home),
+            position_only=True,
+            restarts=0,
+        )
         position_ok = bool(result.success.any())
         pose_ok = False
         if rotation is not None:
@@ -97,7 +106,11 @@ class Workspace:
             pose[:3, :3], pose[:3, 3] = rotation, goal
             pose_ok = bool(solve_near(self.robot, pose[None], home, self.n_seeds, self.seed).success[0])
         if position_ok:
-            reason = "reachable" if pose_ok or rotation is None else "reachable (position only; no IK solution with the task orientation)"
+            reason = (
+                "reachable"
+                if pose_ok or rotation is None
+                else "reachable (position only; no IK solution with the task orientation)"
+            )
         elif distance > self.max_reach:
             reason = f"unreachable: {distance:.3f} m from the shoulder > {self.max_reach:.3f} m maximum reach"
         else:

@@ -27,13 +27,41 @@ from lfd._lazy import exports, lazy_getattr
 
 _EXPORTS = exports(
     {
-        "approach": ["SHOULDER_XY", "TABLE_Z", "ApproachPlan", "box_grasp_yaw", "plan_approach", "side_grasp_height"],
+        "approach": [
+            "SHOULDER_XY",
+            "TABLE_Z",
+            "ApproachPlan",
+            "box_grasp_yaw",
+            "plan_approach",
+            "side_grasp_height",
+        ],
         "arms": ["ARMS", "KinematicArm", "PyBulletArm", "replay_in_pybullet"],
         "camera": ["Camera", "look_at", "perspective", "project_points"],
-        "expert": ["DISCARD_REASONS", "DemoDiscarded", "Demonstration", "ScriptedExpert", "run_demonstration"],
-        "objects": ["SHAPE_DIMS", "SHAPES", "ObjectSpec", "Placement", "PlacementRanges", "sample_object", "sample_objects"],
+        "expert": [
+            "DISCARD_REASONS",
+            "DemoDiscarded",
+            "Demonstration",
+            "ScriptedExpert",
+            "run_demonstration",
+        ],
+        "objects": [
+            "SHAPE_DIMS",
+            "SHAPES",
+            "ObjectSpec",
+            "Placement",
+            "PlacementRanges",
+            "sample_object",
+            "sample_objects",
+        ],
         "scene": ["ReachScene"],
-        "trajectory": ["follow_paths", "quintic_coefficients", "smoothstep", "via_quintic", "via_velocities", "warp_to_goals"],
+        "trajectory": [
+            "follow_paths",
+            "quintic_coefficients",
+            "smoothstep",
+            "via_quintic",
+            "via_velocities",
+            "warp_to_goals",
+        ],
     }
 )
 __all__ = sorted(_EXPORTS)
@@ -44,6 +72,21 @@ if TYPE_CHECKING:
     from .arms import ARMS, KinematicArm, PyBulletArm, replay_in_pybullet
     from .camera import Camera, look_at, perspective, project_points
     from .expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert, run_demonstration
-    from .objects import SHAPE_DIMS, SHAPES, ObjectSpec, Placement, PlacementRanges, sample_object, sample_objects
+    from .objects import (
+        SHAPE_DIMS,
+        SHAPES,
+        ObjectSpec,
+        Placement,
+        PlacementRanges,
+        sample_object,
+        sample_objects,
+    )
     from .scene import ReachScene
-    from .trajectory import follow_paths, quintic_coefficients, smoothstep, via_quintic, via_velocities, warp_to_goals
+    from .trajectory import (
+        follow_paths,
+        quintic_coefficients,
+        smoothstep,
+        via_quintic,
+        via_velocities,
+        warp_to_goals,
+    )

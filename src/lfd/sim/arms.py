@@ -96,7 +96,9 @@ LEGACY_PHYSICS = {"max_force": 300.0, "limit_velocity": False, "self_collision":
 ARMS = {"kinematic": KinematicArm, "pybullet": PyBulletArm}
 
 
-def replay_in_pybullet(robot, trajectory: np.ndarray, dt: float, substeps: int = 10, settle_steps: int = 25) -> np.ndarray:
+def replay_in_pybullet(
+    robot, trajectory: np.ndarray, dt: float, substeps: int = 10, settle_steps: int = 25
+) -> np.ndarray:
     """Track ``trajectory (T, n)`` (rad, one sample per ``dt`` s) in PyBullet with position
     control and velocity feed-forward, hold the last sample for ``settle_steps`` periods,
     and return the final tool position ``(3,)`` (m, robot world frame)."""

@@ -48,7 +48,9 @@ def depth_to_mm(depth_m: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(np.asarray(depth_m, dtype=np.float64) * 1000.0), 0, 65535).astype(np.uint16)
 
 
-def rgbd_image(rgb: np.ndarray, depth_mm: np.ndarray, relief_reference: np.ndarray | None = None) -> np.ndarray:
+def rgbd_image(
+    rgb: np.ndarray, depth_mm: np.ndarray, relief_reference: np.ndarray | None = None
+) -> np.ndarray:
     """RGB-D policy input: uint8 ``(..., H, W, 3)`` colour and uint16 ``(..., H, W)`` depth
     (mm) -> uint8 ``(..., H, W, 4)``, the 4th channel the depth mapped linearly from
     :data:`DEPTH_RANGE_M` onto 0..255 (clipped). Datasets and closed-loop evaluation both
@@ -74,7 +76,9 @@ def rgbd_image(rgb: np.ndarray, depth_mm: np.ndarray, relief_reference: np.ndarr
     if relief_reference is not None:
         reference = np.asarray(relief_reference, dtype=np.float64)
         if reference.shape != depth_mm.shape[-2:]:
-            raise ValueError(f"rgbd_image.relief_reference: expected (H, W) = {depth_mm.shape[-2:]}, got {reference.shape}")
+            raise ValueError(
+                f"rgbd_image.relief_reference: expected (H, W) = {depth_mm.shape[-2:]}, got {reference.shape}"
+            )
         relief = (reference - depth_mm.astype(np.float64) - RELIEF_DEADBAND_MM) / RELIEF_RANGE_MM
         channel = np.rint(np.clip(relief, 0.0, 1.0) * 255.0).astype(np.uint8)
         return np.concatenate([rgb, channel[..., None]], axis=-1)
@@ -84,7 +88,9 @@ def rgbd_image(rgb: np.ndarray, depth_mm: np.ndarray, relief_reference: np.ndarr
     return np.concatenate([rgb, channel[..., None]], axis=-1)
 
 
-def plane_depth_mm(view: np.ndarray, projection: np.ndarray, width: int, height: int, plane_z: float) -> np.ndarray:
+def plane_depth_mm(
+    view: np.ndarray, projection: np.ndarray, width: int, height: int, plane_z: float
+) -> np.ndarray:
     """``(height, width)`` float64: the depth (mm, along the optical axis) at which the ray
     through each pixel's centre meets the horizontal plane ``z = plane_z`` of the frame
     ``view`` acts on (for :class:`Camera`, the torso frame); 0 where the ray never meets it
@@ -92,11 +98,15 @@ def plane_depth_mm(view: np.ndarray, projection: np.ndarray, width: int, height:
     (:func:`look_at`, :func:`perspective`), as the datasets record them."""
     view, projection = np.asarray(view, dtype=np.float64), np.asarray(projection, dtype=np.float64)
     if view.shape != (4, 4) or projection.shape != (4, 4):
-        raise ValueError(f"plane_depth_mm: view and projection must be (4, 4), got {view.shape} and {projection.shape}")
+        raise ValueError(
+            f"plane_depth_mm: view and projection must be (4, 4), got {view.shape} and {projection.shape}"
+        )
     u = (np.arange(width) + 0.5) / width * 2 - 1
     v = 1 - (np.arange(height) + 0.5) / height * 2
     ones = np.ones((height, width))
-    ray_cam = np.stack([u[None, :] / projection[0, 0] * ones, v[:, None] / projection[1, 1] * ones, -ones], axis=-1)
+    ray_cam = np.stack(
+        [u[None, :] / projection[0, 0] * ones, v[:, None] / projection[1, 1] * ones, -ones], axis=-1
+    )
     ray = ray_cam @ view[:3, :3]  # camera -> frame (the rotation's transpose); depth 1 along the axis
     eye = -view[:3, :3].T @ view[:3, 3]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -140,7 +150,9 @@ def to_pybullet(matrix: np.ndarray) -> list[float]:
     return [float(v) for v in np.asarray(matrix).T.reshape(-1)]
 
 
-def project_points(points: np.ndarray, view: np.ndarray, proj: np.ndarray, width: int, height: int) -> np.ndarray:
+def project_points(
+    points: np.ndarray, view: np.ndarray, proj: np.ndarray, width: int, height: int
+) -> np.ndarray:
     """Pixel coordinates ``(..., 2)`` of ``points (..., 3)`` (given in the frame ``view``
     was built in). Points behind the camera give NaN."""
     pts = np.asarray(points, dtype=np.float64)
@@ -173,8 +185,15 @@ class Camera:
     far: float = 4.0
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.width, int) and isinstance(self.height, int) and self.width > 0 and self.height > 0):
-            raise ValueError(f"Camera: width and height must be positive ints, got {self.width}x{self.height}")
+        if not (
+            isinstance(self.width, int)
+            and isinstance(self.height, int)
+            and self.width > 0
+            and self.height > 0
+        ):
+            raise ValueError(
+                f"Camera: width and height must be positive ints, got {self.width}x{self.height}"
+            )
         if not 0 < self.fov_deg < 180:
             raise ValueError(f"Camera.fov_deg: must lie in (0, 180), got {self.fov_deg}")
         if not 0 < self.near < self.far:

@@ -143,7 +143,9 @@ class ScriptedExpert:
             posture = np.radians(NOMINAL_POSTURES_DEG[mode])
             seed = self._solve(plan_approach(obj, _REFERENCE_PLACEMENT).pregrasp_pose, posture)
             if seed is None:
-                raise RuntimeError(f"ScriptedExpert: no IK solution near the nominal {mode} posture for {robot!r}")
+                raise RuntimeError(
+                    f"ScriptedExpert: no IK solution near the nominal {mode} posture for {robot!r}"
+                )
             self.seeds[mode] = seed
 
     @property
@@ -251,6 +253,10 @@ def run_demonstration(
     """One demonstration of ``spec`` at ``placement`` by a :class:`ScriptedExpert` for
     ``scene.robot`` (see :meth:`ScriptedExpert.run`)."""
     expert = ScriptedExpert(
-        scene.robot, duration=duration, n_steps=n_steps, approach_fraction=approach_fraction, tolerance=tolerance
+        scene.robot,
+        duration=duration,
+        n_steps=n_steps,
+        approach_fraction=approach_fraction,
+        tolerance=tolerance,
     )
     return expert.run(scene, spec, placement)

@@ -93,7 +93,11 @@ class ObjectSpec:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ObjectSpec:
         return cls(
-            shape=d["shape"], dims=tuple(d["dims"]), rgba=tuple(d["rgba"]), mass=d["mass"], name=d.get("name", "")
+            shape=d["shape"],
+            dims=tuple(d["dims"]),
+            rgba=tuple(d["rgba"]),
+            mass=d["mass"],
+            name=d.get("name", ""),
         )
 
 
@@ -131,7 +135,9 @@ def sample_object(rng: np.random.Generator, shape: str, name: str = "") -> Objec
         rgb = _hsv_to_rgb(float(hue), float(sat), float(val))
         if math.dist(rgb, TABLE_RGB) >= MIN_TABLE_CONTRAST:
             break
-    return ObjectSpec(shape=shape, dims=dims, rgba=(*rgb, 1.0), mass=float(rng.uniform(*MASS_RANGE)), name=name)
+    return ObjectSpec(
+        shape=shape, dims=dims, rgba=(*rgb, 1.0), mass=float(rng.uniform(*MASS_RANGE)), name=name
+    )
 
 
 def sample_objects(

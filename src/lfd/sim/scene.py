@@ -106,7 +106,9 @@ class ReachScene:
         if not (isinstance(image_size, int) and image_size > 0):
             raise ValueError(f"ReachScene.image_size: expected a positive int, got {image_size!r}")
         if not (control_dt > 0 and isinstance(substeps, int) and substeps > 0):
-            raise ValueError(f"ReachScene: need control_dt > 0 and substeps >= 1, got {control_dt}, {substeps}")
+            raise ValueError(
+                f"ReachScene: need control_dt > 0 and substeps >= 1, got {control_dt}, {substeps}"
+            )
         if not table_z < 0 < torso_height + table_z:
             raise ValueError(
                 f"ReachScene: table top must lie below the torso and above the floor, got table_z={table_z}"
@@ -120,7 +122,9 @@ class ReachScene:
         self.n_joints = len(robot.joint_names)
         efforts = np.asarray(getattr(robot, "effort_limits", np.full(self.n_joints, 300.0)), dtype=np.float64)
         self.forces = np.full(self.n_joints, float(max_force)) if max_force is not None else efforts
-        speeds = np.asarray(getattr(robot, "velocity_limits", np.full(self.n_joints, np.inf)), dtype=np.float64)
+        speeds = np.asarray(
+            getattr(robot, "velocity_limits", np.full(self.n_joints, np.inf)), dtype=np.float64
+        )
         self.max_velocities = speeds if limit_velocity else np.full(self.n_joints, np.inf)
         self.self_collision = bool(self_collision)
         self.position_gain = float(position_gain)
@@ -144,7 +148,10 @@ class ReachScene:
 
     # ------------------------------------------------------------------ world building
     def reset(
-        self, object_spec: ObjectSpec | None = None, placement: Placement | None = None, q: np.ndarray | None = None
+        self,
+        object_spec: ObjectSpec | None = None,
+        placement: Placement | None = None,
+        q: np.ndarray | None = None,
     ) -> None:
         """Rebuild the world: floor, table, the arm at ``q`` (default ``robot.home``) at
         rest, holding that pose, and ``object_spec`` standing on the table at
@@ -161,11 +168,17 @@ class ReachScene:
             basePosition=self.base_to_world[:3, 3].tolist(),
             useFixedBase=True,
             flags=p.URDF_USE_INERTIA_FROM_FILE
-            | ((p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT) if self.self_collision else 0),
+            | (
+                (p.URDF_USE_SELF_COLLISION | p.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT)
+                if self.self_collision
+                else 0
+            ),
             physicsClientId=c,
         )
         if p.getNumJoints(self.robot_id, physicsClientId=c) != self.n_joints + 1:
-            raise ValueError(f"ReachScene: URDF must have {self.n_joints} movable joints then one fixed tool joint")
+            raise ValueError(
+                f"ReachScene: URDF must have {self.n_joints} movable joints then one fixed tool joint"
+            )
         if self.self_collision:
             self._filter_overlapping_links()
         self.set_joints(self.robot.home if q is None else q)
@@ -193,7 +206,9 @@ class ReachScene:
                 for j in range(self.n_joints):
                     p.resetJointState(rid, j, float(sample[j]), 0.0, physicsClientId=c)
                 for a, b in pairs:
-                    counts[(a, b)] += bool(p.getClosestPoints(rid, rid, 0.0, linkIndexA=a, linkIndexB=b, physicsClientId=c))
+                    counts[(a, b)] += bool(
+                        p.getClosestPoints(rid, rid, 0.0, linkIndexA=a, linkIndexB=b, physicsClientId=c)
+                    )
             _OVERLAPPING_PAIRS[key] = [pair for pair, n in counts.items() if n >= share * n_samples]
         self.overlapping_links = _OVERLAPPING_PAIRS[key]
         for a, b in self.overlapping_links:
@@ -212,7 +227,10 @@ class ReachScene:
         ):
             col = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client)
             vis = p.createVisualShape(
-                p.GEOM_BOX, halfExtents=half, rgbaColor=rgba if visible else (0, 0, 0, 0), physicsClientId=client
+                p.GEOM_BOX,
+                halfExtents=half,
+                rgbaColor=rgba if visible else (0, 0, 0, 0),
+                physicsClientId=client,
             )
             ids.append(p.createMultiBody(0.0, col, vis, basePosition=centre, physicsClientId=client))
         return ids[1]
@@ -241,7 +259,11 @@ class ReachScene:
             physicsClientId=c,
         )
         p.changeDynamics(
-            body, -1, rollingFriction=OBJECT_ROLLING_FRICTION, spinningFriction=OBJECT_ROLLING_FRICTION, physicsClientId=c
+            body,
+            -1,
+            rollingFriction=OBJECT_ROLLING_FRICTION,
+            spinningFriction=OBJECT_ROLLING_FRICTION,
+            physicsClientId=c,
         )
         return body
 
@@ -261,7 +283,11 @@ class ReachScene:
         """Position control with velocity feed-forward, within the effort and velocity limits."""
         qd = np.clip(qd, -self.max_velocities, self.max_velocities)
         for j in range(self.n_joints):
-            kw = {} if not np.isfinite(self.max_velocities[j]) else {"maxVelocity": float(self.max_velocities[j])}
+            kw = (
+                {}
+                if not np.isfinite(self.max_velocities[j])
+                else {"maxVelocity": float(self.max_velocities[j])}
+            )
             p.setJointMotorControl2(
                 self.robot_id,
                 j,
@@ -280,7 +306,9 @@ class ReachScene:
         rad/s (clipped to the velocity limits), within the effort limits, for
         ``control_dt`` seconds. The velocity policy's actuation: the joints move at the
         command, as its labels are the demonstrations' joint motion per control period."""
-        qd = np.clip(_as_vector(qd_target, self.n_joints, "qd_target"), -self.max_velocities, self.max_velocities)
+        qd = np.clip(
+            _as_vector(qd_target, self.n_joints, "qd_target"), -self.max_velocities, self.max_velocities
+        )
         p.setJointMotorControlArray(
             self.robot_id,
             list(range(self.n_joints)),
@@ -296,7 +324,11 @@ class ReachScene:
         """One control step: position control towards ``q_target (n_joints,)`` (with
         velocity feed-forward ``qd_target``, default zero) for ``control_dt`` seconds."""
         q_target = _as_vector(q_target, self.n_joints, "q_target")
-        qd_target = np.zeros(self.n_joints) if qd_target is None else _as_vector(qd_target, self.n_joints, "qd_target")
+        qd_target = (
+            np.zeros(self.n_joints)
+            if qd_target is None
+            else _as_vector(qd_target, self.n_joints, "qd_target")
+        )
         self._command(q_target, qd_target)
         for _ in range(self.substeps):
             p.stepSimulation(physicsClientId=self.client)
@@ -309,7 +341,9 @@ class ReachScene:
 
     def ee_pose(self) -> np.ndarray:
         """``(4, 4)`` tool-frame pose in the torso frame."""
-        state = p.getLinkState(self.robot_id, self.n_joints, computeForwardKinematics=True, physicsClientId=self.client)
+        state = p.getLinkState(
+            self.robot_id, self.n_joints, computeForwardKinematics=True, physicsClientId=self.client
+        )
         return self._from_world(pose_matrix(state[4], state[5]))
 
     def object_pose(self) -> np.ndarray:
@@ -341,7 +375,11 @@ class ReachScene:
         ``(rgb, depth)``, depth ``(H, W)`` uint16 mm along the optical axis (one render call;
         :func:`lfd.sim.camera.rgbd_image` turns the pair into a policy's RGB-D input)."""
         return self.camera.render(
-            self.client, self.base_to_world, self._backdrop, backdrop_depth=self._backdrop_depth, with_depth=with_depth
+            self.client,
+            self.base_to_world,
+            self._backdrop,
+            backdrop_depth=self._backdrop_depth,
+            with_depth=with_depth,
         )
 
     def render_wrist(self) -> np.ndarray:
@@ -358,7 +396,9 @@ class ReachScene:
             height=self.image_size,
             near=0.02,
         )
-        return cam.render(self.client, self.base_to_world, cam.render(self._backdrop_client, self.base_to_world))
+        return cam.render(
+            self.client, self.base_to_world, cam.render(self._backdrop_client, self.base_to_world)
+        )
 
     # ------------------------------------------------------------------ lifetime
     def close(self) -> None:

@@ -11,11 +11,24 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["follow_paths", "quintic_coefficients", "smoothstep", "via_quintic", "via_velocities", "warp_to_goals"]
+__all__ = [
+    "follow_paths",
+    "quintic_coefficients",
+    "smoothstep",
+    "via_quintic",
+    "via_velocities",
+    "warp_to_goals",
+]
 
 
 def quintic_coefficients(
-    q0: np.ndarray, q1: np.ndarray, v0: np.ndarray, v1: np.ndarray, a0: np.ndarray, a1: np.ndarray, duration: float
+    q0: np.ndarray,
+    q1: np.ndarray,
+    v0: np.ndarray,
+    v1: np.ndarray,
+    a0: np.ndarray,
+    a1: np.ndarray,
+    duration: float,
 ) -> np.ndarray:
     """Coefficients ``(6, D)`` (ascending powers of time) of the quintic going from
     position/velocity/acceleration ``(q0, v0, a0)`` at ``t = 0`` to ``(q1, v1, a1)`` at
@@ -51,7 +64,9 @@ def via_velocities(times: np.ndarray, points: np.ndarray) -> np.ndarray:
     return vel
 
 
-def via_quintic(t: np.ndarray, times: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def via_quintic(
+    t: np.ndarray, times: np.ndarray, points: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Piecewise-quintic trajectory through knots ``points (K, D)`` at ``times (K,)``
     (strictly increasing, K >= 2), at rest (zero velocity and acceleration) at both ends,
     zero acceleration and :func:`via_velocities` at the via points (C2-continuous).
@@ -74,7 +89,9 @@ def via_quintic(t: np.ndarray, times: np.ndarray, points: np.ndarray) -> tuple[n
     segment = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
     for k in range(len(times) - 1):
         mask = segment == k
-        coeffs = quintic_coefficients(points[k], points[k + 1], vel[k], vel[k + 1], zero, zero, times[k + 1] - times[k])
+        coeffs = quintic_coefficients(
+            points[k], points[k + 1], vel[k], vel[k + 1], zero, zero, times[k + 1] - times[k]
+        )
         local = t[mask] - times[k]
         q[mask], qd[mask], qdd[mask] = (_eval_poly(coeffs, local, order) for order in range(3))
     return q, qd, qdd
@@ -100,7 +117,9 @@ def warp_to_goals(demo_q: np.ndarray, goal_q: np.ndarray, orders: Sequence[int])
     return demo_q[None] + blend[:, :, None] * (goal_q - demo_q[-1])[:, None, :]
 
 
-def follow_paths(paths: np.ndarray, time_constant: float, dt: float, n_steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def follow_paths(
+    paths: np.ndarray, time_constant: float, dt: float, n_steps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Follow each path with exponential progress: ``sigma(t) = 1 - exp(-t / time_constant)``
     of its joint-space arc length, so the velocity is the tangent times ``(1 - sigma) / time_constant``.
 
@@ -116,7 +135,9 @@ def follow_paths(paths: np.ndarray, time_constant: float, dt: float, n_steps: in
     length = steps.sum(axis=1)
     if np.any(length <= 1e-9):
         raise ValueError("follow_paths: a path has zero length (its goal is its start)")
-    sigma_path = np.concatenate([np.zeros((len(paths), 1)), np.cumsum(steps, axis=1) / length[:, None]], axis=1)
+    sigma_path = np.concatenate(
+        [np.zeros((len(paths), 1)), np.cumsum(steps, axis=1) / length[:, None]], axis=1
+    )
     t = np.arange(n_steps) * dt
     sigma = 1.0 - np.exp(-t / time_constant)  # (N,)
     # Batched segment lookup: offset row g by 2g so one sorted array holds every path.

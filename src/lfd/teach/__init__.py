@@ -19,4 +19,13 @@ Example (runnable)::
 from .scene import Box, Goal, TeachScene, load_scene
 from .session import TEACH_ROBOTS, DragResult, Recording, TeachSession
 
-__all__ = ["TEACH_ROBOTS", "Box", "DragResult", "Goal", "Recording", "TeachScene", "TeachSession", "load_scene"]
+__all__ = [
+    "TEACH_ROBOTS",
+    "Box",
+    "DragResult",
+    "Goal",
+    "Recording",
+    "TeachScene",
+    "TeachSession",
+    "load_scene",
+]

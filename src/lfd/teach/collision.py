@@ -68,7 +68,9 @@ class CollisionChecker:
         margin: clearance (m) below which two shapes count as touching.
     """
 
-    def __init__(self, robot: Robot, obstacles: Iterable[Box] = (), table_z: float | None = None, margin: float = 0.0):
+    def __init__(
+        self, robot: Robot, obstacles: Iterable[Box] = (), table_z: float | None = None, margin: float = 0.0
+    ):
         self.robot = robot
         self.margin = float(margin)
         self.client = p.connect(p.DIRECT)
@@ -101,7 +103,11 @@ class CollisionChecker:
         shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=self.client)
         orientation = p.getQuaternionFromEuler((0.0, 0.0, box.yaw))
         body = p.createMultiBody(
-            0.0, shape, basePosition=box.center.tolist(), baseOrientation=orientation, physicsClientId=self.client
+            0.0,
+            shape,
+            basePosition=box.center.tolist(),
+            baseOrientation=orientation,
+            physicsClientId=self.client,
         )
         self.obstacles.append((body, box))
 
@@ -125,14 +131,20 @@ class CollisionChecker:
     # ------------------------------------------------------------------ queries
     def base_overlaps(self, box: Box) -> bool:
         """True when ``box`` touches the base or the first link (which never leaves it)."""
-        body = next(b for b, bx in self.obstacles if bx is box) if any(bx is box for _, bx in self.obstacles) else None
+        body = (
+            next(b for b, bx in self.obstacles if bx is box)
+            if any(bx is box for _, bx in self.obstacles)
+            else None
+        )
         temp = body is None
         if temp:
             self.add_obstacle(box)
             body = self.obstacles[-1][0]
         try:
             for link in (-1, 0):
-                pts = p.getClosestPoints(self.body, body, self.margin, linkIndexA=link, physicsClientId=self.client)
+                pts = p.getClosestPoints(
+                    self.body, body, self.margin, linkIndexA=link, physicsClientId=self.client
+                )
                 if pts:
                     return True
             return False

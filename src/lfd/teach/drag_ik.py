@@ -80,7 +80,9 @@ def as_rotation(orientation) -> np.ndarray:
             raise ValueError("orientation (3, 3) must be a finite rotation matrix")
         return o
     if o.shape != (4,) or not np.all(np.isfinite(o)) or np.linalg.norm(o) < 1e-9:
-        raise ValueError(f"orientation must be a (3, 3) rotation or a (4,) quaternion (w, x, y, z), got shape {o.shape}")
+        raise ValueError(
+            f"orientation must be a (3, 3) rotation or a (4,) quaternion (w, x, y, z), got shape {o.shape}"
+        )
     w, x, y, z = o / np.linalg.norm(o)
     return np.array(
         [
@@ -133,7 +135,9 @@ class DragIK:
         if wam_q3 not in WAM_Q3_MODES:
             raise ValueError(f"wam_q3 must be one of {WAM_Q3_MODES}, got {wam_q3!r}")
         if not time_budget > 0 or not tol > 0 or not tol_rot > 0 or max_iters < 1 or not max_iter_step > 0:
-            raise ValueError("DragIK needs time_budget > 0, tol > 0, tol_rot > 0, max_iters >= 1, max_iter_step > 0")
+            raise ValueError(
+                "DragIK needs time_budget > 0, tol > 0, tol_rot > 0, max_iters >= 1, max_iter_step > 0"
+            )
         self.robot = robot
         self.kin = ChainKinematics(robot.spec)
         self.time_budget = float(time_budget)
@@ -167,7 +171,9 @@ class DragIK:
         rot = None
         if orientation is not None:
             if self.robot.n_dof < 6:
-                raise ValueError(f"{self.robot.name} has {self.robot.n_dof} joints: it cannot follow an orientation; pass orientation=None")
+                raise ValueError(
+                    f"{self.robot.name} has {self.robot.n_dof} joints: it cannot follow an orientation; pass orientation=None"
+                )
             rot = as_rotation(orientation)
         if self.closed_form and rot is None:
             step = self._closed_form(q0, target)

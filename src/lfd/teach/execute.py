@@ -59,7 +59,9 @@ def execute_joint_trajectory(robot: Robot, t, q, settle: float = 0.5, gravity: f
     q = np.asarray(q, dtype=float)
     n = robot.n_dof
     if t.ndim != 1 or q.shape != (t.shape[0], n) or t.shape[0] < 2:
-        raise ValueError(f"execute_joint_trajectory needs t (T,) and q (T, {n}) with T >= 2, got {t.shape} and {q.shape}")
+        raise ValueError(
+            f"execute_joint_trajectory needs t (T,) and q (T, {n}) with T >= 2, got {t.shape} and {q.shape}"
+        )
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q))) or np.any(np.diff(t) <= 0):
         raise ValueError("execute_joint_trajectory needs finite q and strictly increasing finite t")
     spec = robot.spec
@@ -71,7 +73,9 @@ def execute_joint_trajectory(robot: Robot, t, q, settle: float = 0.5, gravity: f
         os.close(fd)
         try:
             robot.to_urdf(path)
-            body = p.loadURDF(path, useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client)
+            body = p.loadURDF(
+                path, useFixedBase=True, flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=client
+            )
         finally:
             os.unlink(path)
         p.setGravity(0, 0, gravity, physicsClientId=client)

@@ -34,12 +34,19 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd.io.files import write_bytes_atomic, write_npz_atomic
 from lfd.dmp import DMP
+from lfd.io.files import write_bytes_atomic, write_npz_atomic
 
 from .execute import ExecutedPath, execute_joint_trajectory
 
-__all__ = ["RETURNING_FORMULATION", "SendResult", "dmp_options", "export_session", "fit_recording_dmp", "send_session"]
+__all__ = [
+    "RETURNING_FORMULATION",
+    "SendResult",
+    "dmp_options",
+    "export_session",
+    "fit_recording_dmp",
+    "send_session",
+]
 
 #: DMP formulation used for exported demonstrations, when lfd.dmp.DMP supports one.
 RETURNING_FORMULATION = "pastor"
@@ -60,7 +67,9 @@ def fit_recording_dmp(rec, n_samples: int = 200, n_basis: int = 30) -> DMP:
     """A :class:`lfd.dmp.DMP` (``n_basis`` per joint) fitted to ``rec`` resampled at
     ``n_samples`` uniform times. Raises ``ValueError`` with fewer than 3 samples."""
     if len(rec) < 3:
-        raise ValueError(f"the recording has {len(rec)} sample(s); drag (or store waypoints) first: at least 3 needed")
+        raise ValueError(
+            f"the recording has {len(rec)} sample(s); drag (or store waypoints) first: at least 3 needed"
+        )
     t, q = _uniform(rec, n_samples)
     return DMP(n_basis=n_basis, **dmp_options()).fit(t, q)
 
@@ -87,7 +96,15 @@ def export_session(session, out_dir) -> dict:
     dmp = fit_recording_dmp(rec)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = {k: out / name for k, name in (("csv", "demo.csv"), ("json", "demo.json"), ("dmp", "demo.dmp.json"), ("episode", "episode.npz"))}
+    paths = {
+        k: out / name
+        for k, name in (
+            ("csv", "demo.csv"),
+            ("json", "demo.json"),
+            ("dmp", "demo.dmp.json"),
+            ("episode", "episode.npz"),
+        )
+    }
     write_bytes_atomic(paths["csv"], _csv_text(rec.t, rec.q).encode())
     dmp.save(paths["dmp"])
     info = session.summary()

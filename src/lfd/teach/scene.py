@@ -123,7 +123,9 @@ class TeachScene:
 
     def with_obstacle(self, box: Box) -> TeachScene:
         """A copy with one more obstacle."""
-        return TeachScene(self.start, self.obstacles + (box,), self.goal, self.table_z, self.name, self.source)
+        return TeachScene(
+            self.start, self.obstacles + (box,), self.goal, self.table_z, self.name, self.source
+        )
 
 
 def load_scene(scene: str | os.PathLike | Mapping | TeachScene | None) -> TeachScene:

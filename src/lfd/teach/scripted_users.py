@@ -33,7 +33,16 @@ import numpy as np
 
 from .session import TeachSession
 
-__all__ = ["KLM", "Task", "UserRun", "klm_seconds", "make_task", "run_drag_user", "run_slider_user", "run_xyz_user"]
+__all__ = [
+    "KLM",
+    "Task",
+    "UserRun",
+    "klm_seconds",
+    "make_task",
+    "run_drag_user",
+    "run_slider_user",
+    "run_xyz_user",
+]
 
 TABLE_Z = -0.10
 CLEARANCE_STEP = 0.05  # m the user adds after a refused move
@@ -88,7 +97,12 @@ def klm_seconds(run: UserRun) -> float:
     gesture = k["M"] + 2 * k["P"] + 2 * k["B"]
     click = k["M"] + k["P"] + 2 * k["B"]
     a = run.actions
-    return (a["drag_segments"] + a["slider_moves"]) * gesture + a["clicks"] * click + a["field_entries"] * k["H"] / 3.0 + a["keystrokes"] * k["K"]
+    return (
+        (a["drag_segments"] + a["slider_moves"]) * gesture
+        + a["clicks"] * click
+        + a["field_entries"] * k["H"] / 3.0
+        + a["keystrokes"] * k["K"]
+    )
 
 
 def make_task(seed: int, robot: str = "wam4") -> Task:
@@ -100,7 +114,11 @@ def make_task(seed: int, robot: str = "wam4") -> Task:
         for _ in range(200):
             height = rng.uniform(0.20, 0.38)
             thick = rng.uniform(0.04, 0.10)
-            wall = {"center": [rng.uniform(0.45, 0.55), rng.uniform(-0.04, 0.04), TABLE_Z + height / 2], "size": [0.30, thick, height], "yaw_deg": float(rng.uniform(-15, 15))}
+            wall = {
+                "center": [rng.uniform(0.45, 0.55), rng.uniform(-0.04, 0.04), TABLE_Z + height / 2],
+                "size": [0.30, thick, height],
+                "yaw_deg": float(rng.uniform(-15, 15)),
+            }
             start_p = np.array([rng.uniform(0.38, 0.55), rng.uniform(-0.45, -0.28), rng.uniform(0.03, 0.15)])
             goal_p = np.array([rng.uniform(0.38, 0.55), rng.uniform(0.28, 0.45), rng.uniform(0.03, 0.15)])
             step = probe.ik.solve(probe.robot.home.numpy(), start_p)
@@ -125,7 +143,11 @@ def make_task(seed: int, robot: str = "wam4") -> Task:
 
 def _plan(pos: np.ndarray, goal: np.ndarray, height: float) -> list[np.ndarray]:
     """Via points from ``pos``: straight up to ``height``, across above the goal, down into it."""
-    return [np.array([pos[0], pos[1], max(height, pos[2])]), np.array([goal[0], goal[1], max(height, pos[2])]), goal.copy()]
+    return [
+        np.array([pos[0], pos[1], max(height, pos[2])]),
+        np.array([goal[0], goal[1], max(height, pos[2])]),
+        goal.copy(),
+    ]
 
 
 def _start(task: Task, mode: str, robot: str) -> tuple[TeachSession, np.ndarray, float, list[np.ndarray]]:
@@ -180,7 +202,11 @@ def run_xyz_user(task: Task, max_actions: int = 120, robot: str = "wam4") -> Use
     s, goal, height, via = _start(task, "2d", robot)
     actions: Counter = Counter()
     i = 0
-    while s.recording_state != "done" and sum(actions[k] for k in ("clicks", "keystrokes")) < max_actions and i < len(via):
+    while (
+        s.recording_state != "done"
+        and sum(actions[k] for k in ("clicks", "keystrokes")) < max_actions
+        and i < len(via)
+    ):
         _type_xyz(actions, via[i])
         actions["clicks"] += 1  # Move (IK)
         r = s.move_to(np.round(via[i], 2))

@@ -98,7 +98,11 @@ def urdf_visuals(urdf: str, link_names: tuple[str, ...]) -> list[_Visual]:
             if sphere is not None:
                 out.append(_Visual(index[name], frame, "sphere", float(sphere.get("radius")), 0.0))
             elif cyl is not None:
-                out.append(_Visual(index[name], frame, "cylinder", float(cyl.get("radius")), float(cyl.get("length"))))
+                out.append(
+                    _Visual(
+                        index[name], frame, "cylinder", float(cyl.get("radius")), float(cyl.get("length"))
+                    )
+                )
     return out
 
 
@@ -153,7 +157,12 @@ class TeachServer:
         sc.set_up_direction("+z")
         sc.configure_default_lights(cast_shadow=False)  # shadows cost a lot in software WebGL
         if s.scene.table_z is not None:
-            sc.add_box("/table", color=(200, 180, 150), dimensions=(2.0, 2.0, 0.02), position=(0.3, 0.0, s.scene.table_z - 0.01))
+            sc.add_box(
+                "/table",
+                color=(200, 180, 150),
+                dimensions=(2.0, 2.0, 0.02),
+                position=(0.3, 0.0, s.scene.table_z - 0.01),
+            )
         for i, box in enumerate(s.scene.obstacles):
             self._add_box_node(i, box)
         if s.scene.goal is not None:
@@ -164,15 +173,32 @@ class TeachServer:
         self.link_nodes = [sc.add_frame(f"/robot/link{i}", show_axes=False) for i in range(s.n_dof)]
         for k, v in enumerate(self.visuals):
             parent = "/robot/base" if v.link < 0 else f"/robot/link{v.link}"
-            pose = {"position": tuple(v.origin[:3, 3]), "wxyz": tuple(_wxyz(v.origin[:3, :3])), "cast_shadow": False, "receive_shadow": False}
+            pose = {
+                "position": tuple(v.origin[:3, 3]),
+                "wxyz": tuple(_wxyz(v.origin[:3, :3])),
+                "cast_shadow": False,
+                "receive_shadow": False,
+            }
             if v.kind == "sphere":
                 sc.add_icosphere(f"{parent}/v{k}", radius=v.radius, color=_GREY, subdivisions=2, **pose)
             else:
-                sc.add_cylinder(f"{parent}/v{k}", radius=v.radius, height=v.length, color=_GREY, radial_segments=16, **pose)
+                sc.add_cylinder(
+                    f"{parent}/v{k}",
+                    radius=v.radius,
+                    height=v.length,
+                    color=_GREY,
+                    radial_segments=16,
+                    **pose,
+                )
         tool = s.tool_position
         self.gizmo_scale = 0.25  # m: length of the gizmo's arrows
         self.gizmo = sc.add_transform_controls(
-            "/gizmo", scale=self.gizmo_scale, position=tuple(tool), disable_rotations=True, depth_test=False, line_width=4.0
+            "/gizmo",
+            scale=self.gizmo_scale,
+            position=tuple(tool),
+            disable_rotations=True,
+            depth_test=False,
+            line_width=4.0,
         )
         self.marker = sc.add_icosphere("/gizmo/marker", radius=0.025, color=_GREEN)
         self.ghost = sc.add_icosphere("/ghost", radius=0.03, color=_RED, opacity=0.3, visible=False)
@@ -181,9 +207,16 @@ class TeachServer:
         self.executed_line = None
 
     def _add_box_node(self, i: int, box) -> None:
-        rot = np.array([[math.cos(box.yaw), -math.sin(box.yaw), 0], [math.sin(box.yaw), math.cos(box.yaw), 0], [0, 0, 1]])
+        rot = np.array(
+            [[math.cos(box.yaw), -math.sin(box.yaw), 0], [math.sin(box.yaw), math.cos(box.yaw), 0], [0, 0, 1]]
+        )
         self.server.scene.add_box(
-            f"/obstacles/{i}", color=(200, 60, 60), dimensions=tuple(box.size), position=tuple(box.center), wxyz=tuple(_wxyz(rot)), opacity=0.8
+            f"/obstacles/{i}",
+            color=(200, 60, 60),
+            dimensions=tuple(box.size),
+            position=tuple(box.center),
+            wxyz=tuple(_wxyz(rot)),
+            opacity=0.8,
         )
 
     def _draw_arm(self, q: np.ndarray) -> None:
@@ -205,19 +238,38 @@ class TeachServer:
         self.mode_buttons = gui.add_button_group("Mode", ("3-D drag", "2-D panel"))
         self.mode_buttons.on_click(self._on_mode)
         with gui.add_folder("Demonstration"):
-            for label, fn in (("Stop", self._stop), ("Playback", self._playback), ("Export", self._export), ("Send", self._send), ("Clear", self._clear)):
+            for label, fn in (
+                ("Stop", self._stop),
+                ("Playback", self._playback),
+                ("Export", self._export),
+                ("Send", self._send),
+                ("Clear", self._clear),
+            ):
                 gui.add_button(label).on_click(lambda _e, fn=fn: self._run(fn))
         with gui.add_folder("2-D panel"):
             self.sliders = []
             spec = s.robot.spec
             for j in range(s.n_dof):
-                sl = gui.add_slider(f"q{j} ({spec.joint_names[j]})", min=float(spec.lower[j]), max=float(spec.upper[j]), step=0.01, initial_value=float(s.q[j]))
+                sl = gui.add_slider(
+                    f"q{j} ({spec.joint_names[j]})",
+                    min=float(spec.lower[j]),
+                    max=float(spec.upper[j]),
+                    step=0.01,
+                    initial_value=float(s.q[j]),
+                )
                 sl.on_update(self._on_slider)
                 self.sliders.append(sl)
-            self.xyz = gui.add_vector3("x/y/z (m)", initial_value=tuple(np.round(s.tool_position, 3)), step=0.001)
+            self.xyz = gui.add_vector3(
+                "x/y/z (m)", initial_value=tuple(np.round(s.tool_position, 3)), step=0.001
+            )
             self.xyz_uuid = self.xyz._impl.uuid  # the id of its first input in the page
             gui.add_button("Move (IK)").on_click(lambda _e: self._run(self._move_ik))
-            for label, fn in (("Store", self._store), ("Playback ", self._playback), ("Go Home", self._home), ("Send ", self._send)):
+            for label, fn in (
+                ("Store", self._store),
+                ("Playback ", self._playback),
+                ("Go Home", self._home),
+                ("Send ", self._send),
+            ):
                 gui.add_button(label).on_click(lambda _e, fn=fn: self._run(fn))
         with gui.add_folder("Obstacles", expand_by_default=False):
             self.box_center = gui.add_vector3("centre (m)", initial_value=(0.5, 0.3, 0.1), step=0.01)
@@ -270,7 +322,13 @@ class TeachServer:
             self.ghost.visible = not r.reachable or r.reason == "unreachable"
             if self.ghost.visible:
                 self.ghost.position = tuple(r.target)
-            self.status_text = "" if r.accepted and r.reachable else f"refused: {r.reason} {r.detail}" if not r.accepted else "target out of reach (best effort)"
+            self.status_text = (
+                ""
+                if r.accepted and r.reachable
+                else f"refused: {r.reason} {r.detail}"
+                if not r.accepted
+                else "target out of reach (best effort)"
+            )
             self._refresh(sliders=True)
             return r
 
@@ -312,7 +370,13 @@ class TeachServer:
         if self.session.mode != "2d":
             self.session.mode = "2d"
         ok = self.session.store()
-        self.status_text = "stored" if ok else "refused: the segment from the last waypoint collides" if self.session.recording_state != "done" else "recording finished"
+        self.status_text = (
+            "stored"
+            if ok
+            else "refused: the segment from the last waypoint collides"
+            if self.session.recording_state != "done"
+            else "recording finished"
+        )
         self._draw_recorded()
 
     def _home(self) -> None:

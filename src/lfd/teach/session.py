@@ -57,7 +57,7 @@ from .drag_ik import DragIK, IKStep
 from .kinematics import ChainKinematics
 from .scene import Box, TeachScene, load_scene
 
-__all__ = ["DragResult", "Recording", "TeachSession", "TEACH_ROBOTS"]
+__all__ = ["TEACH_ROBOTS", "DragResult", "Recording", "TeachSession"]
 
 #: Catalogue robots the teach interface supports.
 TEACH_ROBOTS = ("wam4", "pr2_right_arm", "sawyer")
@@ -157,7 +157,9 @@ class TeachSession:
     ) -> None:
         if robot not in TEACH_ROBOTS:
             known = ", ".join(TEACH_ROBOTS)
-            extra = "" if robot not in available_robots() else " (it is in the catalogue but not a teachable arm)"
+            extra = (
+                "" if robot not in available_robots() else " (it is in the catalogue but not a teachable arm)"
+            )
             raise ValueError(f"unknown robot {robot!r}{extra}; choose one of: {known}")
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -178,7 +180,9 @@ class TeachSession:
         n = self.robot.n_dof
         start = self.robot.home.numpy() if self.scene.start is None else self.scene.start
         if start.shape != (n,):
-            raise ValueError(f"scene field 'start' must have {n} joint angles for {robot}, got {start.shape[0]}")
+            raise ValueError(
+                f"scene field 'start' must have {n} joint angles for {robot}, got {start.shape[0]}"
+            )
         self.start = np.asarray(start, dtype=float)
         self.checker = CollisionChecker(self.robot, self.scene.obstacles, self.scene.table_z, margin)
         if validate:
@@ -204,7 +208,9 @@ class TeachSession:
     # ------------------------------------------------------------------ validation
     def _validate(self) -> None:
         spec = self.robot.spec
-        bad = np.where(~spec.continuous & ((self.start < spec.lower - 1e-9) | (self.start > spec.upper + 1e-9)))[0]
+        bad = np.where(
+            ~spec.continuous & ((self.start < spec.lower - 1e-9) | (self.start > spec.upper + 1e-9))
+        )[0]
         if bad.size:
             j = int(bad[0])
             raise ValueError(
@@ -212,10 +218,14 @@ class TeachSession:
             )
         for i, box in enumerate(self.scene.obstacles):
             if self.checker.base_overlaps(box):
-                raise ValueError(f"scene field 'obstacles[{i}]' overlaps the robot base (centre {box.center.tolist()})")
+                raise ValueError(
+                    f"scene field 'obstacles[{i}]' overlaps the robot base (centre {box.center.tolist()})"
+                )
         report = self.checker.check(self.start)
         if report.in_collision:
-            raise ValueError(f"scene field 'start': the start pose is in collision ({report.kind}: {report.detail})")
+            raise ValueError(
+                f"scene field 'start': the start pose is in collision ({report.kind}: {report.detail})"
+            )
         goal = self.scene.goal
         if goal is not None:
             res = self.robot.ik(goal.center[None], restarts=64, tol_pos=1e-3)
@@ -310,7 +320,9 @@ class TeachSession:
         """(W, n) stored waypoints of the 2-D panel, rad."""
         return np.array(self._waypoints, dtype=float).reshape(-1, self.n_dof)
 
-    def _waypoint_path(self, waypoints: list[np.ndarray], rate: float = 50.0) -> tuple[np.ndarray, np.ndarray]:
+    def _waypoint_path(
+        self, waypoints: list[np.ndarray], rate: float = 50.0
+    ) -> tuple[np.ndarray, np.ndarray]:
         if len(waypoints) < 2:
             q = np.array(waypoints, dtype=float).reshape(-1, self.n_dof)
             return np.arange(len(q), dtype=float), q
@@ -326,7 +338,9 @@ class TeachSession:
         return np.array(ts), np.array(qs)
 
     # ------------------------------------------------------------------ shared rule
-    def _refuse(self, reason: str, target, step: IKStep | None, latency: float, detail: str = "") -> DragResult:
+    def _refuse(
+        self, reason: str, target, step: IKStep | None, latency: float, detail: str = ""
+    ) -> DragResult:
         if reason == "collision":
             self.counters["refused_collision"] += 1
             if not self._refusing:
@@ -378,14 +392,18 @@ class TeachSession:
         in 2-D mode or for a malformed position.
         """
         if self._mode != "3d":
-            raise ValueError("drag() is the 3-D mode's action; this session is in mode '2d' (use set_joints/move_to)")
+            raise ValueError(
+                "drag() is the 3-D mode's action; this session is in mode '2d' (use set_joints/move_to)"
+            )
         target = self._check_vector(position, 3, "position")
         tic = time.perf_counter()
         self.counters["drag_updates"] += 1
         step = self.ik.solve(self.q, target, orientation)
         current_error = float(np.linalg.norm(self.tool_position - target))
         if step.jump > self.max_joint_step:
-            return self._refuse("joint_jump", target, step, time.perf_counter() - tic, f"joint change {step.jump:.2f} rad")
+            return self._refuse(
+                "joint_jump", target, step, time.perf_counter() - tic, f"joint change {step.jump:.2f} rad"
+            )
         if not step.reached and step.error >= current_error - 1e-6:
             return self._refuse("unreachable", target, step, time.perf_counter() - tic, "target out of reach")
         report = self._sweep(self.q, step.q)
@@ -431,7 +449,9 @@ class TeachSession:
         spec = self.robot.spec
         for j in range(self.n_dof):
             if not spec.continuous[j] and not spec.lower[j] - 1e-9 <= q[j] <= spec.upper[j] + 1e-9:
-                raise ValueError(f"joint {j} ({spec.joint_names[j]}) = {q[j]:.4f} rad is outside [{spec.lower[j]:.4f}, {spec.upper[j]:.4f}]")
+                raise ValueError(
+                    f"joint {j} ({spec.joint_names[j]}) = {q[j]:.4f} rad is outside [{spec.lower[j]:.4f}, {spec.upper[j]:.4f}]"
+                )
         q = self.ik._clamp(q)
         tic = time.perf_counter()
         self.counters["panel_moves"] += 1
@@ -488,7 +508,11 @@ class TeachSession:
     def add_obstacle(self, center, size, yaw_deg: float = 0.0) -> Box:
         """Add a box obstacle (the UI's "Add box"); refused with ``ValueError`` when it
         overlaps the robot base or the arm where it stands now."""
-        box = Box(self._check_vector(center, 3, "center"), self._check_vector(size, 3, "size"), math.radians(float(yaw_deg)))
+        box = Box(
+            self._check_vector(center, 3, "center"),
+            self._check_vector(size, 3, "size"),
+            math.radians(float(yaw_deg)),
+        )
         if np.any(box.size <= 0):
             raise ValueError(f"size must be positive (m), got {box.size.tolist()}")
         if self.checker.base_overlaps(box):

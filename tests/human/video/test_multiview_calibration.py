@@ -19,7 +19,9 @@ def test_qualisys_calibration_of_the_pose2sim_demo(pose2sim_demo):
     calib = read_calibration(pose2sim_demo / "calibration" / "Calib.qca.txt", n_cameras=4)
     assert calib.names == ("cam01", "cam02", "cam03", "cam04")
     np.testing.assert_allclose(calib.size[0], [1088, 1920])
-    assert calib.K[0, 0, 0] == pytest.approx(107599.671875 / 64) and calib.K[0, 0, 2] == pytest.approx(34110.316406 / 64)
+    assert calib.K[0, 0, 0] == pytest.approx(107599.671875 / 64) and calib.K[0, 0, 2] == pytest.approx(
+        34110.316406 / 64
+    )
     for r in calib.R:
         np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-6)
     # The lab origin (on the floor, where the person walks) is in front of every camera and in its image.
@@ -75,7 +77,7 @@ def test_monocular_vs_four_views_on_the_pose2sim_demo(pose2sim_demo, mediapipe_o
     proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "video_multiview.py"), "--demo", str(pose2sim_demo),
                            "--cache", str(tmp_path)], capture_output=True, text=True, timeout=900)  # fmt: skip
     assert proc.returncode == 0, proc.stderr[-2000:]
-    out = json.loads(proc.stdout[proc.stdout.index("{"):])
+    out = json.loads(proc.stdout[proc.stdout.index("{") :])
     # Measured (docs/video.md): 8.9 px reprojection, 12.9 deg median RMSE; the targets
     # (5 px, 6 deg) are not met. These bounds guard against regressions.
     assert out["reprojection_px_median_arm"] < 12.0

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from lfd.human.arm_ik import arm_fk, mirror
-from lfd.human.retarget import WAM_MOUNT, retarget_wam4, retarget_wrist_path, time_scale
+from lfd.human.retarget import retarget_wam4, retarget_wrist_path, time_scale
 from lfd.human.synthetic import _sines
 from lfd.robots import load_robot
 
@@ -40,8 +40,10 @@ def test_wam_reproduces_the_posture(side):
     rot = res.base_rotation
     upper = frames[:, 2, :3, 2] @ rot.T
     fore = frames[:, 4, :3, 2] @ rot.T
+
     def unit(v):
         return v / np.linalg.norm(v, axis=1, keepdims=True)
+
     assert np.degrees(np.arccos(np.clip((upper * unit(e - s)).sum(1), -1, 1))).max() < 0.01
     assert np.degrees(np.arccos(np.clip((fore * unit(w - e)).sum(1), -1, 1))).max() < 0.01
     # Continuous: no joint jumps more than 0.1 rad between frames at 30 Hz.

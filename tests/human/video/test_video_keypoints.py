@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import av
 import numpy as np
 import pytest
 
 from lfd.human import analyze_arm
 from lfd.human.video import VideoKeypoints, estimate_keypoints, iter_frames, video_info
 
-import av  # noqa: E402  (a core dependency)
 WIDE = 600  # px width of each person's view on the composed canvas
 
 
@@ -47,7 +47,9 @@ def test_sports2d_follows_one_person_with_real_frame_times(sports2d_keypoints, s
     early = kp.frame_index < 160  # the person on the roof waves; a second person walks below
     assert kp.detected[early].mean() > 0.9
     centre_y = kp.pixels[:, [11, 12, 23, 24], 1].mean(axis=1)  # NaN where not detected
-    assert np.all(centre_y[early & kp.detected] < 0.45 * 994), "followed the walker instead of the person on the roof"
+    assert np.all(centre_y[early & kp.detected] < 0.45 * 994), (
+        "followed the walker instead of the person on the roof"
+    )
     # When the roof person jumps off, the estimator's follow jumps to the walker: those frames are flagged.
     assert kp.other_person[kp.frame_index >= 160].any()
     assert not kp.detected[kp.other_person].any()
@@ -143,7 +145,9 @@ def _synthetic_keypoints(x_offset: np.ndarray) -> VideoKeypoints:
     side = np.array([1.0 if "left" in n else -1.0 if "right" in n else 0.0 for n in MEDIAPIPE_LANDMARKS])
     height = np.linspace(0.0, 300.0, 33)  # px below the head
     centre = np.stack([300.0 + np.arange(T), np.full(T, 100.0)], 1)  # walks 1 px/frame to the right
-    pixels = centre[:, None] + np.stack([side[None] * x_offset[:, None], np.broadcast_to(height, (T, 33))], -1)
+    pixels = centre[:, None] + np.stack(
+        [side[None] * x_offset[:, None], np.broadcast_to(height, (T, 33))], -1
+    )
     world = np.stack([side[None] * x_offset[:, None] / 400, np.broadcast_to(height / 400, (T, 33)),
                       np.broadcast_to(np.sin(np.arange(33)) * 0.05, (T, 33))], -1)  # fmt: skip
     return VideoKeypoints(t=np.arange(T) / 30, frame_index=np.arange(T), pixels=pixels, visibility=np.full((T, 33), 0.9),
@@ -159,7 +163,10 @@ def test_front_back_relabelling_is_found_and_undone():
     # MediaPipe decides for frames 10-19 that the person shows their back: labels swapped, depth mirrored.
     seen = _synthetic_keypoints(np.full(40, 40.0))
     for arr in (seen.pixels, seen.world):
-        arr[10:20, _ALL_LEFT], arr[10:20, _ALL_RIGHT] = arr[10:20, _ALL_RIGHT].copy(), arr[10:20, _ALL_LEFT].copy()
+        arr[10:20, _ALL_LEFT], arr[10:20, _ALL_RIGHT] = (
+            arr[10:20, _ALL_RIGHT].copy(),
+            arr[10:20, _ALL_LEFT].copy(),
+        )
     seen.world[10:20, :, 2] *= -1
     flips = seen.front_back_flips()
     np.testing.assert_array_equal(np.nonzero(flips)[0], np.arange(10, 20))

@@ -28,23 +28,30 @@ def test_validation_names_the_field():
 
 def test_round_trip_and_canonical_types():
     cfg = GeneratorConfig(yaw_range_deg=[-90, 90], families=["box", "sphere"], tolerance=1)
-    assert cfg == GeneratorConfig(yaw_range_deg=(-90.0, 90.0), families=("box", "sphere"), tolerance=0.01 * 100)
+    assert cfg == GeneratorConfig(
+        yaw_range_deg=(-90.0, 90.0), families=("box", "sphere"), tolerance=0.01 * 100
+    )
     assert GeneratorConfig.from_dict(cfg.to_dict()) == cfg
     assert (
-        cfg.sha256() == GeneratorConfig(yaw_range_deg=(-90.0, 90.0), families=("box", "sphere"), tolerance=1.0).sha256()
+        cfg.sha256()
+        == GeneratorConfig(yaw_range_deg=(-90.0, 90.0), families=("box", "sphere"), tolerance=1.0).sha256()
     )
     assert cfg.sha256() != GeneratorConfig(seed=1).sha256()
     assert GeneratorConfig(duration=4.0, n_steps=101).control_dt == pytest.approx(0.04)
 
 
 def test_plan_splits_by_placement_and_new_test_objects():
-    cfg = GeneratorConfig(seed=4, n_train_objects=5, n_train_placements=10, n_test_objects=3, n_test_placements=4)
+    cfg = GeneratorConfig(
+        seed=4, n_train_objects=5, n_train_placements=10, n_test_objects=3, n_test_placements=4
+    )
     plans = plan_episodes(cfg)
     assert plans == plan_episodes(cfg)  # deterministic
     assert [p.index for p in plans] == list(range(cfg.n_episodes)) == list(range(62))
     for j in range(5):
         mine = [p for p in plans if p.split != "test" and p.object_index == j]
-        assert len(mine) == 10 and sum(p.split == "val" for p in mine) == 2 and len({p.obj for p in mine}) == 1
+        assert (
+            len(mine) == 10 and sum(p.split == "val" for p in mine) == 2 and len({p.obj for p in mine}) == 1
+        )
     test = [p for p in plans if p.split == "test"]
     assert len(test) == 12 and not {p.obj for p in test} & {p.obj for p in plans if p.split != "test"}
     assert [p.obj.shape for p in plans[::10][:4]] == ["cylinder", "capsule", "sphere", "box"]
@@ -55,7 +62,16 @@ def test_plan_splits_by_placement_and_new_test_objects():
 def test_train_families_change_only_the_training_objects():
     """A training data mix (two boxes per round object here) leaves the held-out validation
     and test objects as they are, and a config without it keeps its old hash."""
-    base = GeneratorConfig(seed=3, n_train_objects=6, n_train_placements=2, val_fraction=0.0, n_val_objects=4, n_val_object_placements=1, n_test_objects=4, n_test_placements=1)
+    base = GeneratorConfig(
+        seed=3,
+        n_train_objects=6,
+        n_train_placements=2,
+        val_fraction=0.0,
+        n_val_objects=4,
+        n_val_object_placements=1,
+        n_test_objects=4,
+        n_test_placements=1,
+    )
     mixed = GeneratorConfig(**{**base.to_dict(), "train_families": ["box", "cylinder", "box"]})
     assert "train_families" not in base.to_dict() and base.sha256() != mixed.sha256()
     assert GeneratorConfig.from_dict(mixed.to_dict()) == mixed
@@ -64,4 +80,11 @@ def test_train_families_change_only_the_training_objects():
         assert [p.obj for p in plans if p.group == group] == [p.obj for p in mixed_plans if p.group == group]
     shapes = [p.obj.shape for p in mixed_plans if p.group == "train"][::2]
     assert shapes == ["box", "cylinder", "box"] * 2
-    assert [p.obj.shape for p in plans if p.group == "train"][::2] == ["cylinder", "capsule", "sphere", "box", "cylinder", "capsule"]
+    assert [p.obj.shape for p in plans if p.group == "train"][::2] == [
+        "cylinder",
+        "capsule",
+        "sphere",
+        "box",
+        "cylinder",
+        "capsule",
+    ]

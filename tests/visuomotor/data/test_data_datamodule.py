@@ -58,7 +58,9 @@ def test_dmp_items(root):
     # the approach-mode label matches each episode's record
     modes = [str(dm.data.episodes[int(i)].arrays["approach_mode"]) for i in batch["index"]]
     assert batch["top"].tolist() == [float(m == "top") for m in modes]
-    assert batch["image"].dtype == torch.float32 and 0.0 <= batch["image"].min() and batch["image"].max() <= 1.0
+    assert (
+        batch["image"].dtype == torch.float32 and batch["image"].min() >= 0.0 and batch["image"].max() <= 1.0
+    )
     torch.testing.assert_close(batch["joints"], batch["trajectory"][:, 0])
     torch.testing.assert_close(batch["goal"], batch["trajectory"][:, -1])
     assert dm.stats["weights"]["mean"].shape == (7, 8) and dm.stats["joints"]["std"].shape == (7,)
@@ -73,7 +75,9 @@ def test_velocity_items_and_augmentation(root):
     item = dm.datasets["train"][31]
     assert item["step"] == 1 and item["image"].shape == (3, 32, 32)
     assert item["target_point"].shape == (3,) and item["top"].shape == ()
-    torch.testing.assert_close(item["target_point"], dm.datasets["train"][30]["target_point"])  # one per episode
+    torch.testing.assert_close(
+        item["target_point"], dm.datasets["train"][30]["target_point"]
+    )  # one per episode
     torch.manual_seed(0)
     augmented = torch.stack([dm.datasets["train"][31]["image"] for _ in range(2)])
     assert not torch.equal(augmented[0], augmented[1])
@@ -99,7 +103,9 @@ def test_errors(root):
         dm.stats  # noqa: B018
 
 
-@pytest.mark.parametrize(("name", "train", "placements", "test"), [("quick", 12, 16, 4), ("original", 27, 22, 4)])
+@pytest.mark.parametrize(
+    ("name", "train", "placements", "test"), [("quick", 12, 16, 4), ("original", 27, 22, 4)]
+)
 def test_hydra_configs_compose_and_instantiate(compose, tmp_path, name, train, placements, test):
     data = compose("train", f"data={name}", "seed=9", f"paths.data_dir={tmp_path}").data
     assert data._target_ == "lfd.visuomotor.data.ReachDataModule"

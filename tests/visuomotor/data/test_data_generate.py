@@ -7,10 +7,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lfd.visuomotor.data import DatasetError, GeneratorConfig, generate_dataset, load_dataset, merge_shards, verify_dataset
+from lfd.io.files import npz_bytes
+from lfd.visuomotor.data import (
+    DatasetError,
+    GeneratorConfig,
+    generate_dataset,
+    load_dataset,
+    merge_shards,
+    verify_dataset,
+)
 from lfd.visuomotor.data.episodes import episode_path
 from lfd.visuomotor.data.generate import dataset_dir, shard_indices
-from lfd.io.files import npz_bytes
 
 TINY = GeneratorConfig(
     seed=5,
@@ -42,6 +49,7 @@ def test_generated_dataset_reloads(reference):
     assert [e.index for e in data.episodes] == list(range(8))
     for split, n in (("train", 4), ("val", 2), ("test", 2)):
         assert len(data.split(split)) == n
+
     # validation: known objects, placements never used in training; test: new objects
     # compared by value (shape, dimensions, colour), not by name (issue 12)
     def by_value(split):
@@ -49,7 +57,9 @@ def test_generated_dataset_reloads(reference):
 
     assert by_value("val") <= by_value("train")
     assert not by_value("test") & by_value("train")
-    assert not {tuple(e.placement.as_array()) for e in data.split("test")} & {tuple(e.placement.as_array()) for e in data.split("train")}
+    assert not {tuple(e.placement.as_array()) for e in data.split("test")} & {
+        tuple(e.placement.as_array()) for e in data.split("train")
+    }
     for e in data.episodes:
         a = e.arrays
         assert a["joints"].shape == a["velocities"].shape == (40, 7)
@@ -169,6 +179,11 @@ def test_discarded_attempts_are_counted(tmp_path):
 
 
 def test_npz_bytes_are_deterministic():
-    arrays = {"a": np.arange(5.0), "s": np.str_("train"), "x": np.float64(2.5), "f": np.asfortranarray(np.ones((3, 2)))}
+    arrays = {
+        "a": np.arange(5.0),
+        "s": np.str_("train"),
+        "x": np.float64(2.5),
+        "f": np.asfortranarray(np.ones((3, 2))),
+    }
     assert npz_bytes(arrays) == npz_bytes(dict(arrays))
     assert npz_bytes(arrays) != npz_bytes({**arrays, "x": np.float64(2.6)})

@@ -8,7 +8,9 @@ from lfd.visuomotor.data import ReachDataModule
 @pytest.mark.slow
 def test_quick_scale_dataset(tmp_path):
     # the defaults are configs/data/quick.yaml's, but for the held-out validation objects (issue 12)
-    dm = ReachDataModule(name="quick", root=tmp_path, progress=False, n_val_objects=4, n_val_object_placements=3)
+    dm = ReachDataModule(
+        name="quick", root=tmp_path, progress=False, n_val_objects=4, n_val_object_placements=3
+    )
     dm.prepare_data()
     dm.setup()
     counts = dm.data.manifest["episodes"]

@@ -11,10 +11,24 @@ from lfd.visuomotor.data import GeneratorConfig, plan_episodes
 from lfd.visuomotor.data.episodes import placement_rng
 from lfd.visuomotor.data.fingerprint import training_overlap
 
-QUICK = GeneratorConfig(seed=42, n_train_objects=12, n_train_placements=16, n_test_objects=4, n_test_placements=6,
-                        n_val_objects=4, n_val_object_placements=3)
-ORIGINAL = GeneratorConfig(seed=42, n_train_objects=27, n_train_placements=22, n_test_objects=4, n_test_placements=10,
-                           n_val_objects=4, n_val_object_placements=6)
+QUICK = GeneratorConfig(
+    seed=42,
+    n_train_objects=12,
+    n_train_placements=16,
+    n_test_objects=4,
+    n_test_placements=6,
+    n_val_objects=4,
+    n_val_object_placements=3,
+)
+ORIGINAL = GeneratorConfig(
+    seed=42,
+    n_train_objects=27,
+    n_train_placements=22,
+    n_test_objects=4,
+    n_test_placements=10,
+    n_val_objects=4,
+    n_val_object_placements=6,
+)
 
 
 def values(obj) -> tuple:
@@ -36,7 +50,10 @@ def test_no_test_or_val_object_is_a_training_object(a, b):
             assert values(p.obj) not in train, (p, "is a training object of the other experiment")
     # geometry alone (colour ignored) is distinct too
     train_geometry = {v[: 1 + len(v) - 5] for v in train}
-    assert not {values(p.obj)[: 1 + len(values(p.obj)) - 5] for p in plan_episodes(a) if p.group == "test"} & train_geometry
+    assert (
+        not {values(p.obj)[: 1 + len(values(p.obj)) - 5] for p in plan_episodes(a) if p.group == "test"}
+        & train_geometry
+    )
 
 
 @pytest.mark.parametrize(("a", "b"), [(QUICK, ORIGINAL), (ORIGINAL, QUICK)])
@@ -79,7 +96,9 @@ def test_training_overlap_compares_values_not_names():
     plans = plan_episodes(QUICK)
     t = next(p for p in plans if p.split == "train")
     fp = {
-        "train_objects": [{"name": t.obj.name, "shape": t.obj.shape, "dims": list(t.obj.dims), "rgba": list(t.obj.rgba)}],
+        "train_objects": [
+            {"name": t.obj.name, "shape": t.obj.shape, "dims": list(t.obj.dims), "rgba": list(t.obj.rgba)}
+        ],
         "train_placements": [[0.5, 0.1, 0.2]],
     }
     renamed = ObjectSpec(t.obj.shape, t.obj.dims, t.obj.rgba, t.obj.mass, "my-own-can")

@@ -42,17 +42,38 @@ MIN_SUCCESS = 0.40
 def test_small_training_reaches_new_objects(tmp_path):
     common = [f"paths.root_dir={tmp_path}", *DATA]
     train = subprocess.run(
-        [sys.executable, str(ROOT / "train.py"), "model=cnn_dmp", "trainer.max_steps=600",
-         f"hydra.run.dir={tmp_path}/train", *common],
-        capture_output=True, text=True, cwd=ROOT, timeout=1500,
+        [
+            sys.executable,
+            str(ROOT / "train.py"),
+            "model=cnn_dmp",
+            "trainer.max_steps=600",
+            f"hydra.run.dir={tmp_path}/train",
+            *common,
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=1500,
     )
     assert train.returncode == 0, train.stderr[-3000:]
     ckpt = tmp_path / "train" / "checkpoints" / "last.ckpt"
     ev = subprocess.run(
         # data.depth=true: the dataset quick's CNN -> DMP input made (evaluate.py has no model to pick it)
-        [sys.executable, str(ROOT / "evaluate.py"), "eval.split=val", "eval.methods=[cnn_dmp]", "eval.n_gifs=0", "data.depth=true",
-         f"ckpt_dmp={ckpt}", f"hydra.run.dir={tmp_path}/eval", *common],
-        capture_output=True, text=True, cwd=ROOT, timeout=900,
+        [
+            sys.executable,
+            str(ROOT / "evaluate.py"),
+            "eval.split=val",
+            "eval.methods=[cnn_dmp]",
+            "eval.n_gifs=0",
+            "data.depth=true",
+            f"ckpt_dmp={ckpt}",
+            f"hydra.run.dir={tmp_path}/eval",
+            *common,
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=900,
     )
     assert ev.returncode == 0, ev.stderr[-3000:]
     m = json.loads((tmp_path / "eval" / "metrics.json").read_text())["cnn_dmp"]

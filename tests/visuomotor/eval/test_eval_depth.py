@@ -15,16 +15,23 @@ import torch
 
 import evaluate
 import train
+from lfd.robots import load_robot
+from lfd.sim.approach import TABLE_Z
+from lfd.sim.camera import (
+    DEPTH_RANGE_M,
+    RELIEF_DEADBAND_MM,
+    RELIEF_RANGE_MM,
+    linear_depth,
+    plane_depth_mm,
+    rgbd_image,
+)
+from lfd.sim.objects import ObjectSpec, Placement
+from lfd.sim.scene import ReachScene
 from lfd.visuomotor.data import ReachDataModule
 from lfd.visuomotor.data.datasets import DMPReachDataset, VelocityReachDataset, load_dataset
 from lfd.visuomotor.eval.rollout import PlanController, observe
 from lfd.visuomotor.policies import POLICIES, load_policy
 from lfd.visuomotor.policies.vision import image_to_tensor, permute_colour_channels
-from lfd.robots import load_robot
-from lfd.sim.approach import TABLE_Z
-from lfd.sim.camera import DEPTH_RANGE_M, RELIEF_DEADBAND_MM, RELIEF_RANGE_MM, linear_depth, plane_depth_mm, rgbd_image
-from lfd.sim.objects import ObjectSpec, Placement
-from lfd.sim.scene import ReachScene
 
 TINY = [
     "data.name=tinyd",
@@ -141,8 +148,14 @@ def depth_checkpoints(compose, workspace):
     for model in sorted(POLICIES):
         run = workspace / "outputs" / f"run-{model}"
         cfg = compose(
-            "train", f"paths.root_dir={workspace}", *TINY, *TINY_MODEL, f"model={model}", "++trainer.max_steps=2",
-            "++trainer.limit_val_batches=1", f"paths.output_dir={run}",
+            "train",
+            f"paths.root_dir={workspace}",
+            *TINY,
+            *TINY_MODEL,
+            f"model={model}",
+            "++trainer.max_steps=2",
+            "++trainer.limit_val_batches=1",
+            f"paths.output_dir={run}",
         )
         out[model] = train.main(cfg)
     return out
@@ -159,7 +172,9 @@ def test_depth_dataset_files_and_items(depth_checkpoints, workspace):
     assert low * 1000 < np.median(depth) < high * 1000  # the table, about 1 m away
     item = DMPReachDataset(data, "train")[0]
     assert item["image"].shape == (4, 32, 32)
-    np.testing.assert_allclose(item["image"][3].numpy(), rgbd_image(rgb[0], depth[0])[..., 3] / 255.0, atol=1e-6)
+    np.testing.assert_allclose(
+        item["image"][3].numpy(), rgbd_image(rgb[0], depth[0])[..., 3] / 255.0, atol=1e-6
+    )
     assert VelocityReachDataset(data, "train")[5]["image"].shape == (4, 32, 32)
 
 
@@ -170,8 +185,14 @@ def test_depth_policies_evaluate_in_closed_loop(depth_checkpoints, compose, work
         with pytest.raises(ValueError, match="RGB-D images with 4 channels"):
             (policy.plan if kind == "cnn_dmp" else policy.act)(np.zeros((32, 32, 3), np.uint8), np.zeros(7))
     cfg = compose(
-        "evaluate", f"paths.root_dir={workspace}", *TINY, "eval.colour_tta=[]", "eval.max_steps=8", "eval.n_gifs=1",
-        f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", f"ckpt_velocity={depth_checkpoints['velocity']}",
+        "evaluate",
+        f"paths.root_dir={workspace}",
+        *TINY,
+        "eval.colour_tta=[]",
+        "eval.max_steps=8",
+        "eval.n_gifs=1",
+        f"ckpt_dmp={depth_checkpoints['cnn_dmp']}",
+        f"ckpt_velocity={depth_checkpoints['velocity']}",
     )
     out_dir = workspace / "eval"
     evaluate.evaluate(cfg, out_dir)
@@ -199,12 +220,24 @@ def test_rgb_and_rgbd_do_not_mix_in_training(depth_checkpoints, workspace):
 def test_evaluation_renders_each_policy_its_input(depth_checkpoints, compose, workspace):
     """An RGB dataset's cases serve an RGB-D checkpoint (the evaluator renders each policy
     its own input, as experiment=quick does for CNN -> DMP); any other mismatch is refused."""
-    common = ["evaluate", f"paths.root_dir={workspace}", *TINY, "eval.colour_tta=[]", "data.depth=false", "data.name=tinyrgb", "eval.n_gifs=0"]
-    cfg = compose(*common, "eval.max_steps=4", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]")
+    common = [
+        "evaluate",
+        f"paths.root_dir={workspace}",
+        *TINY,
+        "eval.colour_tta=[]",
+        "data.depth=false",
+        "data.name=tinyrgb",
+        "eval.n_gifs=0",
+    ]
+    cfg = compose(
+        *common, "eval.max_steps=4", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]"
+    )
     metrics = evaluate.evaluate(cfg, workspace / "eval-rgb-cases")
     assert metrics["cnn_dmp"]["episodes"] == 2 and "tinyrgb" in metrics["cnn_dmp"]["cases"]
     assert not load_dataset(workspace / "data" / "tinyrgb").config.depth
-    cfg = compose(*common, "data.image_size=24", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]")
+    cfg = compose(
+        *common, "data.image_size=24", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]"
+    )
     with pytest.raises(ValueError, match="built with image_size=32, the dataset has image_size=24"):
         evaluate.evaluate(cfg, workspace / "eval-mix")
 
@@ -216,7 +249,10 @@ def test_quick_gives_cnn_dmp_depth_and_velocity_rgb(compose):
     for model in ("cnn_dmp", "velocity"):
         cfg = compose("train", "experiment=quick", f"model={model}", "seed=5")
         seen[model] = (cfg.model.depth, cfg.model.depth_encoding, cfg.data.depth_encoding, cfg.data.name)
-    assert seen == {"cnn_dmp": (True, "relief", "relief", "quick96o300d_s5"), "velocity": (False, "range", "range", "quick96o300d_s5")}
+    assert seen == {
+        "cnn_dmp": (True, "relief", "relief", "quick96o300d_s5"),
+        "velocity": (False, "range", "range", "quick96o300d_s5"),
+    }
     train_cfg = compose("train", "experiment=quick", "model=velocity", "seed=5")
     assert train_cfg.data.depth and train_cfg.model.depth is False  # one RGB-D dataset, RGB input
     cfg = compose("evaluate", "experiment=quick", "seed=5")
@@ -233,14 +269,20 @@ def test_an_rgb_policy_trains_on_an_rgbd_datasets_colour_frames(depth_checkpoint
     assert VelocityReachDataset(data, "train", depth=False)[5]["image"].shape == (3, 32, 32)
     run = workspace / "outputs" / "run-velocity-rgb"
     cfg = compose(
-        "train", f"paths.root_dir={workspace}", *TINY, *TINY_MODEL, "model=velocity", "data.input_depth=false",
-        "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run}",
+        "train",
+        f"paths.root_dir={workspace}",
+        *TINY,
+        *TINY_MODEL,
+        "model=velocity",
+        "data.input_depth=false",
+        "++trainer.max_steps=2",
+        "++trainer.limit_val_batches=1",
+        f"paths.output_dir={run}",
     )
     policy = load_policy(train.main(cfg))
     assert policy.input_channels == 3 and not policy.hparams.depth
     with pytest.raises(ValueError, match="input_depth: true needs a dataset recorded with depth: true"):
         ReachDataModule(name="x", root=workspace / "data", depth=False, input_depth=True)
-
 
 
 def test_plane_depth_is_the_pinhole_geometry_and_the_rendered_table(scene):
@@ -254,7 +296,9 @@ def test_plane_depth_is_the_pinhole_geometry_and_the_rendered_table(scene):
     assert plane.shape == (64, 64)
     for u, v in ((5, 40), (32, 32), (60, 50), (20, 25)):
         assert plane[v, u] == pytest.approx(_ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z) * 1000, rel=1e-9)
-    np.testing.assert_array_equal(plane, plane_depth_mm(cam.view_matrix, cam.projection_matrix, 64, 64, TABLE_Z))
+    np.testing.assert_array_equal(
+        plane, plane_depth_mm(cam.view_matrix, cam.projection_matrix, 64, 64, TABLE_Z)
+    )
     with ReachScene(load_robot("pr2_right_arm"), image_size=96) as big:
         cam, plane = big.camera, big.camera.plane_depth_mm(TABLE_Z)
         rgb, depth = big.render(with_depth=True)
@@ -279,14 +323,19 @@ def test_relief_encoding_measures_height_in_front_of_the_table(scene):
     plane = cam.plane_depth_mm(TABLE_Z)
     levels = {}
     for height in (0.06, 0.12):
-        box = ObjectSpec(shape="box", dims=(0.08, 0.08, height), rgba=(0.2, 0.6, 0.2, 1.0), mass=0.2, name="b")
+        box = ObjectSpec(
+            shape="box", dims=(0.08, 0.08, height), rgba=(0.2, 0.6, 0.2, 1.0), mass=0.2, name="b"
+        )
         scene.reset(box, Placement(0.58, 0.0, 0.0))
         rgb, depth = scene.render(with_depth=True)
         out = rgbd_image(rgb, depth, plane)
         np.testing.assert_array_equal(out[..., :3], rgb)
         u, v = np.floor(cam.project(np.array([0.58, 0.0, TABLE_Z + height]))).astype(int)
         v += 1  # just below the top face's far edge: on the top face
-        expected = (_ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z) - _ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z + height)) * 1000
+        expected = (
+            _ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z)
+            - _ray_to_plane(cam, u + 0.5, v + 0.5, TABLE_Z + height)
+        ) * 1000
         expected = (expected - RELIEF_DEADBAND_MM) / RELIEF_RANGE_MM * 255
         assert abs(int(out[v, u, 3]) - expected) <= 3, (height, out[v, u, 3], expected)
         levels[height] = int(out[v, u, 3])
@@ -297,8 +346,15 @@ def test_relief_encoding_measures_height_in_front_of_the_table(scene):
 def relief_checkpoint(compose, workspace, depth_checkpoints):
     run = workspace / "outputs" / "run-cnn_dmp-relief"
     cfg = compose(
-        "train", f"paths.root_dir={workspace}", *TINY, *TINY_MODEL, "model=cnn_dmp", "data.depth_encoding=relief",
-        "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run}",
+        "train",
+        f"paths.root_dir={workspace}",
+        *TINY,
+        *TINY_MODEL,
+        "model=cnn_dmp",
+        "data.depth_encoding=relief",
+        "++trainer.max_steps=2",
+        "++trainer.limit_val_batches=1",
+        f"paths.output_dir={run}",
     )
     return train.main(cfg)
 
@@ -313,26 +369,47 @@ def test_relief_training_items_are_what_evaluation_renders(relief_checkpoint, wo
     rec = data.split("train")[0]
     item = DMPReachDataset(data, "train", depth_encoding="relief")[0]
     relief = item["image"][3].numpy() * 255
-    assert relief.max() > 20 and np.median(relief) <= 2  # the object; the table: 0 at 96 px, a level or two at this coarse 32 px
+    assert (
+        relief.max() > 20 and np.median(relief) <= 2
+    )  # the object; the table: 0 at 96 px, a level or two at this coarse 32 px
     with ReachScene(load_robot(data.config.robot), image_size=data.config.image_size) as scene:
         scene.reset(rec.obj, rec.placement)
         first = observe(scene, PlanController(policy, 0.1))
-    np.testing.assert_array_equal(first, (item["image"].permute(1, 2, 0).numpy() * 255).round().astype(np.uint8))
+    np.testing.assert_array_equal(
+        first, (item["image"].permute(1, 2, 0).numpy() * 255).round().astype(np.uint8)
+    )
     assert first.shape == (32, 32, 4)
 
 
 def test_depth_encoding_mismatches_are_refused(relief_checkpoint, depth_checkpoints, compose, workspace):
-    with pytest.raises(ValueError, match="depth_encoding: 'relief' is an encoding of the depth channel; the input is RGB"):
-        ReachDataModule(name="x", root=workspace / "data", depth=True, input_depth=False, depth_encoding="relief")
-    with pytest.raises(ValueError, match=r"depth_encoding: expected one of \('range', 'relief'\), got 'height'"):
+    with pytest.raises(
+        ValueError, match="depth_encoding: 'relief' is an encoding of the depth channel; the input is RGB"
+    ):
+        ReachDataModule(
+            name="x", root=workspace / "data", depth=True, input_depth=False, depth_encoding="relief"
+        )
+    with pytest.raises(
+        ValueError, match=r"depth_encoding: expected one of \('range', 'relief'\), got 'height'"
+    ):
         ReachDataModule(name="x", root=workspace / "data", depth=True, depth_encoding="height")
     with pytest.raises(ValueError, match="depth_encoding: 'relief' needs depth=true"):
-        POLICIES["cnn_dmp"](name="cnn_dmp", n_basis=5, channels=[4, 4], hidden=[8], image_size=32, depth_encoding="relief")
+        POLICIES["cnn_dmp"](
+            name="cnn_dmp", n_basis=5, channels=[4, 4], hidden=[8], image_size=32, depth_encoding="relief"
+        )
     # resuming a range checkpoint's training on relief items names both encodings
     cfg = compose(
-        "train", f"paths.root_dir={workspace}", *TINY, *TINY_MODEL, "model=cnn_dmp", "data.depth_encoding=relief",
-        "model.depth_encoding=range", "++trainer.max_steps=1", "++trainer.limit_val_batches=1",
+        "train",
+        f"paths.root_dir={workspace}",
+        *TINY,
+        *TINY_MODEL,
+        "model=cnn_dmp",
+        "data.depth_encoding=relief",
+        "model.depth_encoding=range",
+        "++trainer.max_steps=1",
+        "++trainer.limit_val_batches=1",
         f"paths.output_dir={workspace / 'outputs' / 'run-mismatch'}",
     )
-    with pytest.raises(ValueError, match="built with depth_encoding='range', the datamodule serves depth_encoding='relief'"):
+    with pytest.raises(
+        ValueError, match="built with depth_encoding='range', the datamodule serves depth_encoding='relief'"
+    ):
         train.main(cfg)

@@ -9,14 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from lfd.robots import load_robot
+from lfd.sim.approach import TABLE_Z, plan_approach
+from lfd.sim.objects import ObjectSpec, Placement
 from lfd.visuomotor.data import GeneratorConfig
 from lfd.visuomotor.eval.evaluator import Case, ReachEvaluator
 from lfd.visuomotor.eval.metrics import cluster_bootstrap_ci, summarise, wilson_interval
 from lfd.visuomotor.eval.rollout import EpisodeTrace
 from lfd.visuomotor.eval.scenario import ScenarioError, load_scenario
-from lfd.robots import load_robot
-from lfd.sim.approach import TABLE_Z, plan_approach
-from lfd.sim.objects import ObjectSpec, Placement
 
 ROOT = Path(__file__).resolve().parents[3]
 OBJECTS = """
@@ -38,9 +38,13 @@ def scenario(tmp_path: Path, placements: str, objects: str = OBJECTS) -> Path:
 
 
 def test_yaw_in_degrees_must_be_explicit(tmp_path):
-    with pytest.raises(ScenarioError, match=r"placements\[1\]: yaw = 45.0 rad lies outside \[-pi, pi\].*yaw_deg: 45"):
+    with pytest.raises(
+        ScenarioError, match=r"placements\[1\]: yaw = 45.0 rad lies outside \[-pi, pi\].*yaw_deg: 45"
+    ):
         load_scenario(scenario(tmp_path, "  - [0.55, 0.0, 0.3]\n  - [0.55, 0.05, 45]\n"))
-    sc = load_scenario(scenario(tmp_path, "  - {x: 0.55, y: 0.05, yaw_deg: 45}\n  - {x: 0.6, y: 0.0, yaw: -1.0}\n"))
+    sc = load_scenario(
+        scenario(tmp_path, "  - {x: 0.55, y: 0.05, yaw_deg: 45}\n  - {x: 0.6, y: 0.0, yaw: -1.0}\n")
+    )
     assert sc.placements[0].yaw == pytest.approx(math.pi / 4) and sc.placements[1].yaw == pytest.approx(-1.0)
     with pytest.raises(ScenarioError, match=r"placements\[0\]: give exactly one of 'yaw'"):
         load_scenario(scenario(tmp_path, "  - {x: 0.55, y: 0.05, yaw: 0.1, yaw_deg: 45}\n"))
@@ -51,7 +55,9 @@ def test_yaw_in_degrees_must_be_explicit(tmp_path):
 def test_placement_out_of_camera_image_is_an_error(tmp_path):
     # on the table (x <= 0.95, |y| <= 0.45) but the can's box leaves the 45 deg fixed camera
     path = scenario(tmp_path, "  - [0.55, 0.0, 0.0]\n  - [0.45, -0.40, 0.0]\n")
-    with pytest.raises(ScenarioError, match=r"objects\[0\] \(can\) at placements\[1\] .* leaves the camera image"):
+    with pytest.raises(
+        ScenarioError, match=r"objects\[0\] \(can\) at placements\[1\] .* leaves the camera image"
+    ):
         load_scenario(path)
 
 
@@ -59,13 +65,21 @@ def test_placement_out_of_reach_is_an_error(tmp_path, robot):
     # inside the camera image and on the table, but 0.9 m out: beyond the scripted expert's IK
     path = scenario(tmp_path, "  - [0.55, 0.0, 0.0]\n  - [0.90, 0.0, 0.0]\n")
     assert load_scenario(path).placements[1].x == 0.9  # no robot given: no reach check
-    with pytest.raises(ScenarioError, match=r"objects\[1\] \(block\) at placements\[1\] \(0.9, 0.0\) m is out of reach \(top approach\)"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"objects\[1\] \(block\) at placements\[1\] \(0.9, 0.0\) m is out of reach \(top approach\)",
+    ):
         load_scenario(path, robot=robot)
 
 
 def test_objects_outside_training_ranges_warn_and_are_marked(tmp_path, capsys):
-    objects = OBJECTS + "  - {name: jar, shape: cylinder, radius: 0.044, height: 0.05, rgba: [0.9, 0.9, 0.8, 1.0]}\n"
-    path = scenario(tmp_path, "  - {x: 0.55, y: 0.0, yaw_deg: 0}\n  - {x: 0.72, y: 0.0, yaw_deg: 0}\n", objects)
+    objects = (
+        OBJECTS
+        + "  - {name: jar, shape: cylinder, radius: 0.044, height: 0.05, rgba: [0.9, 0.9, 0.8, 1.0]}\n"
+    )
+    path = scenario(
+        tmp_path, "  - {x: 0.55, y: 0.0, yaw_deg: 0}\n  - {x: 0.72, y: 0.0, yaw_deg: 0}\n", objects
+    )
     with pytest.warns(UserWarning, match=r"objects\[2\] \(jar\): height 0.050 m outside \[0.06, 0.24\]"):
         sc = load_scenario(path, training=GeneratorConfig())
     assert "outside the training ranges" in capsys.readouterr().out
@@ -91,7 +105,9 @@ def test_user_objects_scenario(robot):
         assert 0.48 <= p.x <= 0.68 and abs(p.y) <= 0.29 and abs(p.yaw) <= math.pi / 2 + 1e-9
     assert not any(sc.ood(i, 0) for i in range(6))
     with pytest.warns(UserWarning):
-        ood = load_scenario(ROOT / "configs" / "scenarios" / "ood_objects.yaml", robot=robot, training=GeneratorConfig())
+        ood = load_scenario(
+            ROOT / "configs" / "scenarios" / "ood_objects.yaml", robot=robot, training=GeneratorConfig()
+        )
     assert len(ood.objects) == 6 and all(ood.ood(i, 0) for i in range(6))
 
 
@@ -115,8 +131,16 @@ def test_cluster_bootstrap_matches_the_enumerated_distribution():
 def test_success_needs_a_still_object_and_intervals_cluster():
     d = np.array([0.01, 0.01, 0.03, 0.2])
     kw = dict(jerk=[1.0] * 4, demo_jerk=[1.0] * 4, limit_violations=[0] * 4, latency_ms=[1.0])
-    out = summarise(d, [True] * 4, displacement=[0.0, 0.05, 0.001, 0.0], clusters=[0, 0, 1, 1],
-                    object_distance=[0.05, 0.06, 0.07, 0.3], table_contact=[0, 1, 0, 0], object_contact=[0, 1, 0, 0], **kw)
+    out = summarise(
+        d,
+        [True] * 4,
+        displacement=[0.0, 0.05, 0.001, 0.0],
+        clusters=[0, 0, 1, 1],
+        object_distance=[0.05, 0.06, 0.07, 0.3],
+        table_contact=[0, 1, 0, 0],
+        object_contact=[0, 1, 0, 0],
+        **kw,
+    )
     assert out["success_5cm"] == 0.5  # the pushed object (5 cm) is no success
     assert out["success_2cm"] == 0.25
     assert out["approach_correct"] == 0.75  # the 20 cm episode fails the distance condition
@@ -156,9 +180,9 @@ class _nothing:
 def test_episode_records_object_push_and_contact(robot):
     """The arm teleported into the object pushes it: contact and displacement are recorded;
     an arm resting at home records neither."""
-    from lfd.visuomotor.eval.rollout import run_episode
     from lfd.robots import solve_near
     from lfd.sim.scene import ReachScene
+    from lfd.visuomotor.eval.rollout import run_episode
 
     obj = ObjectSpec("box", (0.06, 0.06, 0.08), (0.5, 0.5, 0.5, 1.0), 0.2, "b")
     pl = Placement(0.58, -0.1, 0.0)
@@ -176,11 +200,18 @@ def test_episode_records_object_push_and_contact(robot):
             return self.q, np.zeros_like(self.q)
 
     lower, upper = robot.lower.numpy(), robot.upper.numpy()
-    lower, upper = np.where(robot.continuous.numpy(), -np.inf, lower), np.where(robot.continuous.numpy(), np.inf, upper)
+    lower, upper = (
+        np.where(robot.continuous.numpy(), -np.inf, lower),
+        np.where(robot.continuous.numpy(), np.inf, upper),
+    )
     with ReachScene(robot, image_size=16) as scene:
         scene.reset(obj, pl)
         quiet = run_episode(scene, Hold(robot.home.numpy()), 20, lower, upper)
-        assert quiet.object_contact_steps == 0 and quiet.table_contact_steps == 0 and quiet.object_displacement < 1e-3
+        assert (
+            quiet.object_contact_steps == 0
+            and quiet.table_contact_steps == 0
+            and quiet.object_displacement < 1e-3
+        )
         grasp = plan_approach(obj, pl, table_z=TABLE_Z).grasp_pose.copy()
         grasp[2, 3] -= 0.04  # fingers 4 cm into the box: the tool pushes through it
         q = solve_near(robot, grasp[None], robot.home.numpy(), n_seeds=16).q[0].numpy()

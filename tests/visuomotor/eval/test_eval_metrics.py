@@ -5,7 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from lfd.visuomotor.eval.metrics import approach_angle_deg, integrated_squared_jerk, summarise, wilson_interval
+from lfd.visuomotor.eval.metrics import (
+    approach_angle_deg,
+    integrated_squared_jerk,
+    summarise,
+    wilson_interval,
+)
 
 
 def test_wilson_interval_known_values():
@@ -23,10 +28,12 @@ def test_wilson_interval_known_values():
 def test_integrated_squared_jerk_of_a_cubic_is_analytic():
     dt = 0.01
     t = np.arange(50) * dt
-    path = np.stack([2.0 * t**3, np.zeros_like(t), -t**3], axis=-1)  # jerk (12, 0, -6) everywhere
+    path = np.stack([2.0 * t**3, np.zeros_like(t), -(t**3)], axis=-1)  # jerk (12, 0, -6) everywhere
     # 47 third differences, each |j|^2 = 180, times dt
     assert integrated_squared_jerk(path, dt) == pytest.approx(180 * 47 * dt, rel=1e-6)
-    assert integrated_squared_jerk(np.stack([path, 2 * path]), dt) == pytest.approx([180 * 0.47, 720 * 0.47], rel=1e-6)
+    assert integrated_squared_jerk(np.stack([path, 2 * path]), dt) == pytest.approx(
+        [180 * 0.47, 720 * 0.47], rel=1e-6
+    )
     line = np.stack([t, t, t], axis=-1)
     assert integrated_squared_jerk(line, dt) == pytest.approx(0.0, abs=1e-6)
     # resting after a motion that ends at rest (a quintic) changes nothing; a mean would halve
@@ -44,8 +51,14 @@ def test_approach_angle():
 
 def test_summarise_layout_and_values():
     d = np.array([0.01, 0.03, 0.04, 0.10])
-    out = summarise(d, [True, True, False, True], jerk=[2.0, 4.0, 2.0, 40.0], demo_jerk=[1.0, 2.0, 1.0, np.nan],
-                    limit_violations=[0, 3, 0, 1], latency_ms=[1.0, 2.0, 3.0])
+    out = summarise(
+        d,
+        [True, True, False, True],
+        jerk=[2.0, 4.0, 2.0, 40.0],
+        demo_jerk=[1.0, 2.0, 1.0, np.nan],
+        limit_violations=[0, 3, 0, 1],
+        latency_ms=[1.0, 2.0, 3.0],
+    )
     assert out["episodes"] == 4
     assert out["final_distance_m"]["mean"] == pytest.approx(0.045)
     assert out["final_distance_m"]["median"] == pytest.approx(0.035)

@@ -90,7 +90,12 @@ def checkpoints(tiny, workspace) -> dict[str, Path]:
     for model in sorted(POLICIES):
         run_dir = workspace / "outputs" / "train" / f"run-{model}"
         cfg = tiny(
-            "train", f"model={model}", "++trainer.max_steps=2", "++trainer.limit_val_batches=1", f"paths.output_dir={run_dir}", *TINY_MODEL
+            "train",
+            f"model={model}",
+            "++trainer.max_steps=2",
+            "++trainer.limit_val_batches=1",
+            f"paths.output_dir={run_dir}",
+            *TINY_MODEL,
         )
         out[model] = Path(train.main(cfg))
         assert out[model] == run_dir / "checkpoints" / "last.ckpt" and out[model].is_file()
@@ -156,7 +161,10 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
     for kind, m in saved.items():
         assert m["checkpoint"] == str(checkpoints[kind])
         assert m["episodes"] == 2
-        assert set(m["final_distance_m"]) == {"mean", "median", "p90", "ci"} and m["final_distance_m"]["mean"] > 0  # ci: cluster bootstrap (issue 12)
+        assert (
+            set(m["final_distance_m"]) == {"mean", "median", "p90", "ci"}
+            and m["final_distance_m"]["mean"] > 0
+        )  # ci: cluster bootstrap (issue 12)
         for key in ("success_5cm", "success_2cm", "approach_correct"):
             assert 0.0 <= m[key] <= 1.0
         for key in ("success_5cm_ci", "success_2cm_ci"):
@@ -229,7 +237,10 @@ def test_scenario_file_evaluation(checkpoints, tiny, workspace):
     with open(out_dir / "episodes.csv") as f:
         rows = list(csv.DictReader(f))
     assert sorted((r["method"], r["object"], r["approach_mode"]) for r in rows) == [
-        ("cnn_dmp", "block", "top"), ("cnn_dmp", "can", "side"), ("velocity", "block", "top"), ("velocity", "can", "side")
+        ("cnn_dmp", "block", "top"),
+        ("cnn_dmp", "can", "side"),
+        ("velocity", "block", "top"),
+        ("velocity", "can", "side"),
     ]
     assert all(float(r["demo_jerk"]) > 0 for r in rows)  # the expert demonstrated both cases
     assert (out_dir / "distance_can.png").is_file() and (out_dir / "paths3d_block.png").is_file()
@@ -250,7 +261,9 @@ def test_missing_checkpoint_says_which_and_how(tiny, tmp_path):
     with pytest.raises(FileNotFoundError) as info:
         ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
     msg = str(info.value)
-    assert "no 'cnn_dmp' checkpoint" in msg and "python train.py model=cnn_dmp" in msg and "ckpt_dmp=PATH" in msg
+    assert (
+        "no 'cnn_dmp' checkpoint" in msg and "python train.py model=cnn_dmp" in msg and "ckpt_dmp=PATH" in msg
+    )
     assert "no 'velocity' checkpoint" in msg and "python train.py model=velocity" in msg
     cfg = tiny("evaluate", f"ckpt_dmp={tmp_path / 'nope.ckpt'}")
     with pytest.raises(FileNotFoundError, match="ckpt_dmp=.*nope.ckpt"):
@@ -270,8 +283,8 @@ def test_mismatched_image_size_is_refused(checkpoints, tiny, workspace):
 
 def test_checkpoint_carries_fingerprint_and_own_training_items_are_refused(checkpoints, tiny, workspace):
     """Issue 12: the checkpoint knows its dataset; evaluating it on a training object is refused, naming both."""
-    from lfd.visuomotor.data.datasets import load_dataset
     from lfd.io.files import sha256_file
+    from lfd.visuomotor.data.datasets import load_dataset
 
     data = load_dataset(workspace / "data" / "tiny")
     for path in checkpoints.values():
@@ -288,7 +301,10 @@ def test_checkpoint_carries_fingerprint_and_own_training_items_are_refused(check
         "placements:\n  - [0.55, 0.05, 0.3]\n"
     )
     cfg = tiny("evaluate", f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=2")
-    with pytest.raises(ValueError, match=rf"checkpoint .* was trained on items of the evaluation cases .*object 'mine' is training object '{obj.name}'"):
+    with pytest.raises(
+        ValueError,
+        match=rf"checkpoint .* was trained on items of the evaluation cases .*object 'mine' is training object '{obj.name}'",
+    ):
         evaluate.evaluate(cfg, workspace / "eval-own")
 
 
@@ -300,13 +316,23 @@ def test_colour_tta_is_set_per_method_and_refused_without_colour_augment(checkpo
         evaluate.evaluate(cfg, workspace / "eval-tta-refused")
     run_dir = workspace / "outputs" / "train-tta" / "run-cnn_dmp"
     train_cfg = tiny(
-        "train", "model=cnn_dmp", "model.colour_augment=true", "++trainer.max_steps=2", "++trainer.limit_val_batches=1",
-        f"paths.output_dir={run_dir}", *TINY_MODEL,
+        "train",
+        "model=cnn_dmp",
+        "model.colour_augment=true",
+        "++trainer.max_steps=2",
+        "++trainer.limit_val_batches=1",
+        f"paths.output_dir={run_dir}",
+        *TINY_MODEL,
     )
     ckpt = Path(train.main(train_cfg))
     cfg = tiny(
-        "evaluate", "eval.colour_tta=[cnn_dmp]", "eval.n_gifs=0", "eval.max_steps=4", "eval.limit=1",
-        f"ckpt_dmp={ckpt}", f"ckpt_velocity={checkpoints['velocity']}",
+        "evaluate",
+        "eval.colour_tta=[cnn_dmp]",
+        "eval.n_gifs=0",
+        "eval.max_steps=4",
+        "eval.limit=1",
+        f"ckpt_dmp={ckpt}",
+        f"ckpt_velocity={checkpoints['velocity']}",
     )
     metrics = evaluate.evaluate(cfg, workspace / "eval-tta")
     assert metrics["cnn_dmp"]["colour_tta"] is True and metrics["velocity"]["colour_tta"] is False

@@ -89,7 +89,9 @@ def test_plan_controller_plans_once_tracks_then_holds():
 
 def test_velocity_controller_acts_every_step_on_fresh_observations():
     scene, policy = IdealScene(), ConstantVelocity([0.5, -20.0, 1.0])
-    trace = run_episode(scene, VelocityController(policy, DT), steps=4, lower=LIMITS[0], upper=LIMITS[1], record_every=2)
+    trace = run_episode(
+        scene, VelocityController(policy, DT), steps=4, lower=LIMITS[0], upper=LIMITS[1], record_every=2
+    )
     assert len(policy.calls) == 4 and len(trace.latencies_ms) == 4
     # each call sees the frame and the joints measured at that step
     for k, (image, joints, time) in enumerate(policy.calls):
@@ -102,7 +104,9 @@ def test_velocity_controller_acts_every_step_on_fresh_observations():
 
 
 def test_no_frames_recorded_unless_asked():
-    trace = run_episode(IdealScene(), PlanController(LinePlanner(), DT), steps=3, lower=LIMITS[0], upper=LIMITS[1])
+    trace = run_episode(
+        IdealScene(), PlanController(LinePlanner(), DT), steps=3, lower=LIMITS[0], upper=LIMITS[1]
+    )
     assert trace.frames == []
 
 
@@ -122,12 +126,16 @@ def test_executed_joint_velocity_matches_the_command_in_pybullet():
     from lfd.sim.scene import ReachScene
 
     robot = load_robot("pr2_right_arm")
-    qd = np.array([0.3, 0.25, 0.2, 0.3, -0.4, -0.3, 0.5])  # rad/s, below every velocity limit, away from the joint limits
+    qd = np.array(
+        [0.3, 0.25, 0.2, 0.3, -0.4, -0.3, 0.5]
+    )  # rad/s, below every velocity limit, away from the joint limits
     dt = 4.0 / 99
     lower = np.where(robot.continuous.numpy(), -np.inf, robot.lower.numpy())
     upper = np.where(robot.continuous.numpy(), np.inf, robot.upper.numpy())
     with ReachScene(robot, image_size=8, control_dt=dt, substeps=10) as scene:
-        trace = run_episode(scene, VelocityController(ConstantVelocity(qd), dt), steps=25, lower=lower, upper=upper)
+        trace = run_episode(
+            scene, VelocityController(ConstantVelocity(qd), dt), steps=25, lower=lower, upper=upper
+        )
     assert trace.limit_violations == 0
     executed = np.diff(trace.joints, axis=0)[5:] / dt  # after a 0.2 s start
     np.testing.assert_allclose(executed.mean(0), qd, rtol=0.05)

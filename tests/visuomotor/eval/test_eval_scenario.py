@@ -44,9 +44,21 @@ def test_example_scenarios_in_configs_load():
 @pytest.mark.parametrize(
     ("old", "new", "expected"),
     [
-        ("radius: 0.035, height: 0.14", "radius: 0.035", r"objects\[0\] \(can\): field 'height' must be a length"),
-        ("size: [0.05, 0.07, 0.06]", "size: [0.05, 0.07]", r"objects\[1\] \(block\): field 'size' must be 3 lengths"),
-        ("size: [0.05, 0.07, 0.06]", "size: [0.05, 0.07, -0.06]", r"objects\[1\] \(block\): .*size_z must be"),
+        (
+            "radius: 0.035, height: 0.14",
+            "radius: 0.035",
+            r"objects\[0\] \(can\): field 'height' must be a length",
+        ),
+        (
+            "size: [0.05, 0.07, 0.06]",
+            "size: [0.05, 0.07]",
+            r"objects\[1\] \(block\): field 'size' must be 3 lengths",
+        ),
+        (
+            "size: [0.05, 0.07, 0.06]",
+            "size: [0.05, 0.07, -0.06]",
+            r"objects\[1\] \(block\): .*size_z must be",
+        ),
         ("rgba: [1.0, 0.5, 0.0, 1.0]", "rgba: [1.0, 0.5, 0.0, 2.0]", r"objects\[0\] \(can\): .*rgba"),
         ("rgba: [1.0, 0.5, 0.0, 1.0]", "rgba: red", r"objects\[0\] \(can\): field 'rgba' must be 4 numbers"),
         ("shape: cylinder", "shape: cone", r"objects\[0\]: field 'shape' must be one of"),

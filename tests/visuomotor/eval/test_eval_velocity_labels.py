@@ -41,12 +41,18 @@ def replayed():
     with ReachScene(robot, image_size=8, control_dt=dt) as scene:
         demo = expert.run(scene, obj, placement)
         # the dataset's item for the velocity network, built like the training items
-        record = SimpleNamespace(arrays={"joints": demo.joints, "velocities": demo.velocities, "t": demo.t}, index=0, frames=lambda: demo.frames)
+        record = SimpleNamespace(
+            arrays={"joints": demo.joints, "velocities": demo.velocities, "t": demo.t},
+            index=0,
+            frames=lambda: demo.frames,
+        )
         items = VelocityReachDataset(SimpleNamespace(split=lambda split: [record], path="demo"), "train")
         runs = {}
         for name, qd in (("label", items.tensors[LABEL].double().numpy()), ("recorded", demo.velocities)):
             scene.reset(obj, placement, q=robot.home.numpy())
-            runs[name] = run_episode(scene, VelocityController(Replay(qd, dt), dt), expert.n_steps - 1, lower, upper)
+            runs[name] = run_episode(
+                scene, VelocityController(Replay(qd, dt), dt), expert.n_steps - 1, lower, upper
+            )
     return demo, items, runs
 
 
@@ -84,7 +90,9 @@ def test_output_statistics_are_those_of_the_labels():
     vel = VelocityPolicy(name="velocity", **small)
     command = torch.randn(50, 7) * torch.linspace(0.1, 1.0, 7) + 0.3
     stats = {name: {"mean": torch.zeros(7), "std": torch.ones(7)} for name in ("joints", "velocity")}
-    dm = SimpleNamespace(stats=stats, mode="velocity", datasets={"train": SimpleNamespace(tensors={LABEL: command})})
+    dm = SimpleNamespace(
+        stats=stats, mode="velocity", datasets={"train": SimpleNamespace(tensors={LABEL: command})}
+    )
     vel.trainer = SimpleNamespace(datamodule=dm)  # only what setup() reads
     vel.setup("fit")
     torch.testing.assert_close(vel.velocity_mean, command.mean(0))

@@ -1,10 +1,9 @@
 """Which weights ``last.ckpt`` holds: every evaluation scores it (``evaluate.py`` picks the
 newest ``last.ckpt``), so its meaning is pinned here."""
 
+import lightning as L
 import torch
 from hydra.utils import instantiate
-
-import lightning as L
 from lightning.pytorch.demos.boring_classes import BoringModel
 
 
@@ -24,8 +23,14 @@ def test_last_ckpt_is_the_best_monitored_checkpoint_not_the_final_weights(compos
     callback = instantiate(cfg.callbacks.model_checkpoint)
     assert callback.monitor == "val/loss" and callback.save_top_k == 1 and callback.save_last
     trainer = L.Trainer(
-        max_steps=6, val_check_interval=2, check_val_every_n_epoch=None, limit_val_batches=1,
-        callbacks=[callback], logger=False, enable_progress_bar=False, enable_model_summary=False,
+        max_steps=6,
+        val_check_interval=2,
+        check_val_every_n_epoch=None,
+        limit_val_batches=1,
+        callbacks=[callback],
+        logger=False,
+        enable_progress_bar=False,
+        enable_model_summary=False,
     )
     trainer.fit(RisingValLoss())
     assert trainer.global_step == 6

@@ -11,8 +11,13 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[3]
 
+
 def test_ddp_two_cpu_processes_train_and_save(tmp_path, tiny_reaching):
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]), "OMP_NUM_THREADS": "1"}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]),
+        "OMP_NUM_THREADS": "1",
+    }
     cmd = [
         sys.executable,
         str(ROOT / "train.py"),

@@ -50,7 +50,9 @@ def test_trajectory_loss_gradient_reaches_the_conv_weights_through_the_dmp_layer
     batch = dmp_batch()
     seen = {}
     hp = dmp_policy.hparams
-    dmp_policy.layer(hp.n_steps + hp.rest_steps).register_forward_hook(lambda mod, inp, out: seen.update(out=out))
+    dmp_policy.layer(hp.n_steps + hp.rest_steps).register_forward_hook(
+        lambda mod, inp, out: seen.update(out=out)
+    )
     dmp_policy.train()
     loss = dmp_policy.losses(batch)["loss"]
     # the loss is a function of the DMP layer's output ...
@@ -72,7 +74,14 @@ def test_trajectory_loss_covers_rest_samples_after_the_demonstration(dmp_policy,
     ~1e-4 rad here), and for a wrong goal it counts the rest samples too."""
     batch = dmp_batch()
     pred = {"goal": batch["goal"], "weights": batch["weights"]}
-    monkeypatch.setattr(dmp_policy, "head_outputs", lambda image, joints, top=None: (torch.cat([pred["goal"], pred["weights"].flatten(1)], 1), torch.zeros(len(joints), 0)))
+    monkeypatch.setattr(
+        dmp_policy,
+        "head_outputs",
+        lambda image, joints, top=None: (
+            torch.cat([pred["goal"], pred["weights"].flatten(1)], 1),
+            torch.zeros(len(joints), 0),
+        ),
+    )
     dmp_policy.hparams.ee_weight = 0.0
     for rest in (0, 8):
         dmp_policy.hparams.rest_steps = rest
@@ -104,7 +113,9 @@ def test_ee_term_uses_forward_kinematics(dmp_policy):
     dmp_policy.hparams.ee_weight = 2.0
     with_ee = dmp_policy.losses(batch)
     steps = 12 + dmp_policy.hparams.rest_steps  # the demonstration + the rest samples (target: zeros here)
-    traj = dmp_policy.rollout(batch["joints"], *dmp_policy.predict_params(batch["image"], batch["joints"]), n_steps=steps)
+    traj = dmp_policy.rollout(
+        batch["joints"], *dmp_policy.predict_params(batch["image"], batch["joints"]), n_steps=steps
+    )
     ee = dmp_policy.robot.fk(traj.reshape(-1, 7))[:, :3, 3].reshape(3, steps, 3)
     torch.testing.assert_close(with_ee["ee_mse"], (ee**2).sum(-1).mean())
     torch.testing.assert_close(with_ee["loss"], base["loss"] + 2.0 * with_ee["ee_mse"])
@@ -117,7 +128,9 @@ def test_outputs_are_denormalised_with_the_statistics(dmp_policy):
     dmp_policy.goal_std.fill_(2.0)
     dmp_policy.weights_mean.fill_(-0.1)
     dmp_policy.weights_std.fill_(3.0)
-    expected = DMPLayer(n_basis=5, n_steps=12, dt=0.1)(batch["joints"], 0.5 + 2.0 * goal_n, -0.1 + 3.0 * weights_n)
+    expected = DMPLayer(n_basis=5, n_steps=12, dt=0.1)(
+        batch["joints"], 0.5 + 2.0 * goal_n, -0.1 + 3.0 * weights_n
+    )
     torch.testing.assert_close(dmp_policy.rollout(batch["joints"], goal_n, weights_n), expected)
 
 
@@ -159,8 +172,10 @@ def test_velocity_labels_at_perturbed_states_are_the_experts_correction(monkeypa
     torch.manual_seed(0)
     vel = VelocityPolicy(name="velocity", state_noise=0.1, correction_gain=2.0, **SMALL)
     batch = {
-        "image": torch.rand(4, 3, 24, 24), "joints": torch.randn(4, 7) * 0.1,
-        "command": torch.randn(4, 7) * 0.2, "t": torch.full((4,), 0.3),
+        "image": torch.rand(4, 3, 24, 24),
+        "joints": torch.randn(4, 7) * 0.1,
+        "command": torch.randn(4, 7) * 0.2,
+        "t": torch.full((4,), 0.3),
     }
     noise = torch.randn(4, 7) * 0.1
     monkeypatch.setattr(vel, "perturbation", lambda joints: noise)
@@ -279,7 +294,9 @@ def test_colour_tta_is_the_mean_over_the_six_channel_orders_and_ignores_colour_o
     of the plain outputs of the 6 RGB orders, so permuting the input's colours changes
     nothing; the depth channel is never moved, and training batches are not averaged."""
     torch.manual_seed(0)
-    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=1.0, mode_heads=True, colour_augment=True, depth=True, **SMALL).eval()
+    policy = CNNDMPPolicy(
+        name="cnn_dmp", n_basis=5, aux_weight=1.0, mode_heads=True, colour_augment=True, depth=True, **SMALL
+    ).eval()
     g = torch.Generator().manual_seed(3)
     image, joints = torch.rand(4, 4, 24, 24, generator=g), torch.randn(4, 7, generator=g) * 0.1
     orders = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
@@ -336,5 +353,9 @@ def test_brightness_augment_is_checked_and_changes_only_training_batches(monkeyp
     policy.training_step(batch, 0)
     out = seen[0]
     obj = image[:, 3:] < 0.8
-    assert torch.equal(out[:, 3], image[:, 3]) and torch.equal(out[:, :3][~obj.expand(-1, 3, -1, -1)], image[:, :3][~obj.expand(-1, 3, -1, -1)])
-    assert (out[:, :3][obj.expand(-1, 3, -1, -1)] < image[:, :3][obj.expand(-1, 3, -1, -1)]).all()  # factors <= 0.5 darken
+    assert torch.equal(out[:, 3], image[:, 3]) and torch.equal(
+        out[:, :3][~obj.expand(-1, 3, -1, -1)], image[:, :3][~obj.expand(-1, 3, -1, -1)]
+    )
+    assert (
+        out[:, :3][obj.expand(-1, 3, -1, -1)] < image[:, :3][obj.expand(-1, 3, -1, -1)]
+    ).all()  # factors <= 0.5 darken

@@ -90,7 +90,9 @@ def test_image_to_tensor_accepts_rendered_and_dataset_layouts():
 
 def test_colour_permutation_reorders_channels_per_image():
     torch.manual_seed(0)
-    image = torch.stack([torch.full((4, 5), float(c)) for c in range(3)])[None].repeat(64, 1, 1, 1)  # channel c == c
+    image = torch.stack([torch.full((4, 5), float(c)) for c in range(3)])[None].repeat(
+        64, 1, 1, 1
+    )  # channel c == c
     out = permute_colour_channels(image)
     orders = out[:, :, 0, 0].long()
     assert torch.equal(orders.sort(dim=1).values, torch.arange(3).expand(64, 3))  # a permutation per image
@@ -143,7 +145,9 @@ def test_brightness_augment_scales_only_the_objects_colour(rendered_batch):
     assert torch.equal(out[:, :3][~mask], image[:, :3][~mask])  # table and floor untouched
     assert out.min() >= 0 and out.max() <= 1
     # one factor per image: unclipped foreground pixels are all scaled by it
-    ratio = torch.where(mask & (out[:, :3] < 1) & (image[:, :3] > 0.05), out[:, :3] / image[:, :3].clamp(min=1e-6), torch.nan)
+    ratio = torch.where(
+        mask & (out[:, :3] < 1) & (image[:, :3] > 0.05), out[:, :3] / image[:, :3].clamp(min=1e-6), torch.nan
+    )
     factor = ratio.flatten(1).nanmedian(dim=1).values
     spread = (ratio.flatten(1) - factor[:, None]).abs().nan_to_num(0).amax(dim=1)
     assert spread.max() < 0.05

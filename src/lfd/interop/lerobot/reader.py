@@ -41,7 +41,15 @@ from lfd.interop.lerobot.writer import CODEBASE_VERSION, _pa
 from lfd.io.video import decode_video_frames
 
 REQUIRED_INFO = ("codebase_version", "fps", "total_episodes", "total_frames", "features", "data_path")
-REQUIRED_FEATURES = ("observation.state", "action", "timestamp", "frame_index", "episode_index", "index", "task_index")
+REQUIRED_FEATURES = (
+    "observation.state",
+    "action",
+    "timestamp",
+    "frame_index",
+    "episode_index",
+    "index",
+    "task_index",
+)
 
 
 def read_info(root: str | Path) -> dict[str, Any]:
@@ -115,7 +123,9 @@ class LeRobotFolder:
         rows = [r for f in ep_files for r in pq.read_table(f).to_pylist()]
         rows.sort(key=lambda r: r["episode_index"])
         if [r["episode_index"] for r in rows] != list(range(self.info["total_episodes"])):
-            raise ValueError(f"{self.root}: meta/episodes holds {len(rows)} episodes, info.json says {self.info['total_episodes']}")
+            raise ValueError(
+                f"{self.root}: meta/episodes holds {len(rows)} episodes, info.json says {self.info['total_episodes']}"
+            )
         self.episodes = rows
         tasks_path = self.root / "meta" / "tasks.parquet"
         if not tasks_path.is_file():
@@ -123,7 +133,15 @@ class LeRobotFolder:
         t = pq.read_table(tasks_path).to_pydict()
         name_col = "task" if "task" in t else "__index_level_0__"
         self.tasks = [s for _, s in sorted(zip(t["task_index"], t[name_col], strict=True))]
-        data_files = sorted({self.root / self.info["data_path"].format(chunk_index=r["data/chunk_index"], file_index=r["data/file_index"]) for r in rows})
+        data_files = sorted(
+            {
+                self.root
+                / self.info["data_path"].format(
+                    chunk_index=r["data/chunk_index"], file_index=r["data/file_index"]
+                )
+                for r in rows
+            }
+        )
         for f in data_files:
             if not f.is_file():
                 raise FileNotFoundError(f"{self.root}: data file {f} (listed in meta/episodes) not found")
@@ -135,13 +153,17 @@ class LeRobotFolder:
         for key in table.column_names:
             col = table.column(key).combine_chunks()
             if pa.types.is_fixed_size_list(col.type) or pa.types.is_list(col.type):
-                self.data[key] = np.asarray(col.flatten().to_numpy(zero_copy_only=False)).reshape(len(col), -1)
+                self.data[key] = np.asarray(col.flatten().to_numpy(zero_copy_only=False)).reshape(
+                    len(col), -1
+                )
             else:
                 self.data[key] = col.to_numpy(zero_copy_only=False)
         order = np.argsort(self.data["index"], kind="stable")
         self.data = {k: v[order] for k, v in self.data.items()}
         if len(self.data["index"]) != self.info["total_frames"]:
-            raise ValueError(f"{self.root}: {len(self.data['index'])} frames in data/, info.json says {self.info['total_frames']}")
+            raise ValueError(
+                f"{self.root}: {len(self.data['index'])} frames in data/, info.json says {self.info['total_frames']}"
+            )
 
     def __len__(self) -> int:
         return len(self.episodes)
@@ -154,7 +176,9 @@ class LeRobotFolder:
     def video_path(self, ep: int, key: str) -> Path:
         r = self.episodes[ep]
         return self.root / self.info["video_path"].format(
-            video_key=key, chunk_index=r[f"videos/{key}/chunk_index"], file_index=r[f"videos/{key}/file_index"]
+            video_key=key,
+            chunk_index=r[f"videos/{key}/chunk_index"],
+            file_index=r[f"videos/{key}/file_index"],
         )
 
     def frames(self, ep: int, key: str, frame_index: np.ndarray | None = None) -> np.ndarray:
@@ -164,7 +188,9 @@ class LeRobotFolder:
             raise ValueError(f"{self.root}: no video feature {key!r}; it has {self.video_keys}")
         if frame_index is None:
             frame_index = self.data["frame_index"][self.episode_slice(ep)]
-        ts = self.episodes[ep][f"videos/{key}/from_timestamp"] + np.asarray(frame_index, np.float64) / self.fps
+        ts = (
+            self.episodes[ep][f"videos/{key}/from_timestamp"] + np.asarray(frame_index, np.float64) / self.fps
+        )
         return decode_video_frames(self.video_path(ep, key), ts, self.tolerance_s)
 
 
@@ -183,7 +209,9 @@ class _Episode:
     """An episode read from a LeRobot folder, shaped like an lfd ``EpisodeRecord`` (the
     parts the dataset views use: ``index``, ``split``, ``arrays``, ``frames()``)."""
 
-    def __init__(self, folder: LeRobotFolder, ep: int, split: str, camera: str, arrays: dict, first_only: bool) -> None:
+    def __init__(
+        self, folder: LeRobotFolder, ep: int, split: str, camera: str, arrays: dict, first_only: bool
+    ) -> None:
         self.folder, self.ep, self.split, self.camera, self.arrays = folder, ep, split, camera, arrays
         self.index = int(arrays["index"])
         self.first_only = first_only
@@ -223,9 +251,20 @@ def _velocity_dataset_class():
             self.tensors = {
                 "joints": cat("joints"),
                 "velocity": cat("velocities"),
-                "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
+                "command": torch.cat(
+                    [
+                        torch.from_numpy(
+                            command_velocities(
+                                r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32)
+                            )
+                        ).float()
+                        for r in records
+                    ]
+                ),
                 "t": cat("t"),
-                "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(lengths),
+                "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(
+                    lengths
+                ),
                 "step": torch.cat([torch.arange(int(k), dtype=torch.int64) for k in lengths]),
                 **mode_labels(records, lengths),
             }
@@ -283,7 +322,9 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
     ) -> None:
         super().__init__()
         if depth:
-            raise ValueError("LeRobotDataModule.depth: the reader serves RGB video frames only; set depth: false")
+            raise ValueError(
+                "LeRobotDataModule.depth: the reader serves RGB video frames only; set depth: false"
+            )
         self.expected = {"image_size": image_size, "duration": duration, "n_steps": n_steps, "robot": robot}
         from lfd.visuomotor.data.datamodule import MODES
 
@@ -293,7 +334,12 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
             raise ValueError(f"LeRobotDataModule.val_fraction: expected 0 <= x < 1, got {val_fraction}")
         self.root, self.mode, self.camera = Path(root), mode, camera
         self.n_joints, self.n_basis, self.val_fraction = n_joints, n_basis, val_fraction
-        self.batch_size, self.num_workers, self.augment, self.tolerance_s = batch_size, num_workers, augment, tolerance_s
+        self.batch_size, self.num_workers, self.augment, self.tolerance_s = (
+            batch_size,
+            num_workers,
+            augment,
+            tolerance_s,
+        )
         self.folder: LeRobotFolder | None = None
         self.data: _Data | None = None
         self.config: LeRobotDataConfig | None = None
@@ -322,7 +368,11 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         from lfd.dmp import DMP
 
         folder = LeRobotFolder(self.root, self.tolerance_s)
-        key = f"observation.images.{self.camera}" if self.camera else (folder.video_keys[0] if folder.video_keys else None)
+        key = (
+            f"observation.images.{self.camera}"
+            if self.camera
+            else (folder.video_keys[0] if folder.video_keys else None)
+        )
         if key is None or key not in folder.video_keys:
             raise ValueError(f"{self.root}: no video feature {key!r}; it has {folder.video_keys}")
         h, w = folder.features[key]["shape"][:2]
@@ -331,12 +381,16 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         state, action = folder.data["observation.state"], folder.data["action"]
         n = self.n_joints or action.shape[1]
         if state.shape[1] < n:
-            raise ValueError(f"{self.root}: observation.state has {state.shape[1]} entries, fewer than n_joints={n}")
+            raise ValueError(
+                f"{self.root}: observation.state has {state.shape[1]} entries, fewer than n_joints={n}"
+            )
         robot_type = folder.info.get("robot_type") or ""
         split_of = self._splits(folder)
         lengths = [r["length"] for r in folder.episodes]
         if self.mode == "dmp" and len(set(lengths)) != 1:
-            raise ValueError(f"{self.root}: mode='dmp' needs equal episode lengths, got {min(lengths)}..{max(lengths)} frames")
+            raise ValueError(
+                f"{self.root}: mode='dmp' needs equal episode lengths, got {min(lengths)}..{max(lengths)} frames"
+            )
         fk = None
         episodes = []
         for e, row in enumerate(folder.episodes):
@@ -354,7 +408,9 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                 if "lfd/dmp_goal" in row:
                     k = int(row["lfd/n_basis"])
                     if self.n_basis is not None and self.n_basis != k:
-                        raise ValueError(f"LeRobotDataModule.n_basis={self.n_basis}, but {self.root} holds DMPs with {k} bases")
+                        raise ValueError(
+                            f"LeRobotDataModule.n_basis={self.n_basis}, but {self.root} holds DMPs with {k} bases"
+                        )
                     arrays.update(
                         dmp_goal=np.asarray(row["lfd/dmp_goal"]),
                         dmp_weights=np.asarray(row["lfd/dmp_weights"]).reshape(n, k),
@@ -363,7 +419,12 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                     )
                 else:
                     dmp = DMP(n_basis=self.n_basis or 20).fit(t, joints)
-                    arrays.update(dmp_goal=dmp.goal_, dmp_weights=dmp.weights_, dmp_y0=dmp.y0_, dmp_tau=np.float64(dmp.tau_))
+                    arrays.update(
+                        dmp_goal=dmp.goal_,
+                        dmp_weights=dmp.weights_,
+                        dmp_y0=dmp.y0_,
+                        dmp_tau=np.float64(dmp.tau_),
+                    )
                 if "lfd/ee_path" in row:
                     ee = np.asarray(row["lfd/ee_path"]).reshape(-1, 3)
                 else:
@@ -372,18 +433,28 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                 poses = np.tile(np.eye(4), (len(ee), 1, 1))
                 poses[:, :3, 3] = ee
                 arrays["ee_poses"] = poses
-                arrays["target_point"] = np.asarray(row["lfd/target_point"]) if "lfd/target_point" in row else ee[-1]
+                arrays["target_point"] = (
+                    np.asarray(row["lfd/target_point"]) if "lfd/target_point" in row else ee[-1]
+                )
             else:
                 arrays["target_point"] = np.asarray(row.get("lfd/target_point", np.zeros(3)))
                 arrays["dmp_goal"], arrays["dmp_weights"] = joints[-1], np.zeros((n, 1))
-            episodes.append(_Episode(folder, e, split_of.get(e, "train"), key, arrays, first_only=self.mode == "dmp"))
+            episodes.append(
+                _Episode(folder, e, split_of.get(e, "train"), key, arrays, first_only=self.mode == "dmp")
+            )
         self.folder, self.data = folder, _Data(self.root, episodes)
         T = max(lengths)
-        self.config = LeRobotDataConfig(image_size=int(h), duration=(T - 1) / folder.fps, n_steps=int(T), robot=robot_type)
+        self.config = LeRobotDataConfig(
+            image_size=int(h), duration=(T - 1) / folder.fps, n_steps=int(T), robot=robot_type
+        )
         for key, want in self.expected.items():
             have = getattr(self.config, key)
-            if want is not None and (have != want if isinstance(want, str) else not np.isclose(have, want, rtol=1e-9, atol=0)):
-                raise ValueError(f"LeRobotDataModule.{key}={want!r}, but the dataset {self.root} has {key}={have!r}")
+            if want is not None and (
+                have != want if isinstance(want, str) else not np.isclose(have, want, rtol=1e-9, atol=0)
+            ):
+                raise ValueError(
+                    f"LeRobotDataModule.{key}={want!r}, but the dataset {self.root} has {key}={have!r}"
+                )
 
     def setup(self, stage: str | None = None) -> None:
         """Read the folder and build the split datasets of :attr:`mode`."""
@@ -406,7 +477,9 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
             import torch
 
             self._stats = {
-                name: {k: torch.tensor(v, dtype=torch.float32) for k, v in entry.items() if k in ("mean", "std")}
+                name: {
+                    k: torch.tensor(v, dtype=torch.float32) for k, v in entry.items() if k in ("mean", "std")
+                }
                 for name, entry in stats.items()
             }
         view = MODES[self.mode] if self.mode == "dmp" else _VelocityDataset
@@ -429,9 +502,14 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         from torch.utils.data import DataLoader
 
         if split not in self.datasets:
-            raise RuntimeError(f"LeRobotDataModule: split '{split}' is not set up (empty, or setup() not called for it)")
+            raise RuntimeError(
+                f"LeRobotDataModule: split '{split}' is not set up (empty, or setup() not called for it)"
+            )
         return DataLoader(
-            self.datasets[split], batch_size=self.batch_size, shuffle=shuffle, num_workers=self.num_workers,
+            self.datasets[split],
+            batch_size=self.batch_size,
+            shuffle=shuffle,
+            num_workers=self.num_workers,
             persistent_workers=self.num_workers > 0,
         )
 

@@ -44,7 +44,9 @@ def episode_rewards(ee_path: np.ndarray, target: np.ndarray) -> np.ndarray:
     ``target (3,)`` covered after each step, clipped to ``[0, 1]``."""
     d = np.linalg.norm(np.asarray(ee_path) - np.asarray(target), axis=-1)
     if d.ndim != 1 or len(d) < 2:
-        raise ValueError(f"episode_rewards: expected a tool path (S + 1, 3) with S >= 1, got {np.shape(ee_path)}")
+        raise ValueError(
+            f"episode_rewards: expected a tool path (S + 1, 3) with S >= 1, got {np.shape(ee_path)}"
+        )
     return np.clip(1.0 - d[1:] / max(d[0], 1e-9), 0.0, 1.0)
 
 
@@ -76,7 +78,9 @@ def eval_info(
     from lfd.interop.lerobot.writer import task_string
 
     if not (len(rows) == len(cases) == len(traces)):
-        raise ValueError(f"eval_info: need one row and trace per case, got {len(rows)}, {len(cases)}, {len(traces)}")
+        raise ValueError(
+            f"eval_info: need one row and trace per case, got {len(rows)}, {len(cases)}, {len(traces)}"
+        )
     video_paths = list(video_paths or [])
     per_episode, tasks = [], {}
     for i, (row, case, trace) in enumerate(zip(rows, cases, traces, strict=True)):
@@ -127,7 +131,8 @@ def eval_info(
         "aggregated": {**agg(per_episode), **timing},
         "per_task": list(tasks.values()),
         "per_group": {
-            g: {**agg(eps), "n_episodes": len(eps), "video_paths": group_videos[g]} for g, eps in groups.items()
+            g: {**agg(eps), "n_episodes": len(eps), "video_paths": group_videos[g]}
+            for g, eps in groups.items()
         },
         "overall": {**agg(per_episode), "n_episodes": len(per_episode), **timing, "video_paths": video_paths},
         "video_paths": video_paths,
@@ -156,7 +161,9 @@ def render_rollout(scene, case, trace, camera, frame_every: int = 1) -> np.ndarr
     frames = []
     for k in range(0, len(trace.joints), max(1, int(frame_every))):
         scene.set_joints(trace.joints[k])
-        frames.append(side_by_side(camera.render(scene.client, scene.base_to_world, backdrop), scene.render()))
+        frames.append(
+            side_by_side(camera.render(scene.client, scene.base_to_world, backdrop), scene.render())
+        )
     return np.stack(frames)
 
 
@@ -202,12 +209,27 @@ def write_lerobot_eval(
             for i in range(min(n_videos, len(cases))):
                 if scene is None:
                     scene = ReachScene(
-                        load_robot(gen.robot), image_size=gen.image_size, control_dt=gen.control_dt, substeps=gen.substeps
+                        load_robot(gen.robot),
+                        image_size=gen.image_size,
+                        control_dt=gen.control_dt,
+                        substeps=gen.substeps,
                     )
                 frames = render_rollout(scene, cases[i], method_traces[i], camera, frame_every)
-                path = write_mp4(folder / "videos" / f"eval_episode_{i}.mp4", frames, fps=1.0 / (gen.control_dt * frame_every))
+                path = write_mp4(
+                    folder / "videos" / f"eval_episode_{i}.mp4",
+                    frames,
+                    fps=1.0 / (gen.control_dt * frame_every),
+                )
                 videos.append(str(path))
-            info = eval_info(mine, cases, method_traces, seed=seed, eval_s=eval_s, n_episodes_all_methods=n_all, video_paths=videos)
+            info = eval_info(
+                mine,
+                cases,
+                method_traces,
+                seed=seed,
+                eval_s=eval_s,
+                n_episodes_all_methods=n_all,
+                video_paths=videos,
+            )
             folder.mkdir(parents=True, exist_ok=True)
             path = folder / "eval_info.json"
             path.write_text(json.dumps(_finite(info), indent=2))

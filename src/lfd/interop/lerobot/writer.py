@@ -181,7 +181,9 @@ def _extra_type(pa, value):
     arr = np.asarray(value)
     if arr.ndim == 1 and arr.dtype.kind in "fiu":
         return pa.list_(pa.int64() if arr.dtype.kind in "iu" else pa.float64())
-    raise ValueError(f"LeRobotEpisode.extra: unsupported value {value!r} (str, number, bool or a flat numeric list)")
+    raise ValueError(
+        f"LeRobotEpisode.extra: unsupported value {value!r} (str, number, bool or a flat numeric list)"
+    )
 
 
 class LeRobotWriter:
@@ -242,9 +244,21 @@ class LeRobotWriter:
         self.cameras = {f"observation.images.{name}": tuple(hw) for name, hw in cameras.items()}
         self.features: dict[str, dict] = {}
         for key, (h, w) in self.cameras.items():
-            self.features[key] = {"dtype": "video", "shape": [h, w, 3], "names": ["height", "width", "channels"]}
-        self.features["observation.state"] = {"dtype": "float32", "shape": [len(state_names)], "names": list(state_names)}
-        self.features["action"] = {"dtype": "float32", "shape": [len(action_names)], "names": list(action_names)}
+            self.features[key] = {
+                "dtype": "video",
+                "shape": [h, w, 3],
+                "names": ["height", "width", "channels"],
+            }
+        self.features["observation.state"] = {
+            "dtype": "float32",
+            "shape": [len(state_names)],
+            "names": list(state_names),
+        }
+        self.features["action"] = {
+            "dtype": "float32",
+            "shape": [len(action_names)],
+            "names": list(action_names),
+        }
         self.features.update({k: dict(v) for k, v in DEFAULT_FEATURES.items()})
         self.tasks: dict[str, int] = {}
         self.n_episodes = self.n_frames = 0
@@ -279,13 +293,17 @@ class LeRobotWriter:
                 raise ValueError(f"LeRobotEpisode.{name}: contains NaN or inf")
         names = {f"observation.images.{c}" for c in ep.frames}
         if names != set(self.cameras):
-            raise ValueError(f"LeRobotEpisode.frames: expected cameras {sorted(self.cameras)}, got {sorted(names)}")
+            raise ValueError(
+                f"LeRobotEpisode.frames: expected cameras {sorted(self.cameras)}, got {sorted(names)}"
+            )
         if not isinstance(ep.task, str) or not ep.task:
             raise ValueError(f"LeRobotEpisode.task: expected a non-empty string, got {ep.task!r}")
         if self._extra_keys is None:
             self._extra_keys = list(ep.extra)
         elif list(ep.extra) != self._extra_keys:
-            raise ValueError(f"LeRobotEpisode.extra: every episode needs the keys {self._extra_keys}, got {list(ep.extra)}")
+            raise ValueError(
+                f"LeRobotEpisode.extra: every episode needs the keys {self._extra_keys}, got {list(ep.extra)}"
+            )
         ep_index = self.n_episodes
         task_index = self.tasks.setdefault(ep.task, len(self.tasks))
         frame_index = np.arange(T, dtype=np.int64)
@@ -315,7 +333,9 @@ class LeRobotWriter:
         for feat, s in stats.items():
             for k in STAT_KEYS:
                 row[f"stats/{feat}/{k}"] = np.asarray(s[k]).tolist()
-        row.update({k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in ep.extra.items()})
+        row.update(
+            {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in ep.extra.items()}
+        )
         self._write_meta_row(row, ep.extra)
         self.n_episodes += 1
         self.n_frames += T
@@ -343,12 +363,16 @@ class LeRobotWriter:
             hf = {k: _hf_feature(self.features[k]) for k in columns}
             fingerprint = hashlib.sha256(json.dumps(self.features, sort_keys=True).encode()).hexdigest()[:16]
             meta = {"huggingface": json.dumps({"info": {"features": hf}, "fingerprint": fingerprint})}
-            self._data_schema = pa.schema([pa.field(k, a.type) for k, a in zip(columns, arrays, strict=True)], metadata=meta)
+            self._data_schema = pa.schema(
+                [pa.field(k, a.type) for k, a in zip(columns, arrays, strict=True)], metadata=meta
+            )
         table = pa.Table.from_arrays(arrays, schema=self._data_schema)
         if d["writer"] is None:
             path = self._path(DATA_PATH, d["chunk"], d["file"])
             path.parent.mkdir(parents=True, exist_ok=True)
-            d["writer"] = pq.ParquetWriter(path, schema=self._data_schema, compression="snappy", use_dictionary=True)
+            d["writer"] = pq.ParquetWriter(
+                path, schema=self._data_schema, compression="snappy", use_dictionary=True
+            )
         d["writer"].write_table(table)
         start = self.n_frames
         return {
@@ -363,7 +387,9 @@ class LeRobotWriter:
         h, w = self.cameras[key]
         frames = np.asarray(frames)
         if frames.shape != (T, h, w, 3) or frames.dtype != np.uint8:
-            raise ValueError(f"LeRobotEpisode.frames[{key!r}]: expected uint8 ({T}, {h}, {w}, 3), got {frames.dtype} {frames.shape}")
+            raise ValueError(
+                f"LeRobotEpisode.frames[{key!r}]: expected uint8 ({T}, {h}, {w}, 3), got {frames.dtype} {frames.shape}"
+            )
         writer: VideoFileWriter | None = v["writer"]
         if writer is not None and writer.n_frames > 0:
             est_mb = writer.bytes_written / writer.n_frames * T / _MB
@@ -373,7 +399,9 @@ class LeRobotWriter:
                 v["chunk"], v["file"] = update_chunk_file_indices(v["chunk"], v["file"], self.chunks_size)
         if writer is None:
             path = self._path(VIDEO_PATH, v["chunk"], v["file"], video_key=key)
-            writer = v["writer"] = VideoFileWriter(path, fps=self.fps, width=w, height=h, codec=self.codec, crf=self.crf, g=self.g)
+            writer = v["writer"] = VideoFileWriter(
+                path, fps=self.fps, width=w, height=h, codec=self.codec, crf=self.crf, g=self.g
+            )
         start, end = writer.write_episode(frames)
         return {
             f"videos/{key}/chunk_index": v["chunk"],
@@ -405,7 +433,10 @@ class LeRobotWriter:
             else:
                 t = pa.int64()
             fields.append(pa.field(key, t))
-        fields += [pa.field("meta/episodes/chunk_index", pa.int64()), pa.field("meta/episodes/file_index", pa.int64())]
+        fields += [
+            pa.field("meta/episodes/chunk_index", pa.int64()),
+            pa.field("meta/episodes/file_index", pa.int64()),
+        ]
         return pa.schema(fields)
 
     def _write_meta_row(self, row: dict[str, Any], extra: dict[str, Any]) -> None:
@@ -430,7 +461,9 @@ class LeRobotWriter:
             if m["writer"] is None:
                 path = self._path(EPISODES_PATH, m["chunk"], m["file"])
                 path.parent.mkdir(parents=True, exist_ok=True)
-                m["writer"] = pq.ParquetWriter(path, schema=m["schema"], compression="snappy", use_dictionary=True)
+                m["writer"] = pq.ParquetWriter(
+                    path, schema=m["schema"], compression="snappy", use_dictionary=True
+                )
                 m["rows"] = 0
             m["writer"].write_table(pa.Table.from_pylist(m["buffer"], schema=m["schema"]))
             m["rows"] += len(m["buffer"])
@@ -507,11 +540,29 @@ def write_tasks(path: Path, tasks: Sequence[str]) -> None:
     pandas_meta = {
         "index_columns": ["__index_level_0__"],
         "column_indexes": [
-            {"name": None, "field_name": None, "pandas_type": "unicode", "numpy_type": "str", "metadata": {"encoding": "UTF-8"}}
+            {
+                "name": None,
+                "field_name": None,
+                "pandas_type": "unicode",
+                "numpy_type": "str",
+                "metadata": {"encoding": "UTF-8"},
+            }
         ],
         "columns": [
-            {"name": "task_index", "field_name": "task_index", "pandas_type": "int64", "numpy_type": "int64", "metadata": None},
-            {"name": None, "field_name": "__index_level_0__", "pandas_type": "object", "numpy_type": "str", "metadata": None},
+            {
+                "name": "task_index",
+                "field_name": "task_index",
+                "pandas_type": "int64",
+                "numpy_type": "int64",
+                "metadata": None,
+            },
+            {
+                "name": None,
+                "field_name": "__index_level_0__",
+                "pandas_type": "object",
+                "numpy_type": "str",
+                "metadata": None,
+            },
         ],
         "attributes": {},
         "creator": {"library": "pyarrow", "version": pa.__version__},
@@ -521,13 +572,25 @@ def write_tasks(path: Path, tasks: Sequence[str]) -> None:
         [pa.field("task_index", pa.int64()), pa.field("__index_level_0__", pa.large_string())],
         metadata={"pandas": json.dumps(pandas_meta)},
     )
-    table = pa.table({"task_index": np.arange(len(tasks), dtype=np.int64), "__index_level_0__": list(tasks)}, schema=schema)
+    table = pa.table(
+        {"task_index": np.arange(len(tasks), dtype=np.int64), "__index_level_0__": list(tasks)}, schema=schema
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
     pq.write_table(table, path, compression="snappy")
 
 
 # ---------------------------------------------------------------------------- lfd -> LeRobot
-_HUES = ((15, "red"), (45, "orange"), (70, "yellow"), (165, "green"), (195, "cyan"), (255, "blue"), (290, "purple"), (345, "magenta"), (360, "red"))
+_HUES = (
+    (15, "red"),
+    (45, "orange"),
+    (70, "yellow"),
+    (165, "green"),
+    (195, "cyan"),
+    (255, "blue"),
+    (290, "purple"),
+    (345, "magenta"),
+    (360, "red"),
+)
 
 
 def colour_name(rgba: Sequence[float]) -> str:
@@ -553,8 +616,15 @@ def task_string(obj, approach_mode: str) -> str:
 
 #: Episode arrays of an lfd dataset kept as extra episode columns ``lfd/<key>`` (flattened).
 EXTRA_ARRAYS = (
-    "placement", "object_dims", "object_rgba", "target_point", "dmp_y0", "dmp_goal", "dmp_weights",
-    "q_approach", "q_pregrasp",
+    "placement",
+    "object_dims",
+    "object_rgba",
+    "target_point",
+    "dmp_y0",
+    "dmp_goal",
+    "dmp_weights",
+    "q_approach",
+    "q_pregrasp",
 )
 EXTRA_SCALARS = ("index", "object_index", "placement_index", "object_mass", "dmp_tau", "final_error")
 EXTRA_STRINGS = ("split", "object_name", "object_shape", "approach_mode")
@@ -578,7 +648,9 @@ def lfd_episode(record, frames: dict[str, np.ndarray]) -> LeRobotEpisode:
         extra[f"lfd/{key}"] = str(a[key])
     for key in EXTRA_SCALARS:
         value = a[key].item()
-        extra[f"lfd/{key}"] = int(value) if key in ("index", "object_index", "placement_index") else float(value)
+        extra[f"lfd/{key}"] = (
+            int(value) if key in ("index", "object_index", "placement_index") else float(value)
+        )
     for key in EXTRA_ARRAYS:
         extra[f"lfd/{key}"] = np.asarray(a[key], dtype=np.float64).reshape(-1)
     extra["lfd/n_basis"] = int(np.asarray(a["dmp_weights"]).shape[-1])
@@ -624,9 +696,9 @@ def export_lerobot(
 
         export_lerobot("data/quick_s42", "data/quick_s42.lerobot")
     """
+    from lfd.robots import load_robot
     from lfd.visuomotor.data.datasets import load_dataset
     from lfd.visuomotor.data.episodes import SPLITS
-    from lfd.robots import load_robot
 
     data = load_dataset(dataset)
     out = Path(out)

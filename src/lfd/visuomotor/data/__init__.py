@@ -26,7 +26,13 @@ _EXPORTS = exports(
     {
         "config": ["GeneratorConfig"],
         "datamodule": ["ReachDataModule"],
-        "datasets": ["DMPReachDataset", "ReachData", "VelocityReachDataset", "image_augmentation", "load_dataset"],
+        "datasets": [
+            "DMPReachDataset",
+            "ReachData",
+            "VelocityReachDataset",
+            "image_augmentation",
+            "load_dataset",
+        ],
         "episodes": ["SPLITS", "EpisodePlan", "EpisodeRecord", "plan_episodes"],
         "generate": ["GenerationReport", "code_version", "dataset_dir", "generate_dataset", "merge_shards"],
         "manifest": ["verify_dataset"],
@@ -37,10 +43,11 @@ __all__ = sorted(_EXPORTS)
 __getattr__, __dir__ = lazy_getattr(__name__, _EXPORTS)
 
 if TYPE_CHECKING:
+    from lfd.io.files import DatasetError
+
     from .config import GeneratorConfig
     from .datamodule import ReachDataModule
     from .datasets import DMPReachDataset, ReachData, VelocityReachDataset, image_augmentation, load_dataset
     from .episodes import SPLITS, EpisodePlan, EpisodeRecord, plan_episodes
     from .generate import GenerationReport, code_version, dataset_dir, generate_dataset, merge_shards
     from .manifest import verify_dataset
-    from lfd.io.files import DatasetError

@@ -102,7 +102,9 @@ class GeneratorConfig:
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"GeneratorConfig.seed: expected an int >= 0, got {self.seed!r}")
         if not 0 <= self.val_fraction < 1:
-            raise ValueError(f"GeneratorConfig.val_fraction: expected a value in [0, 1), got {self.val_fraction}")
+            raise ValueError(
+                f"GeneratorConfig.val_fraction: expected a value in [0, 1), got {self.val_fraction}"
+            )
         if self.n_val_placements >= self.n_train_placements:
             raise ValueError(
                 f"GeneratorConfig.val_fraction: {self.val_fraction} leaves no training placement "
@@ -111,11 +113,15 @@ class GeneratorConfig:
         cycles = {"families": self.families, "train_families": self.train_families}
         for name, value in cycles.items():
             if value is not None and (not value or any(f not in SHAPES for f in value)):
-                raise ValueError(f"GeneratorConfig.{name}: expected a non-empty list of {SHAPES} (repeats allowed), got {list(value)}")
+                raise ValueError(
+                    f"GeneratorConfig.{name}: expected a non-empty list of {SHAPES} (repeats allowed), got {list(value)}"
+                )
         for name in ("x_range", "y_range", "yaw_range_deg"):
             low_high = getattr(self, name)
             if len(low_high) != 2 or not all(math.isfinite(v) for v in low_high) or low_high[0] > low_high[1]:
-                raise ValueError(f"GeneratorConfig.{name}: expected finite (low, high), low <= high, got {low_high}")
+                raise ValueError(
+                    f"GeneratorConfig.{name}: expected finite (low, high), low <= high, got {low_high}"
+                )
         for name in ("duration", "tolerance"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -174,7 +180,9 @@ class GeneratorConfig:
 
     def sha256(self) -> str:
         """Hash of the canonical JSON of :meth:`to_dict` and the on-disk format version."""
-        return hashlib.sha256(json_bytes({"format_version": FORMAT_VERSION, "config": self.to_dict()})).hexdigest()
+        return hashlib.sha256(
+            json_bytes({"format_version": FORMAT_VERSION, "config": self.to_dict()})
+        ).hexdigest()
 
 
 #: Options added after :data:`~lfd.io.files.FORMAT_VERSION` 2, with their defaults.

@@ -9,12 +9,18 @@ import lightning as L
 import torch
 from torch.utils.data import DataLoader, Dataset
 
-from lfd.visuomotor.data.config import GeneratorConfig
-from lfd.visuomotor.data.datasets import DMPReachDataset, ReachData, VelocityReachDataset, image_augmentation, load_dataset
-from lfd.visuomotor.data.generate import GenerationReport, dataset_dir, generate_dataset
 from lfd.io.files import DatasetError
 from lfd.sim.camera import DEPTH_ENCODINGS
 from lfd.sim.objects import SHAPES
+from lfd.visuomotor.data.config import GeneratorConfig
+from lfd.visuomotor.data.datasets import (
+    DMPReachDataset,
+    ReachData,
+    VelocityReachDataset,
+    image_augmentation,
+    load_dataset,
+)
+from lfd.visuomotor.data.generate import GenerationReport, dataset_dir, generate_dataset
 
 __all__ = ["ReachDataModule"]
 
@@ -126,14 +132,22 @@ class ReachDataModule(L.LightningDataModule):
         )
         self.input_depth = bool(depth if input_depth is None else input_depth)
         if self.input_depth and not depth:
-            raise ValueError("ReachDataModule.input_depth: true needs a dataset recorded with depth: true (it has depth: false)")
+            raise ValueError(
+                "ReachDataModule.input_depth: true needs a dataset recorded with depth: true (it has depth: false)"
+            )
         if depth_encoding not in DEPTH_ENCODINGS:
-            raise ValueError(f"ReachDataModule.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}")
+            raise ValueError(
+                f"ReachDataModule.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}"
+            )
         if depth_encoding != "range" and not self.input_depth:
-            raise ValueError(f"ReachDataModule.depth_encoding: {depth_encoding!r} is an encoding of the depth channel; the input is RGB (input_depth: false)")
+            raise ValueError(
+                f"ReachDataModule.depth_encoding: {depth_encoding!r} is an encoding of the depth channel; the input is RGB (input_depth: false)"
+            )
         self.depth_encoding = depth_encoding
         if augment and self.input_depth:
-            raise ValueError("ReachDataModule: augment (colour jitter + shifts of RGB images) does not support RGB-D input (input_depth / depth: true); set augment: false")
+            raise ValueError(
+                "ReachDataModule: augment (colour jitter + shifts of RGB images) does not support RGB-D input (input_depth / depth: true); set augment: false"
+            )
         self.name, self.mode = name, mode
         self.path = dataset_dir(root, name, shard, num_shards)
         self.shard, self.num_shards = shard, num_shards
@@ -170,7 +184,11 @@ class ReachDataModule(L.LightningDataModule):
         for split in wanted:
             if split not in self.datasets and self.data.manifest["episodes"][split] > 0:
                 self.datasets[split] = view(
-                    self.data, split, augment if split == "train" else None, depth=self.input_depth, depth_encoding=self.depth_encoding
+                    self.data,
+                    split,
+                    augment if split == "train" else None,
+                    depth=self.input_depth,
+                    depth_encoding=self.depth_encoding,
                 )
 
     def fingerprint(self) -> dict:
@@ -191,7 +209,9 @@ class ReachDataModule(L.LightningDataModule):
 
     def _loader(self, split: str, shuffle: bool) -> DataLoader:
         if split not in self.datasets:
-            raise RuntimeError(f"ReachDataModule: split '{split}' is not set up (empty, or setup() not called for it)")
+            raise RuntimeError(
+                f"ReachDataModule: split '{split}' is not set up (empty, or setup() not called for it)"
+            )
         return DataLoader(
             self.datasets[split],
             batch_size=self.batch_size,

@@ -25,13 +25,13 @@ import numpy as np
 import torch
 from torch.utils.data import Dataset
 
+from lfd.io.files import DatasetError, read_json
+from lfd.sim.approach import TABLE_Z
+from lfd.sim.camera import DEPTH_ENCODINGS, plane_depth_mm, rgbd_image
 from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import SPLITS, EpisodeRecord, episode_path
 from lfd.visuomotor.data.generate import code_version
 from lfd.visuomotor.data.manifest import STATS, verify_dataset
-from lfd.io.files import DatasetError, read_json
-from lfd.sim.approach import TABLE_Z
-from lfd.sim.camera import DEPTH_ENCODINGS, plane_depth_mm, rgbd_image
 
 __all__ = [
     "DMPReachDataset",
@@ -118,14 +118,18 @@ def policy_frames(record: EpisodeRecord, depth: bool, depth_encoding: str = "ran
     depth channel in ``depth_encoding`` (:data:`~lfd.sim.camera.DEPTH_ENCODINGS`; ``"relief"``
     against the table plane seen through the episode's recorded camera)."""
     if depth_encoding not in DEPTH_ENCODINGS:
-        raise ValueError(f"policy_frames.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}")
+        raise ValueError(
+            f"policy_frames.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}"
+        )
     rgb = record.frames()
     if not depth:
         return rgb
     reference = None
     if depth_encoding == "relief":
         a = record.arrays
-        reference = plane_depth_mm(a["camera_view"], a["camera_projection"], rgb.shape[-2], rgb.shape[-3], TABLE_Z)
+        reference = plane_depth_mm(
+            a["camera_view"], a["camera_projection"], rgb.shape[-2], rgb.shape[-3], TABLE_Z
+        )
     return rgbd_image(rgb, record.frames("depth"), reference)
 
 
@@ -165,7 +169,9 @@ def command_velocities(joints: np.ndarray, t: np.ndarray) -> np.ndarray:
     """
     joints, t = np.asarray(joints, dtype=np.float64), np.asarray(t, dtype=np.float64)
     if joints.ndim != 2 or t.shape != (joints.shape[0],) or len(t) < 2 or not np.all(np.diff(t) > 0):
-        raise ValueError(f"command_velocities: need joints (T, n) and increasing times (T,), T >= 2; got {joints.shape}, {t.shape}")
+        raise ValueError(
+            f"command_velocities: need joints (T, n) and increasing times (T,), T >= 2; got {joints.shape}, {t.shape}"
+        )
     out = np.zeros_like(joints)
     out[:-1] = np.diff(joints, axis=0) / np.diff(t)[:, None]
     return out
@@ -179,7 +185,10 @@ def mode_labels(records: list[EpisodeRecord], steps: int | torch.Tensor) -> dict
     if not all("approach_mode" in r.arrays and "target_point" in r.arrays for r in records):
         return {}
     top = torch.tensor([str(r.arrays["approach_mode"]) == "top" for r in records], dtype=torch.float32)
-    return {"top": top.repeat_interleave(steps), "target_point": _stack(records, "target_point").repeat_interleave(steps, dim=0)}
+    return {
+        "top": top.repeat_interleave(steps),
+        "target_point": _stack(records, "target_point").repeat_interleave(steps, dim=0),
+    }
 
 
 def _stack(records: list[EpisodeRecord], key: str) -> torch.Tensor:
@@ -208,14 +217,21 @@ class DMPReachDataset(Dataset):
     """
 
     def __init__(
-        self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None, depth_encoding: str = "range"
+        self,
+        data: ReachData,
+        split: str,
+        transform: Transform | None = None,
+        depth: bool | None = None,
+        depth_encoding: str = "range",
     ) -> None:
         records = data.split(split)
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
         depth = _input_depth(data, depth)
-        self.frames = torch.from_numpy(np.stack([policy_frames(r, depth, depth_encoding)[0] for r in records]))
+        self.frames = torch.from_numpy(
+            np.stack([policy_frames(r, depth, depth_encoding)[0] for r in records])
+        )
         self.tensors = {
             "joints": _stack(records, "joints")[:, 0],
             "goal": _stack(records, "dmp_goal"),
@@ -259,19 +275,35 @@ class VelocityReachDataset(Dataset):
     """
 
     def __init__(
-        self, data: ReachData, split: str, transform: Transform | None = None, depth: bool | None = None, depth_encoding: str = "range"
+        self,
+        data: ReachData,
+        split: str,
+        transform: Transform | None = None,
+        depth: bool | None = None,
+        depth_encoding: str = "range",
     ) -> None:
         records = data.split(split)
         if not records:
             raise DatasetError(f"{data.path}: split '{split}' is empty")
         self.transform = transform
         depth = _input_depth(data, depth)
-        self.frames = torch.from_numpy(np.concatenate([policy_frames(r, depth, depth_encoding) for r in records]))
+        self.frames = torch.from_numpy(
+            np.concatenate([policy_frames(r, depth, depth_encoding) for r in records])
+        )
         steps = records[0].arrays["t"].shape[0]
         self.tensors = {
             "joints": _stack(records, "joints").reshape(-1, 7),
             "velocity": _stack(records, "velocities").reshape(-1, 7),
-            "command": torch.cat([torch.from_numpy(command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))).float() for r in records]),
+            "command": torch.cat(
+                [
+                    torch.from_numpy(
+                        command_velocities(
+                            r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32)
+                        )
+                    ).float()
+                    for r in records
+                ]
+            ),
             "t": _stack(records, "t").reshape(-1),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(steps),
             "step": torch.arange(steps, dtype=torch.int64).repeat(len(records)),

@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.io.files import DatasetError
 from lfd.sim.expert import DISCARD_REASONS
 from lfd.sim.objects import ObjectSpec, Placement, sample_object
+from lfd.visuomotor.data.config import GeneratorConfig
 
 SPLITS = ("train", "val", "test")
 #: Image arrays of an episode file, read only on demand (:meth:`EpisodeRecord.frames`).
@@ -62,7 +62,12 @@ def group_objects(cfg: GeneratorConfig, group: str, n: int) -> list[ObjectSpec]:
     ``f"{group}-{j:02d}-{shape}"``."""
     key, families = GROUP_KEYS[group], cfg.group_families(group)
     shapes = [families[j % len(families)] for j in range(n)]
-    return [sample_object(np.random.default_rng([cfg.seed, OBJECT_STREAM, key, j]), shape, f"{group}-{j:02d}-{shape}") for j, shape in enumerate(shapes)]
+    return [
+        sample_object(
+            np.random.default_rng([cfg.seed, OBJECT_STREAM, key, j]), shape, f"{group}-{j:02d}-{shape}"
+        )
+        for j, shape in enumerate(shapes)
+    ]
 
 
 def plan_episodes(cfg: GeneratorConfig) -> list[EpisodePlan]:
@@ -76,7 +81,10 @@ def plan_episodes(cfg: GeneratorConfig) -> list[EpisodePlan]:
         val = set(perm[: cfg.n_val_placements].tolist())
         for k in range(cfg.n_train_placements):
             plans.append(EpisodePlan(len(plans), "val" if k in val else "train", j, k, obj, "train"))
-    for group, n_obj, n_pl in (("val", cfg.n_val_objects, cfg.n_val_object_placements), ("test", cfg.n_test_objects, cfg.n_test_placements)):
+    for group, n_obj, n_pl in (
+        ("val", cfg.n_val_objects, cfg.n_val_object_placements),
+        ("test", cfg.n_test_objects, cfg.n_test_placements),
+    ):
         for j, obj in enumerate(group_objects(cfg, group, n_obj)):
             for k in range(n_pl):
                 plans.append(EpisodePlan(len(plans), group, j, k, obj, group))
@@ -86,7 +94,9 @@ def plan_episodes(cfg: GeneratorConfig) -> list[EpisodePlan]:
 def placement_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:
     """The random stream an episode draws its placement (and retries) from: keyed by the
     seed, the object group, the object and the placement number, not the episode index."""
-    return np.random.default_rng([cfg.seed, PLACEMENT_STREAM, GROUP_KEYS[plan.group], plan.object_index, plan.placement_index])
+    return np.random.default_rng(
+        [cfg.seed, PLACEMENT_STREAM, GROUP_KEYS[plan.group], plan.object_index, plan.placement_index]
+    )
 
 
 def split_keys(cfg: GeneratorConfig) -> dict[str, list[int]]:

@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from lfd.visuomotor.data.episodes import split_keys
 from lfd.io.files import sha256_file
 from lfd.sim.objects import ObjectSpec, Placement
+from lfd.visuomotor.data.episodes import split_keys
 
 #: Values closer than this (m, rad, colour units) count as the same item.
 SAME_ITEM_TOL = 1e-6
@@ -39,7 +39,10 @@ def dataset_fingerprint(data) -> dict[str, Any]:
     objects: dict[tuple, dict[str, Any]] = {}
     for e in train:
         o = e.obj
-        objects.setdefault((o.shape, o.dims, o.rgba), {"name": o.name, "shape": o.shape, "dims": list(o.dims), "rgba": list(o.rgba)})
+        objects.setdefault(
+            (o.shape, o.dims, o.rgba),
+            {"name": o.name, "shape": o.shape, "dims": list(o.dims), "rgba": list(o.rgba)},
+        )
     return {
         "manifest_sha256": sha256_file(data.path / "manifest.json"),
         "config_sha256": data.config.sha256(),
@@ -59,21 +62,29 @@ def _same_object(item: dict[str, Any], obj: ObjectSpec) -> bool:
     )
 
 
-def training_overlap(fingerprint: dict[str, Any] | None, cases: Iterable[tuple[str, ObjectSpec, Placement]]) -> list[str]:
+def training_overlap(
+    fingerprint: dict[str, Any] | None, cases: Iterable[tuple[str, ObjectSpec, Placement]]
+) -> list[str]:
     """Messages naming every evaluation case (``(label, object, placement)``) whose object
     (geometry and colour) or placement (x, y, yaw) is one of the fingerprint's training
     items; empty when there is none or no fingerprint."""
     if not fingerprint:
         return []
-    placements = np.asarray(fingerprint.get("train_placements") or np.zeros((0, 3)), dtype=np.float64).reshape(-1, 3)
+    placements = np.asarray(
+        fingerprint.get("train_placements") or np.zeros((0, 3)), dtype=np.float64
+    ).reshape(-1, 3)
     out = []
     for label, obj, pl in cases:
         for item in fingerprint.get("train_objects", []):
             if _same_object(item, obj):
-                out.append(f"evaluation case {label}: object {obj.name!r} is training object {item['name']!r}")
+                out.append(
+                    f"evaluation case {label}: object {obj.name!r} is training object {item['name']!r}"
+                )
         if len(placements):
             hit = np.flatnonzero(np.abs(placements - pl.as_array()).max(axis=1) < SAME_ITEM_TOL)
             if hit.size:
                 x, y, yaw = placements[hit[0]]
-                out.append(f"evaluation case {label}: placement ({pl.x}, {pl.y}, {pl.yaw}) is training placement #{hit[0]} ({x}, {y}, {yaw})")
+                out.append(
+                    f"evaluation case {label}: placement ({pl.x}, {pl.y}, {pl.yaw}) is training placement #{hit[0]} ({x}, {y}, {yaw})"
+                )
     return out

@@ -12,11 +12,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
+from lfd.io.files import FORMAT_VERSION, DatasetError, read_json, sha256_file, write_json_atomic
+from lfd.sim.expert import DISCARD_REASONS
 from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import EPISODE_DIR, SPLITS, EpisodeRecord, episode_path
 from lfd.visuomotor.data.stats import compute_stats
-from lfd.io.files import FORMAT_VERSION, DatasetError, read_json, sha256_file, write_json_atomic
-from lfd.sim.expert import DISCARD_REASONS
 
 MANIFEST = "manifest.json"
 STATS = "stats.json"
@@ -35,7 +35,9 @@ def write_manifest(
         if str(r.arrays["config_sha256"]) != cfg_sha:
             raise DatasetError(f"{r.path} was generated with a different config")
     if len(versions) > 1:
-        raise DatasetError(f"{out_dir}: episodes come from several code versions {sorted(versions)}; regenerate")
+        raise DatasetError(
+            f"{out_dir}: episodes come from several code versions {sorted(versions)}; regenerate"
+        )
     files = [episode_path(i) for i in indices]
     if shard is None:
         write_json_atomic(out_dir / STATS, compute_stats([r for r in records if r.split == "train"]))
@@ -84,7 +86,9 @@ def config_differences(on_disk: dict[str, Any], wanted: dict[str, Any]) -> list[
     """Human-readable ``key: on disk X, requested Y`` lines for differing config keys."""
     keys = sorted(set(on_disk) | set(wanted))
     return [
-        f"{k}: on disk {on_disk.get(k)!r}, requested {wanted.get(k)!r}" for k in keys if on_disk.get(k) != wanted.get(k)
+        f"{k}: on disk {on_disk.get(k)!r}, requested {wanted.get(k)!r}"
+        for k in keys
+        if on_disk.get(k) != wanted.get(k)
     ]
 
 
@@ -92,7 +96,7 @@ def verify_dataset(
     path: str | Path,
     cfg: GeneratorConfig | None = None,
     *,
-    shard: int | None | Literal["any"] = None,
+    shard: int | Literal["any"] | None = None,
     num_shards: int = 1,
 ) -> dict[str, Any]:
     """Check a finished dataset folder against its manifest; returns the manifest.
@@ -122,13 +126,17 @@ def verify_dataset(
     if shard == "any" and on_disk is None:
         raise DatasetError(f"{path} is a full dataset, not a shard")
     if isinstance(shard, int) and on_disk != {"index": shard, "count": num_shards}:
-        raise DatasetError(f"{path}: manifest describes shard {on_disk}, expected shard {shard} of {num_shards}")
+        raise DatasetError(
+            f"{path}: manifest describes shard {on_disk}, expected shard {shard} of {num_shards}"
+        )
     for rel, digest in manifest["files"].items():
         file = path / rel
         if not file.is_file():
             raise DatasetError(f"corrupt dataset {path}: missing file {file}")
         if sha256_file(file) != digest:
-            raise DatasetError(f"corrupt dataset {path}: checksum mismatch for {file} (file changed or damaged)")
+            raise DatasetError(
+                f"corrupt dataset {path}: checksum mismatch for {file} (file changed or damaged)"
+            )
     listed = set(manifest["files"])
     extra = sorted(
         f.relative_to(path).as_posix()

@@ -10,7 +10,14 @@ the controllers (:func:`run_episode`, :func:`closed_loop_reach`).
 
 from lfd.visuomotor.eval.evaluator import ReachEvaluator, find_checkpoints
 from lfd.visuomotor.eval.metrics import summarise, wilson_interval
-from lfd.visuomotor.eval.rollout import Observation, PlanController, ReachTrace, VelocityController, closed_loop_reach, run_episode
+from lfd.visuomotor.eval.rollout import (
+    Observation,
+    PlanController,
+    ReachTrace,
+    VelocityController,
+    closed_loop_reach,
+    run_episode,
+)
 from lfd.visuomotor.eval.scenario import Scenario, ScenarioError, load_scenario
 
 __all__ = [

@@ -30,20 +30,26 @@ from typing import Any
 import numpy as np
 import torch
 
-from lfd.visuomotor.data.datasets import load_dataset
-from lfd.visuomotor.data.fingerprint import training_overlap
-from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.interop.lerobot.report import write_lerobot_eval
-from lfd.visuomotor.eval.metrics import MAX_DISPLACEMENT_M, SUCCESS_RADIUS_M, approach_angle_deg, integrated_squared_jerk, summarise
-from lfd.visuomotor.eval.plots import distance_bars, paths_3d, write_gif
-from lfd.visuomotor.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, observe, run_episode
-from lfd.visuomotor.eval.scenario import load_scenario
-from lfd.visuomotor.policies import checkpoint_kind, load_policy
+from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
 from lfd.sim.approach import TABLE_Z, ApproachPlan, plan_approach
 from lfd.sim.expert import DemoDiscarded, ScriptedExpert
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.scene import ReachScene
+from lfd.visuomotor.data.datasets import load_dataset
+from lfd.visuomotor.data.fingerprint import training_overlap
+from lfd.visuomotor.eval.metrics import (
+    MAX_DISPLACEMENT_M,
+    SUCCESS_RADIUS_M,
+    approach_angle_deg,
+    integrated_squared_jerk,
+    summarise,
+)
+from lfd.visuomotor.eval.plots import distance_bars, paths_3d, write_gif
+from lfd.visuomotor.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, observe, run_episode
+from lfd.visuomotor.eval.scenario import load_scenario
+from lfd.visuomotor.policies import checkpoint_kind, load_policy
 
 #: Checkpoint config key per policy kind (``python evaluate.py ckpt_dmp=... ckpt_velocity=...``).
 CKPT_KEYS = {"cnn_dmp": "ckpt_dmp", "velocity": "ckpt_velocity"}
@@ -57,7 +63,9 @@ def find_checkpoints(output_root: str | Path, kinds: tuple[str, ...]) -> dict[st
     """The newest (by modification time) ``last.ckpt`` of each policy kind under
     ``<output_root>/train/**/checkpoints/``; kinds without one are left out."""
     found: dict[str, Path] = {}
-    candidates = sorted(Path(output_root).glob(CHECKPOINT_GLOB), key=lambda p: p.stat().st_mtime, reverse=True)
+    candidates = sorted(
+        Path(output_root).glob(CHECKPOINT_GLOB), key=lambda p: p.stat().st_mtime, reverse=True
+    )
     for path in candidates:
         kind = checkpoint_kind(path)
         if kind in kinds and kind not in found:
@@ -154,12 +162,16 @@ class ReachEvaluator:
             raise ValueError(f"ReachEvaluator.split: expected 'test' or 'val', got {split!r}")
         unknown = sorted(set(methods) - set(CONTROLLERS))
         if unknown:
-            raise ValueError(f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(CONTROLLERS)}")
+            raise ValueError(
+                f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(CONTROLLERS)}"
+            )
         if max_steps is not None and max_steps < 1:
             raise ValueError(f"ReachEvaluator.max_steps: expected an int >= 1 or null, got {max_steps}")
         bad = sorted(set(colour_tta) - set(CONTROLLERS))
         if bad:
-            raise ValueError(f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(CONTROLLERS)}")
+            raise ValueError(
+                f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(CONTROLLERS)}"
+            )
         self.colour_tta = tuple(colour_tta)
         self.scenario = scenario
         self.methods = tuple(methods)
@@ -171,7 +183,9 @@ class ReachEvaluator:
         self.split = split
 
     # ------------------------------------------------------------------ inputs
-    def resolve_checkpoints(self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None) -> dict[str, Path]:
+    def resolve_checkpoints(
+        self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None
+    ) -> dict[str, Path]:
         """Checkpoint per method: ``given[kind]`` when set (must exist; ``evaluate.py`` passes
         ``ckpt_dmp`` / ``ckpt_velocity``), else the newest found under ``output_root``.
         Missing ones are reported with the command that makes them; none at all raises."""
@@ -181,7 +195,9 @@ class ReachEvaluator:
                 raise FileNotFoundError(f"{CKPT_KEYS[kind]}={path}: no such checkpoint file")
         searched = [k for k, p in given.items() if p is None]
         found = find_checkpoints(output_root, tuple(searched)) if searched else {}
-        out = {kind: Path(given[kind]) if given[kind] is not None else found.get(kind) for kind in self.methods}
+        out = {
+            kind: Path(given[kind]) if given[kind] is not None else found.get(kind) for kind in self.methods
+        }
         missing = [k for k, p in out.items() if p is None]
         hints = "; ".join(
             f"no '{k}' checkpoint under {Path(output_root) / CHECKPOINT_GLOB}: train one with "
@@ -201,9 +217,15 @@ class ReachEvaluator:
         table_z = scene.table_z
         if self.scenario is not None:
             gen = data.config
-            scenario = load_scenario(self.scenario, camera=scene.camera, robot=scene.robot, training=gen, table_z=table_z)
+            scenario = load_scenario(
+                self.scenario, camera=scene.camera, robot=scene.robot, training=gen, table_z=table_z
+            )
             expert = ScriptedExpert(
-                scene.robot, duration=gen.duration, n_steps=gen.n_steps, approach_fraction=gen.approach_fraction, tolerance=gen.tolerance
+                scene.robot,
+                duration=gen.duration,
+                n_steps=gen.n_steps,
+                approach_fraction=gen.approach_fraction,
+                tolerance=gen.tolerance,
             )
             cases = [
                 Case(
@@ -219,9 +241,13 @@ class ReachEvaluator:
                 for i, obj, j, placement in scenario.cases()
             ]
             return cases[: self.limit], f"scenario {scenario.source}"
-        records = data.split("test") if self.split == "test" else [r for r in data.split("val") if r.group == "val"]
+        records = (
+            data.split("test") if self.split == "test" else [r for r in data.split("val") if r.group == "val"]
+        )
         if not records:
-            raise ValueError(f"dataset {data.path} has no {self.split} split; give eval.scenario=FILE or another eval.split")
+            raise ValueError(
+                f"dataset {data.path} has no {self.split} split; give eval.scenario=FILE or another eval.split"
+            )
         cases = [
             Case(
                 r.object_index,
@@ -249,7 +275,9 @@ class ReachEvaluator:
         """
         unknown = sorted(set(checkpoints) - set(CONTROLLERS))
         if unknown or not checkpoints:
-            raise ValueError(f"ReachEvaluator.run: checkpoints must map some of {sorted(CONTROLLERS)} to files, got {sorted(checkpoints)}")
+            raise ValueError(
+                f"ReachEvaluator.run: checkpoints must map some of {sorted(CONTROLLERS)} to files, got {sorted(checkpoints)}"
+            )
         t0 = time.perf_counter()
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -259,7 +287,9 @@ class ReachEvaluator:
             try:
                 policies[kind].colour_tta = True
             except ValueError as e:
-                raise ValueError(f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: eval.colour_tta=[]") from e
+                raise ValueError(
+                    f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: eval.colour_tta=[]"
+                ) from e
         gen = datamodule.config
         for kind, policy in policies.items():
             try:
@@ -267,28 +297,46 @@ class ReachEvaluator:
                 # (observe): RGB or RGB-D need not match the dataset, everything else must
                 policy.check_data(gen, depth=bool(policy.hparams.get("depth", False)))
             except ValueError as e:
-                raise ValueError(f"{kind} checkpoint {checkpoints[kind]}: {e}; evaluate with the data config it was trained on") from e
+                raise ValueError(
+                    f"{kind} checkpoint {checkpoints[kind]}: {e}; evaluate with the data config it was trained on"
+                ) from e
         datamodule.prepare_data()
         data = load_dataset(datamodule.path, gen)
         steps = self.max_steps or 2 * (gen.n_steps - 1)
         threads = torch.get_num_threads()
         torch.set_num_threads(self.torch_threads)
         try:
-            with ReachScene(load_robot(gen.robot), image_size=gen.image_size, control_dt=gen.control_dt, substeps=gen.substeps) as scene:
+            with ReachScene(
+                load_robot(gen.robot),
+                image_size=gen.image_size,
+                control_dt=gen.control_dt,
+                substeps=gen.substeps,
+            ) as scene:
                 cases, source = self.cases(data, scene)
                 for kind, policy in policies.items():
-                    labels = [(f"{c.obj.name} at placement {c.placement_index}", c.obj, c.placement) for c in cases]
+                    labels = [
+                        (f"{c.obj.name} at placement {c.placement_index}", c.obj, c.placement) for c in cases
+                    ]
                     overlap = training_overlap(getattr(policy, "dataset_fingerprint", None), labels)
                     if overlap:
-                        shown = "; ".join(overlap[:5]) + (f"; ... ({len(overlap)} in all)" if len(overlap) > 5 else "")
+                        shown = "; ".join(overlap[:5]) + (
+                            f"; ... ({len(overlap)} in all)" if len(overlap) > 5 else ""
+                        )
                         raise ValueError(
                             f"{kind} checkpoint {checkpoints[kind]} was trained on items of the evaluation cases ({source}): "
                             f"{shown}; evaluate on cases it never saw"
                         )
-                traces = {kind: self._episodes(kind, policy, cases, scene, steps, out_dir) for kind, policy in policies.items()}
+                traces = {
+                    kind: self._episodes(kind, policy, cases, scene, steps, out_dir)
+                    for kind, policy in policies.items()
+                }
         finally:
             torch.set_num_threads(threads)
-        rows = [self._row(kind, case, trace, gen.control_dt) for kind in traces for case, trace in zip(cases, traces[kind])]
+        rows = [
+            self._row(kind, case, trace, gen.control_dt)
+            for kind in traces
+            for case, trace in zip(cases, traces[kind])
+        ]
         metrics = {}
         for kind in traces:
             mine = [r for r in rows if r["method"] == kind]
@@ -300,7 +348,9 @@ class ReachEvaluator:
                 limit_violations=np.array([r["joint_limit_violations"] for r in mine]),
                 latency_ms=np.concatenate([t.latencies_ms for t in traces[kind]]),
                 displacement=np.array([r["object_displacement_m"] for r in mine]),
-                clusters=np.array([f"{r['object_index']}:{r['object']}" for r in mine]),  # one per object (the val split has two groups)
+                clusters=np.array(
+                    [f"{r['object_index']}:{r['object']}" for r in mine]
+                ),  # one per object (the val split has two groups)
                 object_distance=np.array([r["object_distance_m"] for r in mine]),
                 table_contact=np.array([r["arm_table_contact"] for r in mine]),
                 object_contact=np.array([r["arm_object_contact"] for r in mine]),
@@ -310,14 +360,31 @@ class ReachEvaluator:
                 metrics[kind]["in_distribution"] = self._subset([r for r in mine if not r["ood"]])
                 metrics[kind]["out_of_distribution"] = self._subset(ood)
             metrics[kind].update(
-                {"checkpoint": str(checkpoints[kind]), "cases": source, "steps_per_episode": steps, "colour_tta": kind in self.colour_tta}
+                {
+                    "checkpoint": str(checkpoints[kind]),
+                    "cases": source,
+                    "steps_per_episode": steps,
+                    "colour_tta": kind in self.colour_tta,
+                }
             )
         self._write(out_dir, metrics, rows, cases, traces)
         # the same episodes in LeRobot's layout: <out_dir>/<method>/eval_info.json and videos/eval_episode_<i>.mp4
-        write_lerobot_eval(out_dir, rows, cases, traces, gen, seed=gen.seed, eval_s=time.perf_counter() - t0, n_videos=self.n_gifs, frame_every=self.gif_every)
+        write_lerobot_eval(
+            out_dir,
+            rows,
+            cases,
+            traces,
+            gen,
+            seed=gen.seed,
+            eval_s=time.perf_counter() - t0,
+            n_videos=self.n_gifs,
+            frame_every=self.gif_every,
+        )
         return metrics
 
-    def _episodes(self, kind: str, policy, cases: list[Case], scene, steps: int, out_dir: Path) -> list[EpisodeTrace]:
+    def _episodes(
+        self, kind: str, policy, cases: list[Case], scene, steps: int, out_dir: Path
+    ) -> list[EpisodeTrace]:
         """Closed-loop episodes of one policy on every case (GIFs of the first ``n_gifs``)."""
         robot, dt = scene.robot, scene.control_dt
         continuous = robot.continuous.numpy()
@@ -328,10 +395,16 @@ class ReachEvaluator:
         traces = []
         for i, case in enumerate(cases):
             scene.reset(case.obj, case.placement, q=robot.home.numpy())
-            trace = run_episode(scene, controller, steps, lower, upper, record_every=self.gif_every if i < self.n_gifs else 0)
+            trace = run_episode(
+                scene, controller, steps, lower, upper, record_every=self.gif_every if i < self.n_gifs else 0
+            )
             if trace.frames:
                 (out_dir / "rollouts").mkdir(exist_ok=True)
-                write_gif(out_dir / "rollouts" / f"{kind}_{case.obj.name}_p{case.placement_index}.gif", trace.frames, dt * self.gif_every)
+                write_gif(
+                    out_dir / "rollouts" / f"{kind}_{case.obj.name}_p{case.placement_index}.gif",
+                    trace.frames,
+                    dt * self.gif_every,
+                )
             traces.append(trace)
         return traces
 
@@ -340,7 +413,9 @@ class ReachEvaluator:
         """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
         scene.reset(case.obj, case.placement, q=scene.robot.home.numpy())
         controller.start(steps)
-        controller.command(Observation(image=observe(scene, controller), joints=scene.joint_state()[0]), 0, [])
+        controller.command(
+            Observation(image=observe(scene, controller), joints=scene.joint_state()[0]), 0, []
+        )
 
     @staticmethod
     def _subset(rows: list[dict[str, Any]]) -> dict[str, Any]:
@@ -387,14 +462,22 @@ class ReachEvaluator:
             "approach_angle_ok": angle <= self.approach_tol_deg,
             "approach_correct": near and angle <= self.approach_tol_deg,
             "jerk": float(integrated_squared_jerk(trace.ee_poses[:, :3, 3], dt)),
-            "demo_jerk": float(integrated_squared_jerk(case.demo_ee, dt)) if case.demo_ee is not None else math.nan,
+            "demo_jerk": float(integrated_squared_jerk(case.demo_ee, dt))
+            if case.demo_ee is not None
+            else math.nan,
             "joint_limit_violations": trace.limit_violations,
             "policy_calls": len(trace.latencies_ms),
             "latency_ms_median": float(np.median(trace.latencies_ms)),
         }
 
     @staticmethod
-    def _write(out_dir: Path, metrics: dict, rows: list[dict], cases: list[Case], traces: dict[str, list[EpisodeTrace]]) -> None:
+    def _write(
+        out_dir: Path,
+        metrics: dict,
+        rows: list[dict],
+        cases: list[Case],
+        traces: dict[str, list[EpisodeTrace]],
+    ) -> None:
         write_bytes_atomic(out_dir / "metrics.json", json_bytes(metrics))
         table = io.StringIO(newline="")
         writer = csv.DictWriter(table, fieldnames=list(rows[0]))
@@ -406,7 +489,8 @@ class ReachEvaluator:
             by_object.setdefault(case.obj.name, []).append(i)
         for name, idx in by_object.items():
             distances = {
-                kind: [r["final_distance_m"] for r in rows if r["method"] == kind and r["object"] == name] for kind in traces
+                kind: [r["final_distance_m"] for r in rows if r["method"] == kind and r["object"] == name]
+                for kind in traces
             }
             distance_bars(out_dir / f"distance_{name}.png", name, [cases[i].label for i in idx], distances)
             paths_3d(

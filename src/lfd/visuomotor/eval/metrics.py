@@ -83,7 +83,9 @@ def cluster_bootstrap_ci(
     values = np.asarray(values, dtype=np.float64).reshape(-1)
     clusters = np.asarray(clusters).reshape(-1)
     if values.shape != clusters.shape or values.size == 0:
-        raise ValueError(f"cluster_bootstrap_ci: need equal-length non-empty values and clusters, got {values.shape}, {clusters.shape}")
+        raise ValueError(
+            f"cluster_bootstrap_ci: need equal-length non-empty values and clusters, got {values.shape}, {clusters.shape}"
+        )
     if not 0 < level < 1 or n_boot < 1:
         raise ValueError(f"cluster_bootstrap_ci: need 0 < level < 1 and n_boot >= 1, got {level}, {n_boot}")
     labels, inverse = np.unique(clusters, return_inverse=True)
@@ -143,7 +145,11 @@ def summarise(
     """
     d = np.asarray(final_distance, dtype=np.float64)
     n = int(d.size)
-    still = np.ones(n, dtype=bool) if displacement is None else np.asarray(displacement, dtype=np.float64) < MAX_DISPLACEMENT_M
+    still = (
+        np.ones(n, dtype=bool)
+        if displacement is None
+        else np.asarray(displacement, dtype=np.float64) < MAX_DISPLACEMENT_M
+    )
     near = d < SUCCESS_RADIUS_M
     out: dict = {
         "episodes": n,

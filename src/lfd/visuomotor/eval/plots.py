@@ -9,9 +9,9 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from PIL import Image  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from PIL import Image
 
 #: Colour per method in every figure.
 METHOD_COLOURS = {"cnn_dmp": "tab:blue", "velocity": "tab:orange"}
@@ -43,7 +43,13 @@ def distance_bars(
     fig, ax = plt.subplots(figsize=(max(5.0, 0.9 * n + 2.0), 3.6))
     x = np.arange(n)
     for i, method in enumerate(methods):
-        ax.bar(x + (i - (len(methods) - 1) / 2) * width, np.asarray(distances_m[method]) * 100, width, label=_label(method), color=_colour(method))
+        ax.bar(
+            x + (i - (len(methods) - 1) / 2) * width,
+            np.asarray(distances_m[method]) * 100,
+            width,
+            label=_label(method),
+            color=_colour(method),
+        )
     for level in (2, 5):
         ax.axhline(level, color="k", lw=0.8, ls=":")
     ax.set_xticks(x)
@@ -94,5 +100,13 @@ def write_gif(path: Path, frames: Sequence[np.ndarray], frame_seconds: float, sc
     """Animated GIF of uint8 ``(H, W, 3)`` frames, each shown ``frame_seconds``, upscaled ``scale`` times."""
     if not frames:
         raise ValueError(f"write_gif({path}): no frames")
-    images = [Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.NEAREST) for f in frames]
-    images[0].save(path, save_all=True, append_images=images[1:], duration=max(20, int(math.ceil(frame_seconds * 1000))), loop=0)
+    images = [
+        Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.NEAREST) for f in frames
+    ]
+    images[0].save(
+        path,
+        save_all=True,
+        append_images=images[1:],
+        duration=max(20, int(math.ceil(frame_seconds * 1000))),
+        loop=0,
+    )

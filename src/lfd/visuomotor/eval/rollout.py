@@ -166,7 +166,9 @@ class EpisodeTrace:
     object_displacement: float = 0.0
 
 
-def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndarray, record_every: int = 0) -> EpisodeTrace:
+def run_episode(
+    scene, controller, steps: int, lower: np.ndarray, upper: np.ndarray, record_every: int = 0
+) -> EpisodeTrace:
     """Run ``controller`` for ``steps`` control steps in ``scene`` (already reset with the object).
 
     Args:
@@ -208,7 +210,16 @@ def run_episode(scene, controller, steps: int, lower: np.ndarray, upper: np.ndar
         else:
             scene.step(clamped, np.where(outside, 0.0, qd_target))
     moved = float(np.linalg.norm(scene.object_pose()[:3, 3] - start)) if has_object else 0.0
-    return EpisodeTrace(np.stack(joints), np.stack(poses), violations, latencies, frames, table_contacts, object_contacts, moved)
+    return EpisodeTrace(
+        np.stack(joints),
+        np.stack(poses),
+        violations,
+        latencies,
+        frames,
+        table_contacts,
+        object_contacts,
+        moved,
+    )
 
 
 @dataclass(frozen=True)
@@ -257,9 +268,13 @@ def closed_loop_reach(
     """
     goals = np.asarray(goals, dtype=np.float64)
     if goals.ndim != 2 or goals.shape[1] != 3 or not np.all(np.isfinite(goals)):
-        raise ValueError(f"closed_loop_reach: goals must be finite (B, 3) positions (m), got shape {goals.shape}")
+        raise ValueError(
+            f"closed_loop_reach: goals must be finite (B, 3) positions (m), got shape {goals.shape}"
+        )
     if max_steps < 0 or not threshold > 0:
-        raise ValueError(f"closed_loop_reach: need max_steps >= 0 and threshold > 0 m, got {max_steps}, {threshold}")
+        raise ValueError(
+            f"closed_loop_reach: need max_steps >= 0 and threshold > 0 m, got {max_steps}, {threshold}"
+        )
     limit = robot.velocity_limits.numpy()
     q = arm.reset(np.repeat(np.asarray(q_start, dtype=np.float64)[None], len(goals), axis=0))
     active = np.ones(len(goals), dtype=bool)
@@ -281,6 +296,12 @@ def closed_loop_reach(
     qs, estimates = np.stack(qs, axis=1), np.stack(estimates, axis=1)
     truth = robot.fk_positions(qs).numpy()
     return [
-        ReachTrace(t=np.arange(n + 1) * arm.dt, q=qs[b, : n + 1], x=truth[b, : n + 1], x_model=estimates[b, : n + 1], reached=not active[b])
+        ReachTrace(
+            t=np.arange(n + 1) * arm.dt,
+            q=qs[b, : n + 1],
+            x=truth[b, : n + 1],
+            x_model=estimates[b, : n + 1],
+            reached=not active[b],
+        )
         for b, n in enumerate(stop)
     ]

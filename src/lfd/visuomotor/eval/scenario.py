@@ -55,7 +55,9 @@ from lfd.sim.scene import TABLE_HALF_Y, TABLE_X
 DEFAULT_MASS = 0.3
 #: Size fields per shape: the names of :data:`~lfd.sim.objects.SHAPE_DIMS`, except that a box
 #: gives its three side lengths as one list ``size``.
-SIZE_FIELDS: dict[str, tuple[str, ...]] = {s: ("size",) if s == "box" else dims for s, dims in SHAPE_DIMS.items()}
+SIZE_FIELDS: dict[str, tuple[str, ...]] = {
+    s: ("size",) if s == "box" else dims for s, dims in SHAPE_DIMS.items()
+}
 COMMON_FIELDS = ("name", "shape", "rgba", "mass")
 
 
@@ -76,7 +78,11 @@ class Scenario:
 
     def ood(self, object_index: int, placement_index: int) -> str:
         """Why case ``(object_index, placement_index)`` is out of distribution ("" = it is not)."""
-        reasons = [r[i] for r, i in ((self.object_ood, object_index), (self.placement_ood, placement_index)) if r and r[i]]
+        reasons = [
+            r[i]
+            for r, i in ((self.object_ood, object_index), (self.placement_ood, placement_index))
+            if r and r[i]
+        ]
         return "; ".join(reasons)
 
     def cases(self) -> list[tuple[int, ObjectSpec, int, Placement]]:
@@ -102,7 +108,9 @@ def _numbers(value: Any, n: int) -> list[float] | None:
 def _parse_object(entry: Any, where: str) -> ObjectSpec:
     """Structural checks here (fields present, known, numeric); value ranges by :class:`ObjectSpec`."""
     if not isinstance(entry, dict):
-        raise ScenarioError(f"{where}: expected a mapping with fields {COMMON_FIELDS} + size fields, got {entry!r}")
+        raise ScenarioError(
+            f"{where}: expected a mapping with fields {COMMON_FIELDS} + size fields, got {entry!r}"
+        )
     shape = entry.get("shape")
     if shape not in SIZE_FIELDS:
         raise ScenarioError(f"{where}: field 'shape' must be one of {tuple(SIZE_FIELDS)}, got {shape!r}")
@@ -114,7 +122,10 @@ def _parse_object(entry: Any, where: str) -> ObjectSpec:
     if not isinstance(name, str) or not name:
         raise ScenarioError(f"{where}: field 'name' must be a non-empty string, got {name!r}")
     where = f"{where} ({name})"
-    fields = {f: (3, "3 lengths [x, y, z] in metres") if f == "size" else (1, "a length in metres") for f in SIZE_FIELDS[shape]}
+    fields = {
+        f: (3, "3 lengths [x, y, z] in metres") if f == "size" else (1, "a length in metres")
+        for f in SIZE_FIELDS[shape]
+    }
     fields["rgba"] = (4, "4 numbers in [0, 1]")
     fields["mass"] = (1, "a mass in kg")
     values: dict[str, list[float]] = {}
@@ -126,7 +137,9 @@ def _parse_object(entry: Any, where: str) -> ObjectSpec:
         values[field] = parsed
     dims = tuple(v for f in SIZE_FIELDS[shape] for v in values[f])
     try:
-        return ObjectSpec(shape=shape, dims=dims, rgba=tuple(values["rgba"]), mass=values["mass"][0], name=name)
+        return ObjectSpec(
+            shape=shape, dims=dims, rgba=tuple(values["rgba"]), mass=values["mass"][0], name=name
+        )
     except ValueError as e:
         raise ScenarioError(f"{where}: {e}") from e
 
@@ -139,9 +152,13 @@ def _parse_placement(entry: Any, where: str) -> Placement:
     if isinstance(entry, dict):
         unknown = sorted(set(entry) - set(PLACEMENT_FIELDS))
         if unknown:
-            raise ScenarioError(f"{where}: unknown field(s) {unknown}; allowed: x, y (m) and one of yaw (rad), yaw_deg (deg)")
+            raise ScenarioError(
+                f"{where}: unknown field(s) {unknown}; allowed: x, y (m) and one of yaw (rad), yaw_deg (deg)"
+            )
         if ("yaw" in entry) == ("yaw_deg" in entry):
-            raise ScenarioError(f"{where}: give exactly one of 'yaw' (radians) or 'yaw_deg' (degrees), got {entry!r}")
+            raise ScenarioError(
+                f"{where}: give exactly one of 'yaw' (radians) or 'yaw_deg' (degrees), got {entry!r}"
+            )
         values = [_number(entry.get(k)) for k in ("x", "y")]
         if None in values:
             raise ScenarioError(f"{where}: fields 'x' and 'y' must be numbers (metres), got {entry!r}")
@@ -149,7 +166,9 @@ def _parse_placement(entry: Any, where: str) -> Placement:
         if "yaw_deg" in entry:
             deg = _number(entry["yaw_deg"])
             if deg is None or abs(deg) > 180:
-                raise ScenarioError(f"{where}: field 'yaw_deg' must be a number of degrees in [-180, 180], got {entry['yaw_deg']!r}")
+                raise ScenarioError(
+                    f"{where}: field 'yaw_deg' must be a number of degrees in [-180, 180], got {entry['yaw_deg']!r}"
+                )
             yaw = math.radians(deg)
         else:
             yaw = _number(entry["yaw"])
@@ -158,7 +177,9 @@ def _parse_placement(entry: Any, where: str) -> Placement:
     else:
         values = _numbers(entry, 3)
         if values is None:
-            raise ScenarioError(f"{where}: expected [x, y, yaw] (metres, metres, radians) or {{x, y, yaw_deg}}, got {entry!r}")
+            raise ScenarioError(
+                f"{where}: expected [x, y, yaw] (metres, metres, radians) or {{x, y, yaw_deg}}, got {entry!r}"
+            )
         x, y, yaw = values
     if abs(yaw) > math.pi + 1e-9:
         raise ScenarioError(
@@ -193,7 +214,9 @@ def object_ood_reason(obj: ObjectSpec, families: tuple[str, ...]) -> str:
         return f"shape {obj.shape} not among the training families {list(families)}"
     out = [
         f"{label} {value:.3f} m outside [{lo}, {hi}]"
-        for label, value, (lo, hi) in zip(SHAPE_DIMS[obj.shape], obj.dims, FAMILY_SIZES[obj.shape], strict=True)
+        for label, value, (lo, hi) in zip(
+            SHAPE_DIMS[obj.shape], obj.dims, FAMILY_SIZES[obj.shape], strict=True
+        )
         if not lo <= value <= hi
     ]
     return "; ".join(out)
@@ -273,10 +296,14 @@ def load_scenario(
     except yaml.YAMLError as e:
         raise ScenarioError(f"{path}: not valid YAML: {e}") from e
     if not isinstance(data, dict):
-        raise ScenarioError(f"{path}: expected a mapping with keys 'objects' and 'placements', got {type(data).__name__}")
+        raise ScenarioError(
+            f"{path}: expected a mapping with keys 'objects' and 'placements', got {type(data).__name__}"
+        )
     unknown = sorted(set(data) - {"objects", "placements"})
     if unknown:
-        raise ScenarioError(f"{path}: unknown top-level key(s) {unknown}; expected 'objects' and 'placements'")
+        raise ScenarioError(
+            f"{path}: unknown top-level key(s) {unknown}; expected 'objects' and 'placements'"
+        )
     lists = {}
     for key in ("objects", "placements"):
         value = data.get(key)
@@ -288,18 +315,29 @@ def load_scenario(
     duplicates = sorted({n for n in names if names.count(n) > 1})
     if duplicates:
         raise ScenarioError(f"{path}: object names must be unique, repeated: {duplicates}")
-    placements = tuple(_parse_placement(p, f"{path}: placements[{i}]") for i, p in enumerate(lists["placements"]))
+    placements = tuple(
+        _parse_placement(p, f"{path}: placements[{i}]") for i, p in enumerate(lists["placements"])
+    )
     _check_camera(objects, placements, camera if camera is not None else Camera(), table_z, path)
     if robot is not None:
         _check_reach(objects, placements, robot, table_z, path)
     object_ood = placement_ood = ()
     if training is not None:
         object_ood = tuple(object_ood_reason(o, training.group_families("train")) for o in objects)
-        placement_ood = tuple(placement_ood_reason(p, training.x_range, training.y_range, training.yaw_range_deg) for p in placements)
+        placement_ood = tuple(
+            placement_ood_reason(p, training.x_range, training.y_range, training.yaw_range_deg)
+            for p in placements
+        )
         notes = [f"objects[{i}] ({o.name}): {r}" for i, (o, r) in enumerate(zip(objects, object_ood)) if r]
         notes += [f"placements[{j}]: {r}" for j, r in enumerate(placement_ood) if r]
         if notes:
             msg = f"{path}: outside the training ranges (marked ood in episodes.csv): " + " | ".join(notes)
             warnings.warn(msg, UserWarning, stacklevel=2)
             print(f"[lfd] warning: {msg}")
-    return Scenario(objects=objects, placements=placements, source=str(path), object_ood=object_ood, placement_ood=placement_ood)
+    return Scenario(
+        objects=objects,
+        placements=placements,
+        source=str(path),
+        object_ood=object_ood,
+        placement_ood=placement_ood,
+    )

@@ -20,6 +20,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from lfd.sim.camera import DEPTH_ENCODINGS
 from lfd.training import SCHEDULERS, make_optimizer
 from lfd.visuomotor.policies.vision import (
     COLOUR_ORDERS,
@@ -30,7 +31,6 @@ from lfd.visuomotor.policies.vision import (
     permute_colour_channels,
     scale_foreground_brightness,
 )
-from lfd.sim.camera import DEPTH_ENCODINGS
 
 #: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
 ONECYCLE_PCT_START = 0.3
@@ -129,36 +129,54 @@ class VisuomotorPolicy(L.LightningModule):
     ) -> None:
         super().__init__()
         if kind is not None and kind != self.kind:
-            raise ValueError(f"{type(self).__name__} holds '{self.kind}' policies, this checkpoint/config is a '{kind}' policy")
+            raise ValueError(
+                f"{type(self).__name__} holds '{self.kind}' policies, this checkpoint/config is a '{kind}' policy"
+            )
         if unknown:
             raise TypeError(f"{type(self).__name__}: unexpected arguments {sorted(unknown)}")
         if scheduler not in SCHEDULERS:
-            raise ValueError(f"{type(self).__name__}.scheduler: expected one of {SCHEDULERS}, got {scheduler!r}")
+            raise ValueError(
+                f"{type(self).__name__}.scheduler: expected one of {SCHEDULERS}, got {scheduler!r}"
+            )
         if not aux_weight >= 0:
             raise ValueError(f"{type(self).__name__}.aux_weight: expected a number >= 0, got {aux_weight}")
         if mode_heads and not aux_weight > 0:
-            raise ValueError(f"{type(self).__name__}.mode_heads: needs aux_weight > 0 (the mode logit picks the head), got aux_weight={aux_weight}")
+            raise ValueError(
+                f"{type(self).__name__}.mode_heads: needs aux_weight > 0 (the mode logit picks the head), got aux_weight={aux_weight}"
+            )
         if n_steps < 2 or not duration > 0:
-            raise ValueError(f"{type(self).__name__}: need n_steps >= 2 and duration > 0, got {n_steps}, {duration}")
+            raise ValueError(
+                f"{type(self).__name__}: need n_steps >= 2 and duration > 0, got {n_steps}, {duration}"
+            )
         if depth_encoding not in DEPTH_ENCODINGS:
-            raise ValueError(f"{type(self).__name__}.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}")
+            raise ValueError(
+                f"{type(self).__name__}.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}"
+            )
         if depth_encoding != "range" and not depth:
             raise ValueError(f"{type(self).__name__}.depth_encoding: {depth_encoding!r} needs depth=true")
         if brightness_augment is not None:
             values = list(brightness_augment)
-            if len(values) != 2 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values) or not 0 < values[0] <= values[1]:
+            if (
+                len(values) != 2
+                or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
+                or not 0 < values[0] <= values[1]
+            ):
                 raise ValueError(
                     f"{type(self).__name__}.brightness_augment: expected [low, high] with 0 < low <= high, or null; got {brightness_augment!r}"
                 )
             if not depth:
-                raise ValueError(f"{type(self).__name__}.brightness_augment: needs depth=true (the depth channel finds the object)")
+                raise ValueError(
+                    f"{type(self).__name__}.brightness_augment: needs depth=true (the depth channel finds the object)"
+                )
             brightness_augment = [float(v) for v in values]
         self.save_hyperparameters(ignore=["name"])
         self.hparams["kind"] = self.kind
         self.config_name = name or self.kind
         if not isinstance(depth, bool):
             raise ValueError(f"{type(self).__name__}.depth: expected a bool, got {depth!r}")
-        self.encoder = KeypointEncoder(channels, temperature, global_pool=global_pool, in_channels=4 if depth else 3)
+        self.encoder = KeypointEncoder(
+            channels, temperature, global_pool=global_pool, in_channels=4 if depth else 3
+        )
         self.bias_input = nn.Parameter(torch.zeros(bias_dim))
         self._robot = None
         self._val_runs = 0
@@ -178,7 +196,11 @@ class VisuomotorPolicy(L.LightningModule):
         self.output_dim = output_dim
         self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
         self.n_heads = 2 if hp.mode_heads else 1
-        self.head = mlp(self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs, hp.hidden, self.n_heads * output_dim + self.n_aux)
+        self.head = mlp(
+            self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs,
+            hp.hidden,
+            self.n_heads * output_dim + self.n_aux,
+        )
         if self.n_aux:
             stat_shapes = {**stat_shapes, "target_point": (3,)}
         self.stat_names = tuple(stat_shapes)
@@ -208,7 +230,11 @@ class VisuomotorPolicy(L.LightningModule):
         return x * getattr(self, f"{stat}_std") + getattr(self, f"{stat}_mean")
 
     def head_outputs(
-        self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None, top: torch.Tensor | None = None
+        self,
+        image: torch.Tensor,
+        joints: torch.Tensor,
+        extra: torch.Tensor | None = None,
+        top: torch.Tensor | None = None,
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """Head outputs for images ``(B, 3, H, W)`` in [0, 1], joints ``(B, n)`` rad and, when
         the head was built with ``extra_inputs``, those inputs ``(B, e)``: the policy's
@@ -226,7 +252,9 @@ class VisuomotorPolicy(L.LightningModule):
         heads = main.view(-1, self.n_heads, self.output_dim)
         return heads[torch.arange(len(heads), device=heads.device), pick.long()], aux
 
-    def _head_raw(self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None) -> torch.Tensor:
+    def _head_raw(
+        self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None
+    ) -> torch.Tensor:
         """Raw head output ``(B, n_heads * output_dim + n_aux)``; with :attr:`colour_tta`
         (outside training) the mean over the 6 orders of the RGB channels."""
         tta = self.colour_tta and not self.training
@@ -261,11 +289,15 @@ class VisuomotorPolicy(L.LightningModule):
             )
         self._colour_tta = bool(on)
 
-    def features(self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None) -> torch.Tensor:
+    def features(
+        self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None
+    ) -> torch.Tensor:
         """The policy's head output ``(B, output_dim)`` (see :meth:`head_outputs`)."""
         return self.head_outputs(image, joints, extra)[0]
 
-    def add_aux_losses(self, out: dict[str, torch.Tensor], aux: torch.Tensor, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    def add_aux_losses(
+        self, out: dict[str, torch.Tensor], aux: torch.Tensor, batch: dict[str, torch.Tensor]
+    ) -> dict[str, torch.Tensor]:
         """``out`` (a policy's losses) with the auxiliary losses of the ``(B, AUX_DIM)`` outputs
         against the batch's ``top`` (1 for a top approach, ``(B,)``) and ``target_point``
         (``(B, 3)`` m): ``aux_loss`` (unweighted sum, added to ``out["loss"]`` times
@@ -274,11 +306,18 @@ class VisuomotorPolicy(L.LightningModule):
             return out
         for key in ("top", "target_point"):
             if key not in batch:
-                raise ValueError(f"{type(self).__name__}(aux_weight > 0): batches need the '{key}' key, got {sorted(batch)}")
+                raise ValueError(
+                    f"{type(self).__name__}(aux_weight > 0): batches need the '{key}' key, got {sorted(batch)}"
+                )
         mode = F.binary_cross_entropy_with_logits(aux[:, 0], batch["top"].to(aux))
         point = F.mse_loss(aux[:, 1:4], self.normalise("target_point", batch["target_point"]))
         wrong = ((aux[:, 0] > 0) != (batch["top"] > 0.5)).float().mean()
-        return {**out, "loss": out["loss"] + self.hparams.aux_weight * (mode + point), "aux_loss": mode + point, "aux_mode_error": wrong}
+        return {
+            **out,
+            "loss": out["loss"] + self.hparams.aux_weight * (mode + point),
+            "aux_loss": mode + point,
+            "aux_mode_error": wrong,
+        }
 
     def _observation(self, image, joints) -> tuple[torch.Tensor, torch.Tensor, bool]:
         """Closed-loop inputs as batched tensors on this module's device; ``batched`` says
@@ -293,7 +332,9 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__}: {img.shape[0]} images but {q.shape[0]} joint vectors")
         size = self.hparams.image_size
         if img.shape[-2:] != (size, size):
-            raise ValueError(f"{type(self).__name__}: trained on {size}x{size} images, got {tuple(img.shape[-2:])}")
+            raise ValueError(
+                f"{type(self).__name__}: trained on {size}x{size} images, got {tuple(img.shape[-2:])}"
+            )
         return img.to(self.device), q.to(self.device), batched
 
     def check_data(self, config, depth: bool | None = None) -> None:
@@ -305,7 +346,9 @@ class VisuomotorPolicy(L.LightningModule):
             built = self.hparams.get(key, False)  # only "depth" can be missing (older checkpoints)
             given = depth if key == "depth" and depth is not None else getattr(config, key)
             if given != built:
-                raise ValueError(f"{type(self).__name__} was built with {key}={built!r}, the dataset has {key}={given!r}")
+                raise ValueError(
+                    f"{type(self).__name__} was built with {key}={built!r}, the dataset has {key}={given!r}"
+                )
 
     #: Dataset fingerprint of the training run (:mod:`lfd.visuomotor.data.fingerprint`), saved in the
     #: checkpoint under :data:`FINGERPRINT_KEY`; None when unknown (e.g. a LeRobot dataset).
@@ -324,10 +367,14 @@ class VisuomotorPolicy(L.LightningModule):
         dm = getattr(self.trainer, "datamodule", None)
         stats = getattr(dm, "stats", None)
         if stats is None:
-            raise RuntimeError(f"{type(self).__name__} needs a datamodule with normalisation statistics (ReachDataModule)")
+            raise RuntimeError(
+                f"{type(self).__name__} needs a datamodule with normalisation statistics (ReachDataModule)"
+            )
         mode = getattr(dm, "mode", self.item_mode)
         if mode != self.item_mode:
-            raise ValueError(f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {mode!r}")
+            raise ValueError(
+                f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {mode!r}"
+            )
         config = getattr(dm, "config", None)
         if config is not None:
             self.check_data(config, depth=getattr(dm, "input_depth", None))
@@ -349,16 +396,34 @@ class VisuomotorPolicy(L.LightningModule):
             batch = {**batch, "image": permute_colour_channels(batch["image"])}
         if self.hparams.get("brightness_augment"):
             nearer = self.hparams.get("depth_encoding", "range") == "relief"
-            batch = {**batch, "image": scale_foreground_brightness(batch["image"], *self.hparams.brightness_augment, nearer_is_larger=nearer)}
+            batch = {
+                **batch,
+                "image": scale_foreground_brightness(
+                    batch["image"], *self.hparams.brightness_augment, nearer_is_larger=nearer
+                ),
+            }
         losses = self.losses(batch)
         n = batch["image"].shape[0]
-        self.log_dict({f"train/{k}": v for k, v in losses.items()}, prog_bar=False, on_step=True, on_epoch=True, batch_size=n)
-        self.log("train/lr", self.optimizers().param_groups[0]["lr"], on_step=True, on_epoch=False, batch_size=n)
+        self.log_dict(
+            {f"train/{k}": v for k, v in losses.items()},
+            prog_bar=False,
+            on_step=True,
+            on_epoch=True,
+            batch_size=n,
+        )
+        self.log(
+            "train/lr", self.optimizers().param_groups[0]["lr"], on_step=True, on_epoch=False, batch_size=n
+        )
         return losses["loss"]
 
     def validation_step(self, batch: dict[str, torch.Tensor], batch_idx: int) -> None:
         losses = self.losses(batch)
-        self.log_dict({f"val/{k}": v for k, v in losses.items()}, prog_bar=True, sync_dist=True, batch_size=batch["image"].shape[0])
+        self.log_dict(
+            {f"val/{k}": v for k, v in losses.items()},
+            prog_bar=True,
+            sync_dist=True,
+            batch_size=batch["image"].shape[0],
+        )
         if batch_idx == 0 and not self.trainer.sanity_checking:
             every = self.hparams.plot_every_n_val
             if every and self._val_runs % every == 0:
@@ -387,7 +452,9 @@ class VisuomotorPolicy(L.LightningModule):
         return make_optimizer(self, groups, hp.scheduler, pct_start=ONECYCLE_PCT_START)
 
 
-def joint_figure(t: np.ndarray, predicted: np.ndarray, demonstrated: np.ndarray, title: str, ylabel: str = "rad"):
+def joint_figure(
+    t: np.ndarray, predicted: np.ndarray, demonstrated: np.ndarray, title: str, ylabel: str = "rad"
+):
     """Figure with one panel per joint: ``predicted`` vs ``demonstrated`` ``(T, n)`` over ``t (T,)`` s."""
     import matplotlib.pyplot as plt
 

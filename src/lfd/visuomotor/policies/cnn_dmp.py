@@ -66,7 +66,9 @@ class CNNDMPPolicy(VisuomotorPolicy):
         if rest_steps < 0:
             raise ValueError(f"CNNDMPPolicy.rest_steps: expected an integer >= 0, got {rest_steps}")
         n = self.hparams.n_joints
-        self.dmp = DMPLayer(n_basis=n_basis, n_steps=self.hparams.n_steps, dt=self.control_dt, alpha_z=alpha_z)
+        self.dmp = DMPLayer(
+            n_basis=n_basis, n_steps=self.hparams.n_steps, dt=self.control_dt, alpha_z=alpha_z
+        )
         self._horizon_layers: dict[int, DMPLayer] = {}  # longer closed-loop plans, same tau (not state)
         self._build(n + n * n_basis, {"joints": (n,), "goal": (n,), "weights": (n, n_basis)})
 
@@ -90,11 +92,15 @@ class CNNDMPPolicy(VisuomotorPolicy):
         layer = self._horizon_layers.get(n_steps)
         if layer is None:
             d = self.dmp
-            layer = DMPLayer(n_basis=d.n_basis, n_steps=n_steps, dt=self.control_dt, alpha_z=d.gains.alpha_z, tau=d.tau)
+            layer = DMPLayer(
+                n_basis=d.n_basis, n_steps=n_steps, dt=self.control_dt, alpha_z=d.gains.alpha_z, tau=d.tau
+            )
             self._horizon_layers[n_steps] = layer
         return layer.to(self.device)
 
-    def rollout(self, joints: torch.Tensor, goal_n: torch.Tensor, weights_n: torch.Tensor, n_steps: int | None = None) -> torch.Tensor:
+    def rollout(
+        self, joints: torch.Tensor, goal_n: torch.Tensor, weights_n: torch.Tensor, n_steps: int | None = None
+    ) -> torch.Tensor:
         """Joint trajectory ``(B, T, n)`` rad from the start joints and normalised parameters
         (``T = n_steps``, default the demonstrations' length, see :meth:`layer`)."""
         goal = self.denormalise("goal", goal_n)
@@ -122,7 +128,9 @@ class CNNDMPPolicy(VisuomotorPolicy):
         }
         need_ee = self.hparams.ee_weight > 0 or not self.training
         if need_ee:
-            ee = self.robot.fk(trajectory.reshape(-1, trajectory.shape[-1]))[:, :3, 3].reshape(*trajectory.shape[:2], 3)
+            ee = self.robot.fk(trajectory.reshape(-1, trajectory.shape[-1]))[:, :3, 3].reshape(
+                *trajectory.shape[:2], 3
+            )
             out["ee_mse"] = ((ee - ee_target) ** 2).sum(-1).mean()
             out["final_ee_err_m"] = (ee[:, -1] - ee_target[:, -1]).norm(dim=-1).mean()
         if self.hparams.loss == "params":
@@ -138,13 +146,17 @@ class CNNDMPPolicy(VisuomotorPolicy):
         """``(T + rest_steps,)`` weights of the trajectory loss over time: ``1 + final_weight``
         on the last ``final_fraction`` of the demonstration and on the rest samples, else 1."""
         hp = self.hparams
-        t = torch.cat([torch.linspace(0.0, 1.0, hp.n_steps), torch.ones(hp.rest_steps)])  # rest = end of the motion
+        t = torch.cat(
+            [torch.linspace(0.0, 1.0, hp.n_steps), torch.ones(hp.rest_steps)]
+        )  # rest = end of the motion
         return 1.0 + hp.final_weight * (t >= 1.0 - hp.final_fraction).float()
 
     def sample_figure(self, batch: dict[str, torch.Tensor]):
         predicted = self(batch["image"][:1], batch["joints"][:1])[0].cpu().numpy()
         t = batch["t"][0].cpu().numpy()
-        return joint_figure(t, predicted, batch["trajectory"][0].cpu().numpy(), f"CNN->DMP, episode {int(batch['index'][0])}")
+        return joint_figure(
+            t, predicted, batch["trajectory"][0].cpu().numpy(), f"CNN->DMP, episode {int(batch['index'][0])}"
+        )
 
     @torch.inference_mode()
     def plan(self, image, joints, n_steps: int | None = None) -> np.ndarray:

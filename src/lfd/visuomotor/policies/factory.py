@@ -45,5 +45,7 @@ def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> V
         raise FileNotFoundError(f"policy checkpoint not found: {path}")
     kind = checkpoint_kind(path)
     if kind not in POLICIES:
-        raise ValueError(f"{path}: checkpoint kind {kind!r} is not a policy; expected one of {sorted(POLICIES)}")
+        raise ValueError(
+            f"{path}: checkpoint kind {kind!r} is not a policy; expected one of {sorted(POLICIES)}"
+        )
     return POLICIES[kind].load_from_checkpoint(path, map_location=map_location, weights_only=False).eval()

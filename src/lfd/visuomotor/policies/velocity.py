@@ -53,7 +53,9 @@ class VelocityPolicy(VisuomotorPolicy):
     kind = "velocity"
     item_mode = "velocity"
 
-    def __init__(self, *, phase_input: bool = True, state_noise: float = 0.1, correction_gain: float = 2.0, **common) -> None:
+    def __init__(
+        self, *, phase_input: bool = True, state_noise: float = 0.1, correction_gain: float = 2.0, **common
+    ) -> None:
         super().__init__(**common)
         for name, value in (("state_noise", state_noise), ("correction_gain", correction_gain)):
             if not value >= 0:
@@ -73,7 +75,9 @@ class VelocityPolicy(VisuomotorPolicy):
             raise ValueError(f"VelocityPolicy: {t.shape[0]} times for a batch of {batch}")
         return (t / self.hparams.duration).clamp(max=1.0).expand(batch, 1)
 
-    def forward(self, image: torch.Tensor, joints: torch.Tensor, time: torch.Tensor | None = None) -> torch.Tensor:
+    def forward(
+        self, image: torch.Tensor, joints: torch.Tensor, time: torch.Tensor | None = None
+    ) -> torch.Tensor:
         """Images ``(B, 3, H, W)`` in [0, 1], joints ``(B, n)`` rad, time ``(B,)`` s since the
         episode started (needed with ``phase_input``) -> joint velocities ``(B, n)`` rad/s."""
         return self.denormalise("velocity", self.features(image, joints, self.phase(time, image.shape[0])))
@@ -93,17 +97,26 @@ class VelocityPolicy(VisuomotorPolicy):
         train = getattr(self.trainer.datamodule, "datasets", {}).get("train")
         tensors = getattr(train, "tensors", {})
         if LABEL not in tensors:
-            raise ValueError(f"VelocityPolicy: the train items have no '{LABEL}' (velocity command) key; got {sorted(tensors)}")
+            raise ValueError(
+                f"VelocityPolicy: the train items have no '{LABEL}' (velocity command) key; got {sorted(tensors)}"
+            )
         command = tensors[LABEL].double()
         self.velocity_mean.copy_(command.mean(0).float())
         self.velocity_std.copy_(command.std(0).clamp(min=STD_FLOOR).float())
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         if LABEL not in batch:
-            raise ValueError(f"VelocityPolicy: batches need the '{LABEL}' key (rad/s, (B, n)), got {sorted(batch)}")
+            raise ValueError(
+                f"VelocityPolicy: batches need the '{LABEL}' key (rad/s, (B, n)), got {sorted(batch)}"
+            )
         noise = self.perturbation(batch["joints"])
         target = batch[LABEL] - self.hparams.correction_gain * noise  # the expert's correction
-        pred_n, aux = self.head_outputs(batch["image"], batch["joints"] + noise, self.phase(batch["t"], batch["image"].shape[0]), top=batch.get("top"))
+        pred_n, aux = self.head_outputs(
+            batch["image"],
+            batch["joints"] + noise,
+            self.phase(batch["t"], batch["image"].shape[0]),
+            top=batch.get("top"),
+        )
         loss = F.mse_loss(pred_n, self.normalise("velocity", target))
         rad_s = (self.denormalise("velocity", pred_n) - target).norm(dim=-1).mean()
         return self.add_aux_losses({"loss": loss, "velocity_err": rad_s}, aux, batch)
@@ -114,9 +127,13 @@ class VelocityPolicy(VisuomotorPolicy):
         first = batch["index"] == batch["index"][0]
         qd = self(batch["image"][first], batch["joints"][first], batch["t"][first]).cpu().numpy()
         demo = batch["joints"][first].cpu().numpy()
-        predicted = demo[0] + np.concatenate([np.zeros((1, qd.shape[1])), np.cumsum(qd[:-1], axis=0) * self.control_dt])
+        predicted = demo[0] + np.concatenate(
+            [np.zeros((1, qd.shape[1])), np.cumsum(qd[:-1], axis=0) * self.control_dt]
+        )
         t = batch["t"][first].cpu().numpy()
-        return joint_figure(t, predicted, demo, f"velocity policy (integrated), episode {int(batch['index'][0])}")
+        return joint_figure(
+            t, predicted, demo, f"velocity policy (integrated), episode {int(batch['index'][0])}"
+        )
 
     @torch.inference_mode()
     def act(self, image, joints, time=None) -> np.ndarray:

@@ -92,14 +92,26 @@ class KeypointEncoder(nn.Module):
         super().__init__()
         channels = [int(c) for c in channels]
         if not channels or min(channels) < 1:
-            raise ValueError(f"KeypointEncoder: channels must be a non-empty list of positive ints, got {channels}")
+            raise ValueError(
+                f"KeypointEncoder: channels must be a non-empty list of positive ints, got {channels}"
+            )
         if in_channels not in (3, 4):
-            raise ValueError(f"KeypointEncoder.in_channels: expected 3 (RGB) or 4 (RGB-D), got {in_channels!r}")
+            raise ValueError(
+                f"KeypointEncoder.in_channels: expected 3 (RGB) or 4 (RGB-D), got {in_channels!r}"
+            )
         layers: list[nn.Module] = []
         c_in = self.in_channels = int(in_channels)
         for i, c_out in enumerate(channels):
             first = i == 0
-            layers.append(nn.Conv2d(c_in, c_out, kernel_size=5 if first else 3, stride=2 if first else 1, padding=2 if first else 1))
+            layers.append(
+                nn.Conv2d(
+                    c_in,
+                    c_out,
+                    kernel_size=5 if first else 3,
+                    stride=2 if first else 1,
+                    padding=2 if first else 1,
+                )
+            )
             if i < len(channels) - 1:
                 layers += [nn.BatchNorm2d(c_out), nn.ReLU(inplace=True)]
             c_in = c_out
@@ -140,14 +152,20 @@ def image_to_tensor(image: np.ndarray | torch.Tensor, channels: int = 3) -> torc
     if t.ndim == 3:
         t = t.unsqueeze(0)
     if t.ndim != 4:
-        raise ValueError(f"image must be (H, W, C), (B, H, W, C), (C, H, W) or (B, C, H, W); got shape {tuple(t.shape)}")
+        raise ValueError(
+            f"image must be (H, W, C), (B, H, W, C), (C, H, W) or (B, C, H, W); got shape {tuple(t.shape)}"
+        )
     what = "RGB-D images with 4 channels (lfd.sim.camera.rgbd_image)" if channels == 4 else "RGB images"
     if t.dtype == torch.uint8:
         if t.shape[-1] not in (channels, 4):
-            raise ValueError(f"expected uint8 {what}, channels-last (..., H, W, {channels}); got shape {tuple(t.shape)}")
+            raise ValueError(
+                f"expected uint8 {what}, channels-last (..., H, W, {channels}); got shape {tuple(t.shape)}"
+            )
         return t[..., :channels].permute(0, 3, 1, 2).float().div_(255.0)
     if t.shape[1] != channels:
-        raise ValueError(f"expected float {what}, channels-first (B, {channels}, H, W); got shape {tuple(t.shape)}")
+        raise ValueError(
+            f"expected float {what}, channels-first (B, {channels}, H, W); got shape {tuple(t.shape)}"
+        )
     return t.float()
 
 
@@ -162,7 +180,9 @@ def permute_colour_channels(image: torch.Tensor) -> torch.Tensor:
     return torch.cat([rgb, image[:, 3:]], dim=1)
 
 
-def foreground_mask(image: torch.Tensor, margin: float = 1.5 / 255, nearer_is_larger: bool = False) -> torch.Tensor:
+def foreground_mask(
+    image: torch.Tensor, margin: float = 1.5 / 255, nearer_is_larger: bool = False
+) -> torch.Tensor:
     """``(B, 1, H, W)`` bool: the pixels of an RGB-D batch ``(B, 4, H, W)`` (depth channel of
     :func:`lfd.sim.camera.rgbd_image`) nearer than the farthest depth any image of the batch
     has at that pixel, by more than ``margin``. The table and floor never move, so that
@@ -171,12 +191,16 @@ def foreground_mask(image: torch.Tensor, margin: float = 1.5 / 255, nearer_is_la
     is in view. A batch of one has no foreground. ``nearer_is_larger``: the channel grows
     towards the camera (the relief encoding) instead of away from it (the range encoding)."""
     if image.ndim != 4 or image.shape[1] != 4:
-        raise ValueError(f"foreground_mask: expected an RGB-D batch (B, 4, H, W), got shape {tuple(image.shape)}")
+        raise ValueError(
+            f"foreground_mask: expected an RGB-D batch (B, 4, H, W), got shape {tuple(image.shape)}"
+        )
     depth = -image[:, 3:] if nearer_is_larger else image[:, 3:]
     return depth < depth.amax(dim=0, keepdim=True) - margin
 
 
-def scale_foreground_brightness(image: torch.Tensor, low: float, high: float, nearer_is_larger: bool = False) -> torch.Tensor:
+def scale_foreground_brightness(
+    image: torch.Tensor, low: float, high: float, nearer_is_larger: bool = False
+) -> torch.Tensor:
     """Training-time albedo augmentation of an RGB-D batch ``(B, 4, H, W)`` in [0, 1]: the
     RGB of each image's foreground (:func:`foreground_mask`) times a factor drawn
     log-uniformly from ``[low, high]``, clipped to 1; background and depth unchanged. Diffuse
