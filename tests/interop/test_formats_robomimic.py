@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from lfd.interop import export_robomimic
-from lfd.interop.robomimic import rotation_to_quat_xyzw
 from lfd.visuomotor.data import load_dataset
 
 
@@ -69,16 +68,6 @@ def test_layout_and_attributes(tiny, hdf5):
         assert np.isclose(
             np.abs(np.concatenate([grp[d]["actions"][()] for d in demos])).max(axis=0), 1.0
         ).all()
-
-
-def test_quaternions():
-    theta = 0.7
-    R = np.array([[np.cos(theta), -np.sin(theta), 0], [np.sin(theta), np.cos(theta), 0], [0, 0, 1]])
-    np.testing.assert_allclose(
-        rotation_to_quat_xyzw(R), [0, 0, np.sin(theta / 2), np.cos(theta / 2)], atol=1e-12
-    )
-    flip = np.diag([1.0, -1.0, -1.0])  # 180 deg about x
-    np.testing.assert_allclose(np.abs(rotation_to_quat_xyzw(flip)), [1, 0, 0, 0], atol=1e-12)
 
 
 def test_refuses_to_overwrite(tiny, hdf5):

@@ -1,13 +1,13 @@
-"""Small JSON files for fitted DMPs, written atomically (temp file + ``os.replace``)."""
+"""Small JSON files for fitted DMPs, written atomically (:func:`lfd.io.files.write_text_atomic`)."""
 
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from lfd.io.files import write_text_atomic
 
 FORMAT_VERSION = 1
 
@@ -24,16 +24,7 @@ def write_json(path, kind: str, params: dict, fitted: dict | None) -> Path:
         "params": params,
         "fitted": None if fitted is None else {k: np.asarray(v).tolist() for k, v in fitted.items()},
     }
-    handle, temp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(handle, "w") as file:
-            json.dump(payload, file)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(temp_name, path)
-    except BaseException:
-        os.unlink(temp_name)
-        raise
+    write_text_atomic(path, json.dumps(payload))
     return path
 
 

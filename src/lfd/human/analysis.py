@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.io.files import write_text_atomic
+
 from .arm_ik import LIMITS, arm_fk, arm_ik, mirror
 from .cleaning import fill_gaps, repair_swaps
 from .dynamics import arm_model, arm_torques
@@ -37,16 +39,6 @@ __all__ = ["JOINT_NAMES", "ArmAnalysis", "analyze_arm"]
 JOINT_NAMES = ("abduction", "flexion", "rotation", "elbow_flexion")
 _GRAVITY = 9.81
 _DEFAULT_HAND_LENGTH = {"male": 0.19, "female": 0.18}
-
-
-def _atomic_write(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to a temporary sibling, then rename it over ``path`` (never a half-written file)."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, target)
-    return target
 
 
 @dataclasses.dataclass(eq=False)
@@ -128,7 +120,7 @@ class ArmAnalysis:
         data = np.column_stack(list(cols.values()))
         for row in data:
             lines.append(",".join("" if not np.isfinite(v) else f"{v:.6g}" for v in row))
-        return _atomic_write(path, "\n".join(lines) + "\n")
+        return write_text_atomic(path, "\n".join(lines) + "\n")
 
     def to_mot(self, path: str | os.PathLike) -> Path:
         """Write an OpenSim motion file: time, the four angles (deg) and the joint moments (N m)."""
@@ -137,7 +129,7 @@ class ArmAnalysis:
         header = [Path(path).stem, "version=1", f"nRows={len(data)}", f"nColumns={data.shape[1]}",
                   "inDegrees=yes", "endheader", "\t".join(["time", *names])]  # fmt: skip
         rows = ["\t".join("nan" if not np.isfinite(v) else f"{v:.8g}" for v in row) for row in data]
-        return _atomic_write(path, "\n".join(header + rows) + "\n")
+        return write_text_atomic(path, "\n".join(header + rows) + "\n")
 
     def to_json(self, path: str | os.PathLike) -> Path:
         """Write summary, segment lengths, quality, settings and the per-frame table as JSON."""
@@ -170,7 +162,7 @@ class ArmAnalysis:
             },  # fmt: skip
             "frames": self.table(),
         }
-        return _atomic_write(path, json.dumps(clean(doc), indent=1) + "\n")
+        return write_text_atomic(path, json.dumps(clean(doc), indent=1) + "\n")
 
     def plot(self, out_dir: str | os.PathLike, gif: bool = True, gif_frames: int = 150) -> list[Path]:
         """Figures like the thesis' 3.6-3.9 (positions, angles, velocities, accelerations, torques) and a

@@ -31,12 +31,15 @@ Example::
 from __future__ import annotations
 
 import dataclasses
+import io
 import os
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+
+from lfd.io.files import write_bytes_atomic
 
 from .skeleton import Skeleton, canonical_joint_name
 
@@ -404,15 +407,13 @@ class VideoKeypoints:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write all arrays to an ``.npz`` cache (read back with :meth:`load`)."""
-        target = Path(path)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_name(f".{target.name}.tmp.npz")
-        np.savez_compressed(tmp, t=self.t, frame_index=self.frame_index, pixels=self.pixels, visibility=self.visibility,
+        buffer = io.BytesIO()
+        np.savez_compressed(buffer, t=self.t, frame_index=self.frame_index, pixels=self.pixels, visibility=self.visibility,
                             world=self.world, detected=self.detected, other_person=self.other_person,
                             image_size=np.array(self.image_size), source=np.array(self.source),
                             seconds=np.array(self.seconds))  # fmt: skip
-        os.replace(tmp, target)
-        return target
+        write_bytes_atomic(Path(path), buffer.getvalue())
+        return Path(path)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> VideoKeypoints:

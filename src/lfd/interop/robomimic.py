@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.robots.spatial import matrix_to_quaternion
+
 #: robomimic's EnvType.GYM_TYPE (robomimic.envs.env_base): the closest of its env kinds.
 GYM_ENV_TYPE = 2
 ENV_NAME = "LfdReach-v0"
@@ -45,30 +47,6 @@ def _h5py():
     return h5py
 
 
-def rotation_to_quat_xyzw(R: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)`` (x, y, z, w; w >= 0) of rotation matrices ``(..., 3, 3)``."""
-    R = np.asarray(R, dtype=np.float64)
-    m = R.reshape(-1, 3, 3)
-    out = np.empty((len(m), 4))
-    for i, r in enumerate(m):
-        tr = np.trace(r)
-        if tr > 0:
-            s = 2.0 * np.sqrt(tr + 1.0)
-            q = [(r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s, 0.25 * s]
-        elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
-            s = 2.0 * np.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
-            q = [0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s, (r[2, 1] - r[1, 2]) / s]
-        elif r[1, 1] > r[2, 2]:
-            s = 2.0 * np.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
-            q = [(r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s, (r[0, 2] - r[2, 0]) / s]
-        else:
-            s = 2.0 * np.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
-            q = [(r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s, (r[1, 0] - r[0, 1]) / s]
-        q = np.asarray(q)
-        out[i] = q / np.linalg.norm(q) * (1 if q[3] >= 0 else -1)
-    return out.reshape(*R.shape[:-2], 4)
-
-
 def _obs(record, frames: np.ndarray, wrist: np.ndarray | None) -> dict[str, np.ndarray]:
     a = record.arrays
     ee, obj = np.asarray(a["ee_poses"]), np.asarray(a["object_poses"])
@@ -77,8 +55,8 @@ def _obs(record, frames: np.ndarray, wrist: np.ndarray | None) -> dict[str, np.n
         "robot0_joint_pos": np.asarray(a["joints"], np.float64),
         "robot0_joint_vel": np.asarray(a["velocities"], np.float64),
         "robot0_eef_pos": ee[:, :3, 3],
-        "robot0_eef_quat": rotation_to_quat_xyzw(ee[:, :3, :3]),
-        "object": np.concatenate([obj[:, :3, 3], rotation_to_quat_xyzw(obj[:, :3, :3])], axis=1),
+        "robot0_eef_quat": matrix_to_quaternion(ee[:, :3, :3], order="xyzw"),
+        "object": np.concatenate([obj[:, :3, 3], matrix_to_quaternion(obj[:, :3, :3], order="xyzw")], axis=1),
     }
     if wrist is not None:
         obs["robot0_eye_in_hand_image"] = wrist
@@ -183,4 +161,4 @@ def export_robomimic(
     return out
 
 
-__all__ = ["ENV_NAME", "GYM_ENV_TYPE", "export_robomimic", "rotation_to_quat_xyzw"]
+__all__ = ["ENV_NAME", "GYM_ENV_TYPE", "export_robomimic"]

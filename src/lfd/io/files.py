@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 
 #: Version of the on-disk layout described in ``data/README.md``.
-FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
 
 
 class DatasetError(ValueError):
@@ -44,6 +43,12 @@ def write_bytes_atomic(path: Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def write_text_atomic(path: Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`write_bytes_atomic`); returns the path."""
+    write_bytes_atomic(path, text.encode("utf-8"))
+    return Path(path)
 
 
 def json_bytes(obj: Any) -> bytes:

@@ -21,7 +21,6 @@ in cache-sized blocks of rows (see ``_blockwise``); there is never a loop over r
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -29,6 +28,8 @@ from pathlib import Path
 import numpy as np
 import torch
 from torch import Tensor
+
+from lfd.io.files import write_text_atomic
 
 from ._checks import as_batch
 from .ik import IKResult, solve_ik
@@ -438,15 +439,5 @@ class Robot:
         """
         text = spec_to_urdf(self.spec)
         if path is not None:
-            target = Path(path)
-            target.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-            try:
-                with os.fdopen(fd, "w") as f:
-                    f.write(text)
-                os.chmod(tmp, 0o644)
-                os.replace(tmp, target)
-            except BaseException:
-                os.unlink(tmp)
-                raise
+            write_text_atomic(Path(path), text)
         return text

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import viser
 
+from lfd.robots.spatial import matrix_to_quaternion
 from lfd.robots.spec import rpy_to_matrix
 
 from .session import TeachSession
@@ -47,26 +48,6 @@ def free_port(host: str = "127.0.0.1") -> int:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind((host, 0))
         return int(s.getsockname()[1])
-
-
-def _wxyz(rot: np.ndarray) -> np.ndarray:
-    """Unit quaternion (w, x, y, z) of a (3, 3) rotation."""
-    m = rot
-    tr = np.trace(m)
-    if tr > 0:
-        s = math.sqrt(tr + 1.0) * 2
-        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
-    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
-        s = math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2]) * 2
-        q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
-    elif m[1, 1] > m[2, 2]:
-        s = math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2]) * 2
-        q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
-    else:
-        s = math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1]) * 2
-        q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
-    q = np.array(q)
-    return q / np.linalg.norm(q)
 
 
 @dataclass(frozen=True)
@@ -175,7 +156,7 @@ class TeachServer:
             parent = "/robot/base" if v.link < 0 else f"/robot/link{v.link}"
             pose = {
                 "position": tuple(v.origin[:3, 3]),
-                "wxyz": tuple(_wxyz(v.origin[:3, :3])),
+                "wxyz": tuple(matrix_to_quaternion(v.origin[:3, :3])),
                 "cast_shadow": False,
                 "receive_shadow": False,
             }
@@ -215,7 +196,7 @@ class TeachServer:
             color=(200, 60, 60),
             dimensions=tuple(box.size),
             position=tuple(box.center),
-            wxyz=tuple(_wxyz(rot)),
+            wxyz=tuple(matrix_to_quaternion(rot)),
             opacity=0.8,
         )
 
@@ -223,7 +204,7 @@ class TeachServer:
         frames = self.session.kin.frames(q)
         for node, frame in zip(self.link_nodes, frames[:-1], strict=True):
             node.position = tuple(frame[:3, 3])
-            node.wxyz = tuple(_wxyz(frame[:3, :3]))
+            node.wxyz = tuple(matrix_to_quaternion(frame[:3, :3]))
 
     def _draw_path(self, name: str, points: np.ndarray, color) -> object | None:
         if len(points) < 2:

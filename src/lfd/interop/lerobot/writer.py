@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from lfd.io.files import write_text_atomic
 from lfd.io.video import CODECS, VideoFileWriter, video_info
 
 CODEBASE_VERSION = "v3.0"
@@ -527,10 +528,7 @@ def _num(x: float) -> int | float:
 
 def write_json(path: Path, obj: Any) -> None:
     """JSON with a 4-space indent, as lerobot's ``write_json`` (temp file + rename)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(obj, indent=4, ensure_ascii=False))
-    os.replace(tmp, path)
+    write_text_atomic(path, json.dumps(obj, indent=4, ensure_ascii=False))
 
 
 def write_tasks(path: Path, tasks: Sequence[str]) -> None:

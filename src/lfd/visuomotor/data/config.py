@@ -7,8 +7,11 @@ import math
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
-from lfd.io.files import FORMAT_VERSION, json_bytes
+from lfd.io.files import json_bytes
 from lfd.sim.objects import SHAPES, PlacementRanges
+
+#: Version of the on-disk dataset format (``manifest.json``).
+FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
 
 __all__ = ["GeneratorConfig"]
 
@@ -185,5 +188,5 @@ class GeneratorConfig:
         ).hexdigest()
 
 
-#: Options added after :data:`~lfd.io.files.FORMAT_VERSION` 2, with their defaults.
+#: Options added after :data:`FORMAT_VERSION` 2, with their defaults.
 _LATER_OPTIONS = {"depth": False, "train_families": None}

@@ -12,9 +12,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
-from lfd.io.files import FORMAT_VERSION, DatasetError, read_json, sha256_file, write_json_atomic
+from lfd.io.files import DatasetError, read_json, sha256_file, write_json_atomic
 from lfd.sim.expert import DISCARD_REASONS
-from lfd.visuomotor.data.config import GeneratorConfig
+from lfd.visuomotor.data.config import FORMAT_VERSION, GeneratorConfig
 from lfd.visuomotor.data.episodes import EPISODE_DIR, SPLITS, EpisodeRecord, episode_path
 from lfd.visuomotor.data.stats import compute_stats
 
