@@ -1,14 +1,18 @@
 """lfd: learning robot manipulation skills by observation.
 
-Sub-packages (one-way dependencies, top depends on bottom)::
+Packages, one capability each; a package imports only those in rows below its own
+(checked by the import-linter contracts in ``pyproject.toml``; ``docs/architecture.md``)::
 
-    models/  LightningModules (forward MLP, inverse MLP, CNN->DMP, velocity CNN)
-    data/    LightningDataModules + on-disk dataset format
-    eval/    closed-loop controllers and evaluation, metrics, plots, the Sawyer protocol
-    sim/     PyBullet scenes, objects, camera, scripted demonstrations, simulated arms
-    rl/      PoWER, rewards, goal adaptation and refinement (numpy/torch)
-    robots/  robot specs, batched FK / Jacobian / IK / RNE, reach tests, URDF writer (torch)
-    dmp/     canonical system, bases, LWR fitting, batched + differentiable DMP layer
+    imitation/ teach/ interop/        video -> robot pipeline; browser teach app; LeRobot, robomimic
+    visuomotor/ model_reaching/ human/  CNN -> DMP vs velocity CNN (data, policies, eval);
+                                      Sawyer forward/inverse models (thesis ch. 5); observing people
+    sim/  training                    the only PyBullet owner; Lightning helpers
+    rl/  robots/                      PoWER, PI^BB, CMA-ES; robot models, batched FK/IK/RNE, spatial maths
+    dmp/                              DMPs, fitting, batched + differentiable layer
+    io/                               atomic writes, checksums, MP4 video
+
+Nothing here imports Hydra: the entry points (``train.py``, ``evaluate.py``, ``scripts/``)
+compose configs and pass plain objects down.
 """
 
 __version__ = "0.1.0"
