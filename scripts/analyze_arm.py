@@ -72,7 +72,7 @@ def analyze_file(path: Path, cfg: DictConfig, out_dir: Path):
 
 
 def _files(folder: Path, pattern: str | None) -> list[Path]:
-    from lfd.human.readers import _iter_files
+    from lfd.human.readers import iter_skeleton_files
 
     if pattern:
         return sorted(
@@ -80,7 +80,7 @@ def _files(folder: Path, pattern: str | None) -> list[Path]:
             for p in folder.rglob("*")
             if p.is_file() and fnmatch.fnmatch(str(p.relative_to(folder)), pattern)
         )
-    return list(_iter_files(folder))
+    return list(iter_skeleton_files(folder))
 
 
 def run(cfg: DictConfig, out_dir: str | Path) -> Path:

@@ -1,4 +1,5 @@
-"""UI-PRMD: the Euler order of the angle files is undocumented; our choice (intrinsic ZXY) must be stable.
+"""UI-PRMD: units, the sibling angles file, the forward kinematics of the file layout, and the
+Euler order of the angle files (undocumented; our choice, intrinsic ZXY, must be stable).
 
 The order was chosen on every third UI-PRMD file (starting with the first) as the one with the
 least motion of joints that should stay still during a right-arm exercise (left wrist, feet);
@@ -7,13 +8,16 @@ these tests use two files that were not part of that choice.
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 import numpy as np
 import pytest
-from conftest import FIXTURES
 
 from lfd.human import analyze_arm, read_skeleton
 from lfd.human.readers import uiprmd_global_positions
 
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures" / "human"
 HELD_OUT = ("m10_s05_e02", "m08_s03_e02")
 ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 
@@ -55,3 +59,19 @@ def test_forward_kinematics_of_the_file_layout():
     np.testing.assert_allclose(pos[0, 1], [1.0 - 10.0, 2.0, 3.0], atol=1e-12)
     with pytest.raises(ValueError, match="euler_order"):
         read_skeleton(_path(HELD_OUT[0]), euler_order="XXY")
+
+
+def test_uiprmd_units_and_sibling_angles(tmp_path):
+    sk = read_skeleton(FIXTURES / "ui_prmd/Kinect/Positions/m07_s02_e01_positions.txt.gz", format="uiprmd")
+    assert sk.n_frames == 76
+    # waist row of frame 0 is (-12.35, 91.34, -254.14) cm
+    np.testing.assert_allclose(sk.joint("spine_base")[0], [-0.1234805, 0.9134453, -2.5414243])
+    # bone length = norm of the constant offset row (28.87635 cm upper arm), whatever the rotation
+    np.testing.assert_allclose(
+        np.linalg.norm(sk.joint("elbow_left")[0] - sk.joint("shoulder_left")[0]), 0.2887635, atol=1e-6
+    )
+    lonely = tmp_path / "Positions"
+    lonely.mkdir()
+    shutil.copy(FIXTURES / "ui_prmd/Kinect/Positions/m07_s02_e01_positions.txt.gz", lonely)
+    with pytest.raises(FileNotFoundError, match="angles file not found"):
+        read_skeleton(lonely / "m07_s02_e01_positions.txt.gz")

@@ -1,0 +1,118 @@
+"""Shared parts of the skeleton readers: the error type, text loading (``.gz`` transparent),
+number parsing that names the offending line and field, and the checks several formats share.
+
+Every helper raises :class:`SkeletonFormatError` (a ``ValueError``) naming the file, the
+1-based line and the field when content is malformed, and ``FileNotFoundError`` for a missing file.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..skeleton import canonical_joint_name
+
+#: Length units accepted by the readers -> metres.
+UNITS = {"m": 1.0, "meters": 1.0, "metres": 1.0, "cm": 0.01, "mm": 0.001}
+#: Kinect tracking state meaning "tracked" (0 = not tracked, 1 = inferred).
+KINECT_STATE_TRACKED = 2
+
+
+class SkeletonFormatError(ValueError):
+    """Malformed skeleton file; the message names the file, line (1-based) and field."""
+
+    def __init__(self, path: str | os.PathLike, line: int | None, field: str, problem: str) -> None:
+        where = f"{path}" + (f", line {line}" if line is not None else "")
+        super().__init__(f"{where}, field {field}: {problem}")
+        self.path, self.line, self.field = str(path), line, field
+
+
+def open_text(path: Path) -> io.TextIOBase:
+    """The file as text (UTF-8, BOM dropped; ``.gz`` decompressed).
+
+    Raises:
+        FileNotFoundError: missing file or a directory. SkeletonFormatError: bad gzip or not UTF-8.
+    """
+    if not path.exists():
+        raise FileNotFoundError(f"skeleton file not found: {path}")
+    if path.is_dir():
+        raise FileNotFoundError(f"skeleton path is a directory, not a file: {path}")
+    raw = path.read_bytes()
+    if path.suffix == ".gz":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError) as exc:
+            raise SkeletonFormatError(path, None, "gzip", f"not a valid gzip file ({exc})") from exc
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SkeletonFormatError(path, None, "encoding", f"not UTF-8 text ({exc})") from exc
+    return io.StringIO(text)
+
+
+def read_lines(path: Path) -> list[str]:
+    """The lines of :func:`open_text` (no line ends)."""
+    with open_text(path) as f:
+        return f.read().splitlines()
+
+
+def parse_float(token: str, path: Path, line: int, field: str) -> float:
+    """``token`` as a finite float, else :class:`SkeletonFormatError` naming ``line`` and ``field``."""
+    try:
+        value = float(token)
+    except ValueError:
+        raise SkeletonFormatError(path, line, field, f"expected a number, got {token!r}") from None
+    if not np.isfinite(value):
+        raise SkeletonFormatError(path, line, field, f"expected a finite number, got {token!r}")
+    return value
+
+
+def parse_row(tokens: list[str], path: Path, line: int, field_names: list[str]) -> np.ndarray:
+    """``tokens`` as a float row; on a bad token, :class:`SkeletonFormatError` naming its field."""
+    try:
+        values = np.array(tokens, dtype=float)
+        if np.all(np.isfinite(values)):
+            return values
+    except ValueError:
+        pass
+    return np.array([parse_float(tok, path, line, field_names[i]) for i, tok in enumerate(tokens)])
+
+
+def base_name(path: Path) -> str:
+    """The file name without a ``.gz`` suffix."""
+    name = path.name
+    return name[:-3] if name.endswith(".gz") else name
+
+
+def check_rate(rate: float, path: Path) -> float:
+    """``rate`` (Hz) as a float; ``ValueError`` unless positive and finite."""
+    if not (isinstance(rate, (int, float)) and np.isfinite(rate) and rate > 0):
+        raise ValueError(f"{path}: rate must be a positive number of Hz, got {rate!r}")
+    return float(rate)
+
+
+def check_time(t: np.ndarray, path: Path, line_numbers: list[int], field: str) -> None:
+    """:class:`SkeletonFormatError` at the first sample of ``t`` (s) that does not increase strictly."""
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        bad = int(np.argmax(steps <= 0)) + 1
+        raise SkeletonFormatError(
+            path, line_numbers[bad], field, f"time must increase strictly; {t[bad]} follows {t[bad - 1]}"
+        )
+
+
+def canonical_names(names: list[str], path: Path, line: int | None) -> tuple[str, ...]:
+    """Canonical joint names of ``names``; :class:`SkeletonFormatError` when two mean the same joint."""
+    canonical = [canonical_joint_name(n) for n in names]
+    seen: dict[str, str] = {}
+    for raw, can in zip(names, canonical):
+        if can in seen:
+            raise SkeletonFormatError(
+                path, line, "joint names", f"{raw!r} and {seen[can]!r} both mean joint {can!r}"
+            )
+        seen[can] = raw
+    return tuple(canonical)
