@@ -193,8 +193,8 @@ def table(robot, space: str, args, c: float) -> None:
         row += [str(sum(r.iterations for r in runs)), str(total), f"{sum(r.converged for r in runs)}/{len(runs)} conv.",
                 f"{sum(r.seconds for r in runs):.1f}"]  # fmt: skip
     adapted = totals["adapt"]
-    row += [f"**{theirs_total / mine_total:.1f}**",
-            f"{sum(r.rollouts for r in adapted)} ({sum(r.converged for r in adapted)}/{len(adapted)} conv.)"]  # fmt: skip
+    converged = f"{sum(r.converged for r in adapted)}/{len(adapted)} conv."
+    row += [f"**{theirs_total / mine_total:.1f}**", f"{sum(r.rollouts for r in adapted)} ({converged})"]
     print("| " + " | ".join(row) + " |")
 
 

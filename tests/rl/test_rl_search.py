@@ -177,9 +177,12 @@ def test_goal_exploration_learns_a_new_goal_with_every_search(line_dmp):
     from lfd.rl import JointGoalReward
 
     reward = JointGoalReward([1.2])
-    for run in (lambda: power(line_dmp, reward, sigma_goal=0.05, tol=0.01, max_iter=200, seed=0),
-                lambda: pibb(line_dmp, reward, sigma_goal=0.05, tol=0.01, max_iter=200, seed=0),
-                lambda: cmaes(line_dmp, reward, sigma_goal=0.05, sigma0=0.05, tol=0.01, max_iter=200, seed=0)):  # fmt: skip
+    common = dict(sigma_goal=0.05, tol=0.01, max_iter=200, seed=0)
+    for run in (
+        lambda: power(line_dmp, reward, **common),
+        lambda: pibb(line_dmp, reward, **common),
+        lambda: cmaes(line_dmp, reward, sigma0=0.05, **common),
+    ):
         result = run()
         assert result.converged and abs(result.trajectory[-1, 0] - 1.2) <= 0.01
         assert result.goal[0] > 1.02  # the goal moved (late weights share the end-point correction)

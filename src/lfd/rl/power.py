@@ -289,7 +289,7 @@ def _row(problem: SearchProblem, theta: np.ndarray, recorder: Recorder) -> np.nd
 def _pyrdmp(dmp, problem, recorder, rng, n_rollouts, max_iter, sigma_goal, stop) -> PowerResult:
     """The pyrdmp variant (see the module docstring)."""
     psi = activations(dmp, problem.rollout.t)  # (T, K)
-    n_dof, n_basis, split = problem.n_dof, problem.n_basis, problem.split
+    n_dof, split = problem.n_dof, problem.split
     n_keep = max(int(np.floor(n_rollouts * PYRDMP_RATE)), 1)
     y0 = problem.rollout.y0
     stiffness = float(dmp.alpha_z * dmp.beta_z)
