@@ -32,13 +32,13 @@ Public API (numpy + torch only)::
 
 Formulation (``formulation=``, :mod:`lfd.dmp.formulation`): ``"pastor"`` (default, Pastor et
 al. 2009) ``tau dz = K (g - y) - D z - K (g - y0) s + K f(s)`` reproduces DoFs that end
-where they began and keeps the demonstrated shape under a new goal; ``"ijspeert"`` (SPEC
+where they began and keeps the demonstrated shape under a new goal; ``"ijspeert"`` (the thesis
 section 1, the behaviour before the argument existed) scales ``f`` by ``g - y0``, so such a
 DoF stays at rest. Files saved without a formulation load as ``"ijspeert"``.
 
 Fitting (``method``): ``"trajectory"`` (default) is ridge least squares on the positions
 through the exact linear rollout map (:mod:`lfd.dmp.fitting`, ``ridge`` relative to the
-largest squared singular value); ``"lwr"`` is SPEC section 1's per-basis locally weighted
+largest squared singular value); ``"lwr"`` is the thesis's per-basis locally weighted
 regression of the forcing target (use a smaller ``overlap``, e.g. 0.3, with it).
 
 Units: time and ``tau`` in seconds; positions in the units of the demonstration

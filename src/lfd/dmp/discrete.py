@@ -30,7 +30,7 @@ def check_method(method: str) -> str:
 
 
 class DMP(Primitive):
-    """Multi-DoF discrete DMP with one shared phase (SPEC section 1).
+    """Multi-DoF discrete DMP with one shared phase (the thesis's formulation, ``docs/dmp.md``).
 
     ``tau dz = alpha_z (beta_z (g - y) - z) + F(s)``, ``tau dy = z``, ``tau ds = -alpha_s s``,
     ``f(s) = (sum_i w_i psi_i(s) / sum_i psi_i(s)) s``, ``psi_i = exp(-h_i (s - c_i)^2)``,
@@ -112,7 +112,7 @@ class DMP(Primitive):
         - ``"trajectory"`` (default): least squares on the positions through the exact
           linear rollout map (end point emphasised); best reproduction, no numerical
           differentiation of the demonstration.
-        - ``"lwr"``: SPEC's per-basis locally weighted regression of the forcing target,
+        - ``"lwr"``: the thesis's per-basis locally weighted regression of the forcing target,
           with velocities/accelerations from second-order finite differences (valid on
           non-uniform grids).
 

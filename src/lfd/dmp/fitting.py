@@ -8,7 +8,7 @@ sharing one time grid, neither forming a ``T x T`` matrix:
   the weights minimising the reproduction error come from one ``(K, T)`` regularised
   pseudo-inverse shared by all DoFs and demonstrations (O(T K^2) once per time grid, then
   O(B T K D)). No numerical differentiation of the demonstration is needed.
-- :func:`lwr_weights`: SPEC section 1's per-basis locally weighted regression of the
+- :func:`lwr_weights`: the thesis's per-basis locally weighted regression of the
   forcing target ``f_target = tau^2 ddy - alpha_z (beta_z (g - y) - tau dy)``, O(B T K D).
   Cheaper and local, but at 20 bases it reproduces curved demonstrations far less
   accurately (it averages the target over each basis instead of interpolating it).

@@ -12,7 +12,7 @@ the forcing input ``F``:
   adds the goal offset through a smooth transient (``y' - y`` is the same for every
   weight vector); the demonstrated shape is kept, not rescaled. Weights are in the units
   of ``y``.
-- ``"ijspeert"`` (Ijspeert et al. 2013, SPEC section 1, the behaviour before the
+- ``"ijspeert"`` (Ijspeert et al. 2013, as in the thesis, the behaviour before the
   ``formulation`` argument existed): ``F = f(s) (g - y0)``. A new goal rescales the
   motion per DoF by ``(g' - y0) / (g - y0)`` (it mirrors when the sign flips); a DoF with
   ``g == y0`` cannot move at all (zero weights, and ``fit`` warns when it did move).

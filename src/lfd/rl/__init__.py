@@ -11,7 +11,7 @@ counting and stopping rule; see ``docs/power.md``):
 - :func:`adapt_to_goal`: adapt a learned DMP to a new goal in joint space (rad) or task
   space (m, through the robot's IK/FK), then refine it with PoWER; :func:`refine` fits
   a DMP to a joint trajectory and refines it towards a task-space goal.
-- Rewards (SPEC eq. 5.4): :class:`JointGoalReward`, :class:`TaskGoalReward`,
+- Rewards (the thesis's eq. 5.4): :class:`JointGoalReward`, :class:`TaskGoalReward`,
   :func:`returns_from_distances`; via points and obstacles with per-step returns-to-go:
   :class:`ViaPointReward`, :class:`ObstacleReward`; any
   ``reward(trajectories (B, T, D)) -> (B,)`` works.

@@ -1,6 +1,6 @@
 """Batched rollouts of one fitted DMP for many weight and goal sets.
 
-A discrete DMP (SPEC section 1) started at rest is linear in its forcing weights for a
+A discrete DMP started at rest is linear in its forcing weights for a
 fixed start and goal. For both forcing formulations of :mod:`lfd.dmp` the map has one
 of two closed forms, for every DoF ``d``:
 

@@ -1,6 +1,6 @@
 """Closed-form position IK of the 4-DoF Barrett WAM with joint 3 held fixed.
 
-With the standard DH table of SPEC 3 (``a3 = 0.045``, ``d3 = 0.55``, ``a4 = -0.045``,
+With the standard DH table of the thesis (``a3 = 0.045``, ``d3 = 0.55``, ``a4 = -0.045``,
 tool ``d = 0.35``) the tool point in the base frame is::
 
     x = cos q1 (cos q2 cos q3 A + sin q2 C) - sin q1 sin q3 A

@@ -1,4 +1,4 @@
-"""Catalogue of the project's robots (SPEC section 3): ``load_robot(name, **options)``.
+"""Catalogue of the project's robots (the thesis's robots): ``load_robot(name, **options)``.
 
 =================  ====  ==========================================================
 name               DoF   notes
@@ -13,10 +13,10 @@ name               DoF   notes
                          body mass and sex are options
 =================  ====  ==========================================================
 
-Where the SPEC gives no inertia, links are solid cylinders of their mass along the
+Where the thesis gives no inertia, links are solid cylinders of their mass along the
 link (:func:`lfd.robots.spec.segment_inertials`) with the radii set in each builder
 (also used for the URDF shapes); velocity and
-effort limits not in the SPEC are values from the public robot descriptions (PR2,
+effort limits not in the thesis are values from the public robot descriptions (PR2,
 Sawyer) or nominal values (WAM, human arm) used only for sampling and URDF limits.
 """
 
@@ -35,13 +35,13 @@ __all__ = ["WAM4_DH", "WAM4_TOOL_D", "available_robots", "load_robot"]
 
 _DEG = np.pi / 180.0
 
-# Barrett WAM, standard DH rows (alpha, a, d) and tool offset along the last z axis (SPEC 3).
+# Barrett WAM, standard DH rows (alpha, a, d) and tool offset along the last z axis (thesis).
 WAM4_DH = ((-np.pi / 2, 0.0, 0.0), (np.pi / 2, 0.0, 0.0), (-np.pi / 2, 0.045, 0.55), (np.pi / 2, -0.045, 0.0))
 WAM4_TOOL_D = 0.35
 
 
 def _pr2_right_arm() -> RobotSpec:
-    # Link masses (SPEC): the roll joints carry the big links behind them (upper arm,
+    # Link masses (thesis): the roll joints carry the big links behind them (upper arm,
     # forearm), the wrist roll link carries the gripper (0.58 kg) and fingers (0.43 kg).
     masses = [25.8, 2.75, 6.02, 1.90, 2.58, 0.61, 0.58 + 0.43]
     radii = [0.12, 0.08, 0.06, 0.05, 0.05, 0.04, 0.04]
@@ -92,7 +92,7 @@ def _pr2_right_arm() -> RobotSpec:
         link_radii=radii,
         base_transform=np.eye(4),
         tool_transform=tool,
-        # Original start pose reordered into chain order (SPEC 3); wrist flex 0 is its upper limit.
+        # Original start pose reordered into chain order; wrist flex 0 is its upper limit.
         home=np.array([-70.0, 0.0, -90.0, -70.0, 0.0, 0.0, 0.0]) * _DEG,
     )
 
@@ -135,7 +135,7 @@ def _wam4() -> RobotSpec:
     )
 
 
-# de Leva (1996) segment mass as a fraction of body mass, (male, female) (SPEC 3).
+# de Leva (1996) segment mass as a fraction of body mass, (male, female).
 _DE_LEVA_MASS = {"upper_arm": (0.0271, 0.0255), "forearm": (0.0162, 0.0138), "hand": (0.0061, 0.0056)}
 _COM_UPPER_ARM, _COM_FOREARM, _COM_HAND = 0.577, 0.457, 0.5
 _SEGMENT_RADIUS_FRACTION = 0.15
