@@ -21,7 +21,6 @@ DMP and executed joints), ``summary.json`` (fps, time-scale factor, tracking RMS
 from __future__ import annotations
 
 import json
-import tempfile
 from pathlib import Path
 
 import hydra
@@ -52,65 +51,6 @@ def retarget(cfg: DictConfig, t: np.ndarray, positions: np.ndarray):
     if cfg.robot == "wam4":
         return retarget_wam4(s, e, w, side=cfg.side, mount=str(cfg.get("wam_mount", "auto")), t=t)
     return retarget_wrist_path(s, e, w, robot=cfg.robot)
-
-
-class Simulation:
-    """The robot alone in PyBullet (DIRECT, TinyRenderer), base oriented by ``base_rotation``."""
-
-    def __init__(self, robot, base_rotation: np.ndarray, rate: float, kp: float, kd: float, size=(320, 320)):
-        import pybullet as p
-        from scipy.spatial.transform import Rotation
-
-        self.p, self.robot, self.rate, self.kp, self.kd, self.size = p, robot, rate, kp, kd, tuple(size)
-        self.client = p.connect(p.DIRECT)
-        p.setGravity(0, 0, -9.81, physicsClientId=self.client)
-        p.setTimeStep(1.0 / rate, physicsClientId=self.client)
-        self._dir = tempfile.TemporaryDirectory()
-        urdf = Path(self._dir.name) / f"{robot.name}.urdf"
-        robot.to_urdf(urdf)
-        quat = Rotation.from_matrix(base_rotation).as_quat()
-        self.body = p.loadURDF(str(urdf), basePosition=[0, 0, 1.0], baseOrientation=quat.tolist(), useFixedBase=True,
-                               flags=p.URDF_USE_INERTIA_FROM_FILE, physicsClientId=self.client)  # fmt: skip
-        self.n = robot.n_dof
-        self.forces = robot.effort_limits.numpy().tolist()
-        self.vmax = robot.velocity_limits.numpy().tolist()
-
-    def reset(self, q: np.ndarray) -> None:
-        for j in range(self.n):
-            self.p.resetJointState(self.body, j, float(q[j]), 0.0, physicsClientId=self.client)
-
-    def run(self, t: np.ndarray, q_ref: np.ndarray, frames_at: np.ndarray | None = None):
-        """Track ``q_ref (T, n)`` at times ``t`` with position control; executed q at ``t`` and images."""
-        p, c = self.p, self.client
-        self.reset(q_ref[0])
-        steps = int(np.ceil((t[-1] - t[0]) * self.rate)) + 1
-        sim_t = t[0] + np.arange(steps) / self.rate
-        targets = np.stack([np.interp(sim_t, t, q_ref[:, j]) for j in range(self.n)], 1)
-        executed = np.zeros((steps, self.n))
-        images = []
-        want = set() if frames_at is None else set(np.searchsorted(sim_t, frames_at).tolist())
-        for k in range(steps):
-            for j in range(self.n):
-                p.setJointMotorControl2(self.body, j, p.POSITION_CONTROL, targetPosition=float(targets[k, j]),
-                                        force=self.forces[j], maxVelocity=self.vmax[j], positionGain=self.kp,
-                                        velocityGain=self.kd, physicsClientId=c)  # fmt: skip
-            p.stepSimulation(physicsClientId=c)
-            executed[k] = [s[0] for s in p.getJointStates(self.body, list(range(self.n)), physicsClientId=c)]
-            if k in want:
-                images.append(self.render())
-        q_exec = np.stack([np.interp(t, sim_t, executed[:, j]) for j in range(self.n)], 1)
-        return q_exec, images
-
-    def render(self) -> np.ndarray:
-        p, (w, h) = self.p, self.size
-        view = p.computeViewMatrix([1.8, -1.2, 1.5], [0, 0, 0.9], [0, 0, 1])
-        proj = p.computeProjectionMatrixFOV(50, w / h, 0.05, 10)
-        img = p.getCameraImage(w, h, view, proj, renderer=p.ER_TINY_RENDERER, physicsClientId=self.client)[2]
-        return np.asarray(img, np.uint8).reshape(h, w, 4)[:, :, :3]
-
-    def close(self) -> None:
-        self.p.disconnect(physicsClientId=self.client)
-        self._dir.cleanup()
 
 
 def _draw(rgb: np.ndarray, pixels: np.ndarray, scale: float, side: str) -> np.ndarray:
@@ -177,11 +117,12 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
 
     from lfd.dmp import DMP
     from lfd.human import analyze_arm
-    from lfd.human.analysis import _atomic_write
+    from lfd.io.files import write_text_atomic as _atomic_write
     from lfd.human.retarget import time_scale
     from lfd.human.video import estimate_keypoints
     from lfd.robots import load_robot
     from lfd.robots.ik import solve_ik
+    from lfd.sim.tracking import ArmWorld, track_resampled
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -216,11 +157,12 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
     q_dmp = np.clip(q_dmp, robot.lower.numpy(), robot.upper.numpy())
     # World frame of the simulation = the trunk frame; the WAM is side-mounted (lfd.human.retarget).
     base = rt.base_rotation
-    sim = Simulation(robot, base, float(cfg.sim.rate), float(cfg.sim.position_gain), float(cfg.sim.velocity_gain),
-                     tuple(cfg.sim.image_size))  # fmt: skip
-    try:
+    rate = float(cfg.sim.rate)
+    with ArmWorld(robot, timestep=1.0 / rate, base_position=(0.0, 0.0, 1.0), base_rotation=base,
+                  position_gain=float(cfg.sim.position_gain), velocity_gain=float(cfg.sim.velocity_gain),
+                  image_size=tuple(cfg.sim.image_size)) as world:  # fmt: skip
         want = cfg.outputs.video or cfg.outputs.gif
-        q_exec, images = sim.run(t_robot, q_dmp, t_robot if want else None)
+        q_exec, images = track_resampled(world, t_robot, q_dmp, rate, t_robot if want else None)
         goal_result = None
         if cfg.goal is not None:
             goal = np.asarray(list(cfg.goal), float)
@@ -233,12 +175,10 @@ def run(cfg: DictConfig, out_dir: str | Path) -> dict:
             q_new = np.clip(
                 np.asarray(dmp.rollout(t_robot, goal=q_goal)), robot.lower.numpy(), robot.upper.numpy()
             )
-            q_new_exec, _ = sim.run(t_robot, q_new)
+            q_new_exec, _ = track_resampled(world, t_robot, q_new, rate)
             reached = robot.fk(torch.from_numpy(q_new_exec[-1:]))[0, :3, 3].numpy()
             goal_result = {"goal_m": goal.tolist(), "ik_success": bool(sol.success[0]),
                            "final_tool_error_m": float(np.linalg.norm(reached - goal))}  # fmt: skip
-    finally:
-        sim.close()
     lo, hi = robot.lower.numpy(), robot.upper.numpy()
     rmse = float(np.sqrt(np.mean((q_exec - rt.q) ** 2)))
     cols = {"time_s": t_robot, "video_time_s": t}

@@ -18,7 +18,7 @@ For each task (end-effector orientation: cube, cup) and each goal:
    fits the DMP to the task's demonstration only (the one the inverse model was trained
    on, stored in the checkpoint) and runs the same PoWER. Episodes = PoWER iterations.
 4. Optionally the refined trajectories are replayed in PyBullet (position control,
-   :func:`lfd.sim.arms.replay_in_pybullet`) and their final distance to the goal measured there.
+   :func:`lfd.sim.tracking.replay_in_pybullet`) and their final distance to the goal measured there.
 
 This module holds the protocol (:class:`SawyerProtocol`); its report (tables, CSV, plots) is
 :mod:`lfd.model_reaching.report`.
@@ -46,7 +46,8 @@ from lfd.model_reaching.report import ORIGINAL_EPISODES, SCENARIOS, protocol_tab
 from lfd.rl import refine
 from lfd.robots import Workspace, load_robot, rotation_log
 from lfd.robots.spec import matrix_to_rpy
-from lfd.sim.arms import ARMS, replay_in_pybullet
+from lfd.sim.arms import ARMS
+from lfd.sim.tracking import replay_in_pybullet
 from lfd.visuomotor.eval.evaluator import find_checkpoints
 from lfd.visuomotor.eval.rollout import ReachTrace, closed_loop_reach
 

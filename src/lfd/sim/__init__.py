@@ -35,7 +35,7 @@ _EXPORTS = exports(
             "plan_approach",
             "side_grasp_height",
         ],
-        "arms": ["ARMS", "KinematicArm", "PyBulletArm", "replay_in_pybullet"],
+        "arms": ["ARMS", "KinematicArm", "PyBulletArm"],
         "camera": ["Camera", "look_at", "perspective", "project_points"],
         "expert": [
             "DISCARD_REASONS",
@@ -54,6 +54,14 @@ _EXPORTS = exports(
             "sample_objects",
         ],
         "scene": ["ReachScene"],
+        "tracking": [
+            "ArmWorld",
+            "TrackedPath",
+            "execute_joint_trajectory",
+            "replay_in_pybullet",
+            "track_resampled",
+            "track_trajectory",
+        ],
         "trajectory": [
             "follow_paths",
             "quintic_coefficients",
@@ -69,7 +77,7 @@ __getattr__, __dir__ = lazy_getattr(__name__, _EXPORTS)
 
 if TYPE_CHECKING:
     from .approach import SHOULDER_XY, TABLE_Z, ApproachPlan, box_grasp_yaw, plan_approach, side_grasp_height
-    from .arms import ARMS, KinematicArm, PyBulletArm, replay_in_pybullet
+    from .arms import ARMS, KinematicArm, PyBulletArm
     from .camera import Camera, look_at, perspective, project_points
     from .expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert, run_demonstration
     from .objects import (
@@ -82,6 +90,14 @@ if TYPE_CHECKING:
         sample_objects,
     )
     from .scene import ReachScene
+    from .tracking import (
+        ArmWorld,
+        TrackedPath,
+        execute_joint_trajectory,
+        replay_in_pybullet,
+        track_resampled,
+        track_trajectory,
+    )
     from .trajectory import (
         follow_paths,
         quintic_coefficients,

@@ -8,8 +8,8 @@ controller such as :func:`lfd.visuomotor.eval.rollout.closed_loop_reach` runs on
 * :class:`PyBulletArm`: one :class:`~lfd.sim.scene.ReachScene` per arm with the robot's
   generated URDF, position control with velocity feed-forward.
 
-:func:`replay_in_pybullet` tracks a whole joint trajectory in PyBullet and returns where
-the tool ends. Units: rad, rad/s, s, m.
+A whole joint trajectory is replayed by :func:`lfd.sim.tracking.replay_in_pybullet`.
+Units: rad, rad/s, s, m.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import torch
 
 from lfd.sim.scene import ReachScene
 
-__all__ = ["ARMS", "KinematicArm", "PyBulletArm", "replay_in_pybullet"]
+__all__ = ["ARMS", "KinematicArm", "PyBulletArm"]
 
 
 class KinematicArm:
@@ -60,8 +60,6 @@ class PyBulletArm:
         """Build one world per row of ``q0 (B, n)`` with the arm there; returns the joints ``(B, n)``."""
         self.close()
         self.reference = self.robot.clamp(torch.as_tensor(np.asarray(q0, dtype=np.float64)))
-        # the Sawyer protocol's measured numbers were made with this actuation (300 N m, no
-        # velocity cap, no self-collision); the reaching scenes use the URDF limits (issue 12)
         self.scenes = [
             ReachScene(self.robot, image_size=8, control_dt=self.dt, substeps=self.substeps, **LEGACY_PHYSICS)
             for _ in range(len(q0))
@@ -89,24 +87,9 @@ class PyBulletArm:
         self.scenes = []
 
 
-#: Actuation of :class:`PyBulletArm` (the Sawyer protocol, SPEC 5): that of the scenes before issue 12.
+#: Actuation of :class:`PyBulletArm` (the Sawyer protocol, thesis ch. 5): 300 N m on every joint, no
+#: velocity cap, no self-collision (see docs/decisions).
 LEGACY_PHYSICS = {"max_force": 300.0, "limit_velocity": False, "self_collision": False}
 
 #: Arm class per ``simulator`` name (``configs/eval/sawyer.yaml``).
 ARMS = {"kinematic": KinematicArm, "pybullet": PyBulletArm}
-
-
-def replay_in_pybullet(
-    robot, trajectory: np.ndarray, dt: float, substeps: int = 10, settle_steps: int = 25
-) -> np.ndarray:
-    """Track ``trajectory (T, n)`` (rad, one sample per ``dt`` s) in PyBullet with position
-    control and velocity feed-forward, hold the last sample for ``settle_steps`` periods,
-    and return the final tool position ``(3,)`` (m, robot world frame)."""
-    velocity = np.gradient(trajectory, dt, axis=0)
-    with ReachScene(robot, image_size=8, control_dt=dt, substeps=substeps) as scene:
-        scene.set_joints(trajectory[0])
-        for q, v in zip(trajectory[1:], velocity[1:]):
-            scene.step(q, v)
-        for _ in range(settle_steps):
-            scene.step(trajectory[-1])
-        return scene.ee_pose()[:3, 3]

@@ -33,6 +33,7 @@ import pybullet as p
 from lfd.sim.approach import TABLE_Z
 from lfd.sim.camera import Camera
 from lfd.sim.objects import ObjectSpec, Placement
+from lfd.sim.tracking import command_joints
 
 #: Table extent (m) in the torso frame: x from ``TABLE_X[0]`` to ``TABLE_X[1]``, y symmetric.
 TABLE_X = (0.35, 0.95)
@@ -277,29 +278,27 @@ class ReachScene:
         q = _as_vector(q, self.n_joints, "q")
         for j in range(self.n_joints):
             p.resetJointState(self.robot_id, j, float(q[j]), 0.0, physicsClientId=self.client)
-        self._command(q, np.zeros(self.n_joints))
+        self.command(q, np.zeros(self.n_joints))
 
-    def _command(self, q: np.ndarray, qd: np.ndarray) -> None:
-        """Position control with velocity feed-forward, within the effort and velocity limits."""
-        qd = np.clip(qd, -self.max_velocities, self.max_velocities)
-        for j in range(self.n_joints):
-            kw = (
-                {}
-                if not np.isfinite(self.max_velocities[j])
-                else {"maxVelocity": float(self.max_velocities[j])}
-            )
-            p.setJointMotorControl2(
-                self.robot_id,
-                j,
-                p.POSITION_CONTROL,
-                targetPosition=float(q[j]),
-                targetVelocity=float(qd[j]),
-                force=float(self.forces[j]),
-                positionGain=self.position_gain,
-                velocityGain=self.velocity_gain,
-                physicsClientId=self.client,
-                **kw,
-            )
+    def command(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
+        """Position control towards ``q (n_joints,)`` with velocity feed-forward ``qd``
+        (default zero), within the effort and velocity limits, from the next physics step
+        (:func:`lfd.sim.tracking.command_joints`)."""
+        command_joints(
+            self.client,
+            self.robot_id,
+            q,
+            np.zeros(self.n_joints) if qd is None else qd,
+            self.forces,
+            self.max_velocities,
+            self.position_gain,
+            self.velocity_gain,
+        )
+
+    def step_physics(self, steps: int = 1) -> None:
+        """Advance the physics ``steps`` steps (``control_dt / substeps`` s each)."""
+        for _ in range(steps):
+            p.stepSimulation(physicsClientId=self.client)
 
     def step_velocity(self, qd_target: np.ndarray) -> None:
         """One control step of velocity control: joint velocities ``qd_target (n_joints,)``
@@ -329,9 +328,8 @@ class ReachScene:
             if qd_target is None
             else _as_vector(qd_target, self.n_joints, "qd_target")
         )
-        self._command(q_target, qd_target)
-        for _ in range(self.substeps):
-            p.stepSimulation(physicsClientId=self.client)
+        self.command(q_target, qd_target)
+        self.step_physics(self.substeps)
 
     # ------------------------------------------------------------------ state
     def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -345,6 +343,10 @@ class ReachScene:
             self.robot_id, self.n_joints, computeForwardKinematics=True, physicsClientId=self.client
         )
         return self._from_world(pose_matrix(state[4], state[5]))
+
+    def tool_position(self) -> np.ndarray:
+        """``(3,)`` tool position in the torso frame, m."""
+        return self.ee_pose()[:3, 3]
 
     def object_pose(self) -> np.ndarray:
         """``(4, 4)`` pose of the object's centre in the torso frame."""

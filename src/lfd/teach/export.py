@@ -31,13 +31,16 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from lfd.dmp import DMP
 from lfd.io.files import write_bytes_atomic, write_npz_atomic
 
-from .execute import ExecutedPath, execute_joint_trajectory
+if TYPE_CHECKING:
+    from lfd.sim.tracking import TrackedPath
+
 
 __all__ = [
     "RETURNING_FORMULATION",
@@ -190,7 +193,8 @@ class SendResult:
 
     Attributes:
         plan_t, plan_q: (T,) s and (T, n) rad, the DMP rollout that was commanded.
-        executed: the :class:`~lfd.teach.execute.ExecutedPath` from PyBullet.
+        executed: the :class:`~lfd.sim.tracking.TrackedPath` from PyBullet
+            (:func:`lfd.sim.tracking.execute_joint_trajectory`).
         demo_tool: (N, 3) m, the recorded tool path.
         final_error: m, executed final tool position (after settling) to the recorded end.
         max_path_deviation: m, largest distance of the executed tool path from the
@@ -199,7 +203,7 @@ class SendResult:
 
     plan_t: np.ndarray
     plan_q: np.ndarray
-    executed: ExecutedPath
+    executed: TrackedPath
     demo_tool: np.ndarray
     final_error: float
     max_path_deviation: float
@@ -215,6 +219,8 @@ class SendResult:
 
 def send_session(session) -> SendResult:
     """Fit the DMP to the recording and run its rollout on the simulated arm."""
+    from lfd.sim.tracking import execute_joint_trajectory
+
     rec = session.recorded
     dmp = fit_recording_dmp(rec)
     plan_t = np.linspace(0.0, float(dmp.tau_), dmp.n_steps_)
