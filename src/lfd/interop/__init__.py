@@ -10,15 +10,11 @@ The libraries themselves are not needed: pyarrow, PyAV and h5py write the files.
 See ``docs/formats.md``.
 """
 
-from lfd.interop.lerobot.reader import LeRobotDataModule, LeRobotFolder, read_info
-from lfd.interop.lerobot.writer import (
-    CODEBASE_VERSION,
-    LeRobotEpisode,
-    LeRobotWriter,
-    export_lerobot,
-    task_string,
-    update_chunk_file_indices,
-)
+from lfd.interop.lerobot.datamodule import LeRobotDataModule
+from lfd.interop.lerobot.export import export_lerobot, task_string
+from lfd.interop.lerobot.paths import CODEBASE_VERSION, update_chunk_file_indices
+from lfd.interop.lerobot.reader import LeRobotFolder, read_info
+from lfd.interop.lerobot.writer import LeRobotEpisode, LeRobotWriter
 from lfd.interop.robomimic import export_robomimic
 
 __all__ = [

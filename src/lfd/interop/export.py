@@ -27,7 +27,7 @@ def export_dataset(src: str | Path, out: str | Path, format: str = "lerobot", **
         FileExistsError: ``out`` exists and ``overwrite`` is not set.
     """
     if format == "lerobot":
-        from lfd.interop.lerobot.writer import export_lerobot
+        from lfd.interop.lerobot.export import export_lerobot
 
         return export_lerobot(src, out, **options)
     if format == "robomimic":

@@ -128,7 +128,6 @@ def export_robomimic(
                 )
                 demo.create_dataset(f"obs/{key}", data=value, **kw)
                 demo.create_dataset(f"next_obs/{key}", data=np.concatenate([value[1:], value[-1:]]), **kw)
-            a = r.arrays
             demo.create_dataset("actions", data=commands[r.index] / scale)
             done = np.zeros(n)
             done[-1] = 1.0

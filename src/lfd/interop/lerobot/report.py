@@ -75,7 +75,7 @@ def eval_info(
         n_episodes_all_methods: episodes ``eval_s`` covered (default ``len(rows)``).
         video_paths: rollout videos written for the first episodes.
     """
-    from lfd.interop.lerobot.writer import task_string
+    from lfd.interop.lerobot.export import task_string
 
     if not (len(rows) == len(cases) == len(traces)):
         raise ValueError(

@@ -1,56 +1,47 @@
-"""LeRobot v3.0 dataset writer (pyarrow + PyAV, no lerobot import).
+"""Writing LeRobot v3.0 dataset folders (pyarrow + PyAV, no lerobot import).
 
-The layout is the one lerobot 0.4's ``LeRobotDataset`` writes (checked field by field
-against a dataset made by lerobot itself, ``tests/fixtures/lerobot_v3_reference``)::
-
-    meta/info.json                                   codebase_version "v3.0", fps, totals, features ...
-    meta/stats.json                                  min/max/mean/std/count/q01..q99 per feature
-    meta/tasks.parquet                               task string (pandas index) -> task_index
-    meta/episodes/chunk-000/file-000.parquet         one row per episode (+ per-episode stats)
-    data/chunk-000/file-000.parquet                  one row per frame, one row group per episode
-    videos/observation.images.<cam>/chunk-000/file-000.mp4   frames of many episodes, one after the other
+:class:`LeRobotWriter` writes the layout of :mod:`~lfd.interop.lerobot.paths` as lerobot
+0.4's ``LeRobotDataset`` does (checked field by field against a dataset made by lerobot
+itself, ``tests/fixtures/lerobot_v3_reference``), with the statistics of
+:mod:`~lfd.interop.lerobot.stats`.
 
 Files roll over like lerobot's: a new data (episodes) file starts when the current one
-would pass ``data_files_size_in_mb`` with the next episode (estimated from the current
-file's size per frame / per episode), a new video file when it would pass
-``video_files_size_in_mb``; file indices run up to ``chunks_size`` (1000) per chunk,
-then the chunk index moves on (:func:`update_chunk_file_indices`).
+would reach ``data_files_size_in_mb`` with the next episode (estimated from the current
+file's size per frame / per episode), a new video file when it would reach
+``video_files_size_in_mb``; the next file's indices come from
+:func:`~lfd.interop.lerobot.paths.update_chunk_file_indices`.
 
-Stats follow ``lerobot.datasets.compute_stats`` (keys, shapes, images per channel
-``(3, 1, 1)`` scaled to ``[0, 1]``), computed exactly: vector quantiles with
-``numpy.quantile`` over all frames, image quantiles from exact per-channel histograms of
-the uint8 pixels (lerobot approximates both, and its image std overflows uint8 to 0).
-
-Use :class:`LeRobotWriter` for any episodes, :func:`export_lerobot` for an lfd dataset.
+Use :class:`LeRobotWriter` for any episodes, :func:`lfd.interop.lerobot.export.export_lerobot`
+for an lfd dataset.
 """
 
 from __future__ import annotations
 
-import colorsys
 import hashlib
 import json
 import math
 import os
-import shutil
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from lfd.io.files import write_text_atomic
+from lfd.interop.lerobot.io import pyarrow_modules, write_json, write_tasks
+from lfd.interop.lerobot.paths import (
+    CODEBASE_VERSION,
+    DATA_PATH,
+    DEFAULT_CHUNK_SIZE,
+    DEFAULT_DATA_FILE_SIZE_IN_MB,
+    DEFAULT_VIDEO_FILE_SIZE_IN_MB,
+    EPISODES_PATH,
+    VIDEO_PATH,
+    update_chunk_file_indices,
+)
+from lfd.interop.lerobot.stats import STAT_KEYS, image_histograms, image_stats, stats_to_lists, vector_stats
 from lfd.io.video import CODECS, VideoFileWriter, video_info
 
-CODEBASE_VERSION = "v3.0"
-DEFAULT_CHUNK_SIZE = 1000
-DEFAULT_DATA_FILE_SIZE_IN_MB = 100
-DEFAULT_VIDEO_FILE_SIZE_IN_MB = 200
-DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
-VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
-EPISODES_PATH = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
-QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
-STAT_KEYS = ("min", "max", "mean", "std", "count") + tuple(f"q{int(q * 100):02d}" for q in QUANTILES)
 #: Frame-level features every LeRobot dataset has, after the user's.
 DEFAULT_FEATURES = {
     "timestamp": {"dtype": "float32", "shape": [1], "names": None},
@@ -64,85 +55,6 @@ META_BUFFER = 10
 _MB = 1024**2
 
 
-def _pa():
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError as e:  # pragma: no cover - pyarrow is a declared dependency
-        raise ImportError("lfd.interop needs pyarrow: pip install pyarrow") from e
-    return pa, pq
-
-
-def update_chunk_file_indices(chunk_index: int, file_index: int, chunks_size: int) -> tuple[int, int]:
-    """The next ``(chunk, file)`` pair: ``file + 1``, or the next chunk's file 0 after
-    ``chunks_size`` files (lerobot's rule; ``(0, 999) -> (1, 0)`` for 1000)."""
-    if file_index == chunks_size - 1:
-        return chunk_index + 1, 0
-    return chunk_index, file_index + 1
-
-
-# ---------------------------------------------------------------------------- stats
-def _quantile_keys() -> list[str]:
-    return [k for k in STAT_KEYS if k.startswith("q")]
-
-
-def vector_stats(values: np.ndarray) -> dict[str, np.ndarray]:
-    """Stats of ``values (N,)`` or ``(N, D)`` over the first axis (``count = [N]``); min and
-    max keep an integer dtype, the rest are float64."""
-    v = np.asarray(values)
-    v2 = v.reshape(len(v), -1)
-    f = v2.astype(np.float64)
-    out = {
-        "min": v2.min(axis=0),
-        "max": v2.max(axis=0),
-        "mean": f.mean(axis=0),
-        "std": f.std(axis=0),
-        "count": np.array([len(v)], dtype=np.int64),
-    }
-    qs = np.quantile(f, QUANTILES, axis=0)
-    for key, q in zip(_quantile_keys(), qs, strict=True):
-        out[key] = q
-    return out
-
-
-def image_histograms(frames: np.ndarray) -> np.ndarray:
-    """Per-channel histograms ``(3, 256)`` int64 of uint8 frames ``(T, H, W, 3)``."""
-    return np.stack([np.bincount(frames[..., c].ravel(), minlength=256) for c in range(3)]).astype(np.int64)
-
-
-def image_stats(hist: np.ndarray, n_frames: int) -> dict[str, np.ndarray]:
-    """Exact per-channel stats ``(3, 1, 1)`` in ``[0, 1]`` from histograms ``(3, 256)``;
-    quantiles as ``numpy.quantile`` (linear) over every pixel would give them."""
-    levels = np.arange(256, dtype=np.float64)
-    n = hist.sum(axis=1).astype(np.float64)
-    mean = (hist * levels).sum(axis=1) / n
-    var = (hist * levels**2).sum(axis=1) / n - mean**2
-    cum = np.cumsum(hist, axis=1)
-    out = {
-        "min": np.array([levels[np.nonzero(h)[0][0]] for h in hist]),
-        "max": np.array([levels[np.nonzero(h)[0][-1]] for h in hist]),
-        "mean": mean,
-        "std": np.sqrt(np.maximum(var, 0.0)),
-    }
-    for key, q in zip(_quantile_keys(), QUANTILES, strict=True):
-        vals = []
-        for c in range(3):
-            pos = q * (n[c] - 1)
-            lo = math.floor(pos)
-            a = np.searchsorted(cum[c], lo, side="right")
-            b = np.searchsorted(cum[c], min(lo + 1, n[c] - 1), side="right")
-            vals.append(levels[a] + (pos - lo) * (levels[b] - levels[a]))
-        out[key] = np.array(vals)
-    stats = {k: (v / 255.0).reshape(3, 1, 1) for k, v in out.items()}
-    stats["count"] = np.array([n_frames], dtype=np.int64)
-    return {k: stats[k] for k in STAT_KEYS}
-
-
-def _jsonable(stats: dict[str, dict[str, np.ndarray]]) -> dict[str, dict[str, list]]:
-    return {feat: {k: np.asarray(v).tolist() for k, v in s.items()} for feat, s in stats.items()}
-
-
-# ---------------------------------------------------------------------------- episodes in
 @dataclass
 class LeRobotEpisode:
     """One episode for :class:`LeRobotWriter`.
@@ -282,13 +194,14 @@ class LeRobotWriter:
     # ------------------------------------------------------------------ episodes
     def add_episode(self, ep: LeRobotEpisode) -> int:
         """Append one episode; returns its ``episode_index``."""
-        pa, pq = _pa()
+        pa, pq = pyarrow_modules()
         state, action = np.asarray(ep.state, np.float32), np.asarray(ep.action, np.float32)
         T = len(state)
         for name, arr, feat in (("state", state, "observation.state"), ("action", action, "action")):
-            if arr.ndim != 2 or arr.shape[1] != self.features[feat]["shape"][0] or len(arr) != T or T < 1:
+            width = self.features[feat]["shape"][0]
+            if arr.ndim != 2 or arr.shape[1] != width or len(arr) != T or T < 1:
                 raise ValueError(
-                    f"LeRobotEpisode.{name}: expected ({T}, {self.features[feat]['shape'][0]}) with T >= 1, got {arr.shape}"
+                    f"LeRobotEpisode.{name}: expected ({T}, {width}) with T >= 1, got {arr.shape}"
                 )
             if not np.isfinite(arr).all():
                 raise ValueError(f"LeRobotEpisode.{name}: contains NaN or inf")
@@ -343,7 +256,7 @@ class LeRobotWriter:
         return ep_index
 
     def _write_data(self, columns: dict[str, np.ndarray], T: int) -> dict[str, int]:
-        pa, pq = _pa()
+        pa, pq = pyarrow_modules()
         d = self._data
         if d["writer"] is not None:
             path = self._path(DATA_PATH, d["chunk"], d["file"])
@@ -355,7 +268,7 @@ class LeRobotWriter:
                 d["chunk"], d["file"] = update_chunk_file_indices(d["chunk"], d["file"], self.chunks_size)
                 d["start"] = self.n_frames
         arrays = []
-        for key, value in columns.items():
+        for value in columns.values():
             if value.ndim == 2:
                 arrays.append(pa.FixedSizeListArray.from_arrays(pa.array(value.reshape(-1)), value.shape[1]))
             else:
@@ -412,9 +325,9 @@ class LeRobotWriter:
         }
 
     def _meta_schema(self, row: dict[str, Any], extra: dict[str, Any]):
-        pa, _ = _pa()
+        pa, _ = pyarrow_modules()
         fields = []
-        for key, value in row.items():
+        for key in row:
             if key == "tasks":
                 t = pa.list_(pa.string())
             elif key in extra:
@@ -456,7 +369,7 @@ class LeRobotWriter:
             self._flush_meta()
 
     def _flush_meta(self, close: bool = False) -> None:
-        pa, pq = _pa()
+        pa, pq = pyarrow_modules()
         m = self._meta
         if m["buffer"]:
             if m["writer"] is None:
@@ -480,20 +393,20 @@ class LeRobotWriter:
         Args:
             splits: ``{"train": "0:N", ...}`` episode ranges (default: all in ``train``).
         """
-        pa, pq = _pa()
+        pa, pq = pyarrow_modules()
         if self.n_episodes == 0:
             raise ValueError("LeRobotWriter.finalize: no episodes were added")
         if self._data["writer"] is not None:
             self._data["writer"].close()
             self._data["writer"] = None
         self._flush_meta(close=True)
-        for key, v in self._video.items():
+        for v in self._video.values():
             if v["writer"] is not None:
                 v["writer"].close()
                 v["writer"] = None
         for key in self.cameras:
             first = self._path(VIDEO_PATH, 0, 0, video_key=key)
-            info = video_info(first)
+            info = video_info(first).lerobot_info()
             self.features[key]["info"] = info
         stats = {}
         for key in self.features:
@@ -501,7 +414,7 @@ class LeRobotWriter:
                 stats[key] = image_stats(self._hists[key], self.n_frames)
             else:
                 stats[key] = vector_stats(np.concatenate(self._vectors[key]))
-        write_json(self.root / "meta" / "stats.json", _jsonable(stats))
+        write_json(self.root / "meta" / "stats.json", stats_to_lists(stats))
         write_tasks(self.root / "meta" / "tasks.parquet", list(self.tasks))
         info = {
             "codebase_version": CODEBASE_VERSION,
@@ -524,223 +437,3 @@ class LeRobotWriter:
 
 def _num(x: float) -> int | float:
     return int(x) if float(x) == int(x) else float(x)
-
-
-def write_json(path: Path, obj: Any) -> None:
-    """JSON with a 4-space indent, as lerobot's ``write_json`` (temp file + rename)."""
-    write_text_atomic(path, json.dumps(obj, indent=4, ensure_ascii=False))
-
-
-def write_tasks(path: Path, tasks: Sequence[str]) -> None:
-    """``tasks.parquet`` as ``pandas.DataFrame({"task_index": ...}, index=tasks).to_parquet()``
-    writes it (lerobot's layout): the task strings are the pandas index."""
-    pa, pq = _pa()
-    pandas_meta = {
-        "index_columns": ["__index_level_0__"],
-        "column_indexes": [
-            {
-                "name": None,
-                "field_name": None,
-                "pandas_type": "unicode",
-                "numpy_type": "str",
-                "metadata": {"encoding": "UTF-8"},
-            }
-        ],
-        "columns": [
-            {
-                "name": "task_index",
-                "field_name": "task_index",
-                "pandas_type": "int64",
-                "numpy_type": "int64",
-                "metadata": None,
-            },
-            {
-                "name": None,
-                "field_name": "__index_level_0__",
-                "pandas_type": "object",
-                "numpy_type": "str",
-                "metadata": None,
-            },
-        ],
-        "attributes": {},
-        "creator": {"library": "pyarrow", "version": pa.__version__},
-        "pandas_version": "3.1.1",
-    }
-    schema = pa.schema(
-        [pa.field("task_index", pa.int64()), pa.field("__index_level_0__", pa.large_string())],
-        metadata={"pandas": json.dumps(pandas_meta)},
-    )
-    table = pa.table(
-        {"task_index": np.arange(len(tasks), dtype=np.int64), "__index_level_0__": list(tasks)}, schema=schema
-    )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    pq.write_table(table, path, compression="snappy")
-
-
-# ---------------------------------------------------------------------------- lfd -> LeRobot
-_HUES = (
-    (15, "red"),
-    (45, "orange"),
-    (70, "yellow"),
-    (165, "green"),
-    (195, "cyan"),
-    (255, "blue"),
-    (290, "purple"),
-    (345, "magenta"),
-    (360, "red"),
-)
-
-
-def colour_name(rgba: Sequence[float]) -> str:
-    """A plain colour word for an RGB(A) colour in ``[0, 1]`` (grey/white/black for
-    unsaturated ones, else by hue): ``(0.9, 0.1, 0.1)`` -> ``"red"``."""
-    h, s, v = colorsys.rgb_to_hsv(*[float(c) for c in rgba[:3]])
-    if v < 0.2:
-        return "black"
-    if s < 0.25:
-        return "white" if v > 0.8 else "grey"
-    deg = h * 360
-    return next(name for limit, name in _HUES if deg < limit)
-
-
-def task_string(obj, approach_mode: str) -> str:
-    """What an episode does: ``"reach the red cylinder from the side"`` (``approach_mode``
-    ``"side"``) or ``"... from above"`` (``"top"``)."""
-    where = {"side": "from the side", "top": "from above"}.get(approach_mode)
-    if where is None:
-        raise ValueError(f"task_string: approach_mode must be 'side' or 'top', got {approach_mode!r}")
-    return f"reach the {colour_name(obj.rgba)} {obj.shape} {where}"
-
-
-#: Episode arrays of an lfd dataset kept as extra episode columns ``lfd/<key>`` (flattened).
-EXTRA_ARRAYS = (
-    "placement",
-    "object_dims",
-    "object_rgba",
-    "target_point",
-    "dmp_y0",
-    "dmp_goal",
-    "dmp_weights",
-    "q_approach",
-    "q_pregrasp",
-)
-EXTRA_SCALARS = ("index", "object_index", "placement_index", "object_mass", "dmp_tau", "final_error")
-EXTRA_STRINGS = ("split", "object_name", "object_shape", "approach_mode")
-
-
-def lfd_episode(record, frames: dict[str, np.ndarray]) -> LeRobotEpisode:
-    """An lfd :class:`~lfd.visuomotor.data.episodes.EpisodeRecord` as a LeRobot episode.
-
-    ``observation.state`` = measured joint angles (rad) then joint velocities (rad/s),
-    ``(T, 14)``; ``action`` = the next sample's joint angles (the position target of the
-    next control step; the last frame repeats its own), ``(T, 7)``. The object,
-    placement, split and DMP parameters become extra episode columns ``lfd/<key>``
-    (``lfd/dmp_weights`` joint-major, ``n_joints * n_basis`` values; ``lfd/ee_path`` the
-    measured tool positions, ``T * 3`` values, m in the torso frame).
-    """
-    a = record.arrays
-    joints, vel = np.asarray(a["joints"]), np.asarray(a["velocities"])
-    action = np.concatenate([joints[1:], joints[-1:]])
-    extra: dict[str, Any] = {}
-    for key in EXTRA_STRINGS:
-        extra[f"lfd/{key}"] = str(a[key])
-    for key in EXTRA_SCALARS:
-        value = a[key].item()
-        extra[f"lfd/{key}"] = (
-            int(value) if key in ("index", "object_index", "placement_index") else float(value)
-        )
-    for key in EXTRA_ARRAYS:
-        extra[f"lfd/{key}"] = np.asarray(a[key], dtype=np.float64).reshape(-1)
-    extra["lfd/n_basis"] = int(np.asarray(a["dmp_weights"]).shape[-1])
-    extra["lfd/ee_path"] = np.asarray(a["ee_poses"], dtype=np.float64)[:, :3, 3].reshape(-1)
-    return LeRobotEpisode(
-        state=np.concatenate([joints, vel], axis=1),
-        action=action,
-        frames=frames,
-        task=task_string(record.obj, str(a["approach_mode"])),
-        extra=extra,
-    )
-
-
-def export_lerobot(
-    dataset: str | Path,
-    out: str | Path,
-    *,
-    codec: str = "av1",
-    chunks_size: int = DEFAULT_CHUNK_SIZE,
-    data_files_size_in_mb: float = DEFAULT_DATA_FILE_SIZE_IN_MB,
-    video_files_size_in_mb: float = DEFAULT_VIDEO_FILE_SIZE_IN_MB,
-    crf: int = 30,
-    overwrite: bool = False,
-    progress: bool = True,
-    limit: int | None = None,
-) -> Path:
-    """Export a verified lfd dataset folder to LeRobot v3.0 at ``out``.
-
-    Episodes are written train, then val, then test (each in index order), so that
-    ``info.json``'s ``splits`` are contiguous ranges; ``lfd/index`` keeps the original
-    episode number. ``fps = (n_steps - 1) / duration`` (24.75 for 100 samples in 4 s), so
-    ``timestamp = frame_index / fps`` is the recorded time ``t``. Camera
-    ``observation.images.front`` is the fixed camera (``observation.images.wrist`` too
-    when the dataset has wrist frames).
-
-    Args:
-        dataset: lfd dataset folder (verified against its manifest first).
-        out: new LeRobot dataset folder (``overwrite`` replaces an existing one).
-        codec: ``"av1"`` (default, as lerobot) or ``"h264"``.
-        limit: export only the first ``limit`` episodes of that order (for quick looks).
-
-    Example::
-
-        export_lerobot("data/quick_s42", "data/quick_s42.lerobot")
-    """
-    from lfd.robots import load_robot
-    from lfd.visuomotor.data.datasets import load_dataset
-    from lfd.visuomotor.data.episodes import SPLITS
-
-    data = load_dataset(dataset)
-    out = Path(out)
-    if out.exists():
-        if not overwrite:
-            raise FileExistsError(f"export_lerobot: {out} exists (pass overwrite=True to replace it)")
-        shutil.rmtree(out)
-    cfg = data.config
-    order = [r for split in SPLITS for r in data.split(split)][:limit]
-    names = list(load_robot(cfg.robot).joint_names)
-    cams = {"front": (cfg.image_size, cfg.image_size)}
-    if cfg.wrist_camera:
-        cams["wrist"] = (cfg.image_size, cfg.image_size)
-    writer = LeRobotWriter(
-        out,
-        fps=(cfg.n_steps - 1) / cfg.duration,
-        robot_type=cfg.robot,
-        state_names=[f"{n}.pos" for n in names] + [f"{n}.vel" for n in names],
-        action_names=[f"{n}.pos" for n in names],
-        cameras=cams,
-        codec=codec,
-        chunks_size=chunks_size,
-        data_files_size_in_mb=data_files_size_in_mb,
-        video_files_size_in_mb=video_files_size_in_mb,
-        crf=crf,
-    )
-    for record in _progress(order, progress, "LeRobot v3.0"):
-        frames = {"front": record.frames()}
-        if cfg.wrist_camera:
-            frames["wrist"] = record.frames("wrist_frames")
-        writer.add_episode(lfd_episode(record, frames))
-    splits, start = {}, 0
-    for split in SPLITS:
-        n = sum(1 for r in order if r.split == split)
-        if n:
-            splits[split] = f"{start}:{start + n}"
-            start += n
-    return writer.finalize(splits)
-
-
-def _progress(items: Iterable, enabled: bool, desc: str):
-    if not enabled:
-        return items
-    from tqdm import tqdm
-
-    items = list(items)
-    return tqdm(items, desc=desc, unit="ep")

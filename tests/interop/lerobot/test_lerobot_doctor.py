@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-REFERENCE = Path(__file__).resolve().parents[1] / "fixtures" / "lerobot_v3_reference"
+REFERENCE = Path(__file__).resolve().parents[2] / "fixtures" / "lerobot_v3_reference"
 
 
 def _report(path):

@@ -1,0 +1,187 @@
+"""An lfd dataset as a LeRobot v3.0 dataset: task strings, the episode mapping
+(:func:`lfd_episode`) and the export driver (:func:`export_lerobot`).
+"""
+
+from __future__ import annotations
+
+import colorsys
+import shutil
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lfd.interop.lerobot.paths import (
+    DEFAULT_CHUNK_SIZE,
+    DEFAULT_DATA_FILE_SIZE_IN_MB,
+    DEFAULT_VIDEO_FILE_SIZE_IN_MB,
+)
+from lfd.interop.lerobot.writer import LeRobotEpisode, LeRobotWriter
+
+_HUES = (
+    (15, "red"),
+    (45, "orange"),
+    (70, "yellow"),
+    (165, "green"),
+    (195, "cyan"),
+    (255, "blue"),
+    (290, "purple"),
+    (345, "magenta"),
+    (360, "red"),
+)
+
+
+def colour_name(rgba: Sequence[float]) -> str:
+    """A plain colour word for an RGB(A) colour in ``[0, 1]`` (grey/white/black for
+    unsaturated ones, else by hue): ``(0.9, 0.1, 0.1)`` -> ``"red"``."""
+    h, s, v = colorsys.rgb_to_hsv(*[float(c) for c in rgba[:3]])
+    if v < 0.2:
+        return "black"
+    if s < 0.25:
+        return "white" if v > 0.8 else "grey"
+    deg = h * 360
+    return next(name for limit, name in _HUES if deg < limit)
+
+
+def task_string(obj, approach_mode: str) -> str:
+    """What an episode does: ``"reach the red cylinder from the side"`` (``approach_mode``
+    ``"side"``) or ``"... from above"`` (``"top"``)."""
+    where = {"side": "from the side", "top": "from above"}.get(approach_mode)
+    if where is None:
+        raise ValueError(f"task_string: approach_mode must be 'side' or 'top', got {approach_mode!r}")
+    return f"reach the {colour_name(obj.rgba)} {obj.shape} {where}"
+
+
+#: Episode arrays of an lfd dataset kept as extra episode columns ``lfd/<key>`` (flattened).
+EXTRA_ARRAYS = (
+    "placement",
+    "object_dims",
+    "object_rgba",
+    "target_point",
+    "dmp_y0",
+    "dmp_goal",
+    "dmp_weights",
+    "q_approach",
+    "q_pregrasp",
+)
+EXTRA_SCALARS = ("index", "object_index", "placement_index", "object_mass", "dmp_tau", "final_error")
+EXTRA_STRINGS = ("split", "object_name", "object_shape", "approach_mode")
+
+
+def lfd_episode(record, frames: dict[str, np.ndarray]) -> LeRobotEpisode:
+    """An lfd :class:`~lfd.visuomotor.data.episodes.EpisodeRecord` as a LeRobot episode.
+
+    ``observation.state`` = measured joint angles (rad) then joint velocities (rad/s),
+    ``(T, 14)``; ``action`` = the next sample's joint angles (the position target of the
+    next control step; the last frame repeats its own), ``(T, 7)``. The object,
+    placement, split and DMP parameters become extra episode columns ``lfd/<key>``
+    (``lfd/dmp_weights`` joint-major, ``n_joints * n_basis`` values; ``lfd/ee_path`` the
+    measured tool positions, ``T * 3`` values, m in the torso frame).
+    """
+    a = record.arrays
+    joints, vel = np.asarray(a["joints"]), np.asarray(a["velocities"])
+    action = np.concatenate([joints[1:], joints[-1:]])
+    extra: dict[str, Any] = {}
+    for key in EXTRA_STRINGS:
+        extra[f"lfd/{key}"] = str(a[key])
+    for key in EXTRA_SCALARS:
+        value = a[key].item()
+        extra[f"lfd/{key}"] = (
+            int(value) if key in ("index", "object_index", "placement_index") else float(value)
+        )
+    for key in EXTRA_ARRAYS:
+        extra[f"lfd/{key}"] = np.asarray(a[key], dtype=np.float64).reshape(-1)
+    extra["lfd/n_basis"] = int(np.asarray(a["dmp_weights"]).shape[-1])
+    extra["lfd/ee_path"] = np.asarray(a["ee_poses"], dtype=np.float64)[:, :3, 3].reshape(-1)
+    return LeRobotEpisode(
+        state=np.concatenate([joints, vel], axis=1),
+        action=action,
+        frames=frames,
+        task=task_string(record.obj, str(a["approach_mode"])),
+        extra=extra,
+    )
+
+
+def export_lerobot(
+    dataset: str | Path,
+    out: str | Path,
+    *,
+    codec: str = "av1",
+    chunks_size: int = DEFAULT_CHUNK_SIZE,
+    data_files_size_in_mb: float = DEFAULT_DATA_FILE_SIZE_IN_MB,
+    video_files_size_in_mb: float = DEFAULT_VIDEO_FILE_SIZE_IN_MB,
+    crf: int = 30,
+    overwrite: bool = False,
+    progress: bool = True,
+    limit: int | None = None,
+) -> Path:
+    """Export a verified lfd dataset folder to LeRobot v3.0 at ``out``.
+
+    Episodes are written train, then val, then test (each in index order), so that
+    ``info.json``'s ``splits`` are contiguous ranges; ``lfd/index`` keeps the original
+    episode number. ``fps = (n_steps - 1) / duration`` (24.75 for 100 samples in 4 s), so
+    ``timestamp = frame_index / fps`` is the recorded time ``t``. Camera
+    ``observation.images.front`` is the fixed camera (``observation.images.wrist`` too
+    when the dataset has wrist frames).
+
+    Args:
+        dataset: lfd dataset folder (verified against its manifest first).
+        out: new LeRobot dataset folder (``overwrite`` replaces an existing one).
+        codec: ``"av1"`` (default, as lerobot) or ``"h264"``.
+        limit: export only the first ``limit`` episodes of that order (for quick looks).
+
+    Example::
+
+        export_lerobot("data/quick_s42", "data/quick_s42.lerobot")
+    """
+    from lfd.robots import load_robot
+    from lfd.visuomotor.data.datasets import load_dataset
+    from lfd.visuomotor.data.episodes import SPLITS
+
+    data = load_dataset(dataset)
+    out = Path(out)
+    if out.exists():
+        if not overwrite:
+            raise FileExistsError(f"export_lerobot: {out} exists (pass overwrite=True to replace it)")
+        shutil.rmtree(out)
+    cfg = data.config
+    order = [r for split in SPLITS for r in data.split(split)][:limit]
+    names = list(load_robot(cfg.robot).joint_names)
+    cams = {"front": (cfg.image_size, cfg.image_size)}
+    if cfg.wrist_camera:
+        cams["wrist"] = (cfg.image_size, cfg.image_size)
+    writer = LeRobotWriter(
+        out,
+        fps=(cfg.n_steps - 1) / cfg.duration,
+        robot_type=cfg.robot,
+        state_names=[f"{n}.pos" for n in names] + [f"{n}.vel" for n in names],
+        action_names=[f"{n}.pos" for n in names],
+        cameras=cams,
+        codec=codec,
+        chunks_size=chunks_size,
+        data_files_size_in_mb=data_files_size_in_mb,
+        video_files_size_in_mb=video_files_size_in_mb,
+        crf=crf,
+    )
+    for record in _progress(order, progress, "LeRobot v3.0"):
+        frames = {"front": record.frames()}
+        if cfg.wrist_camera:
+            frames["wrist"] = record.frames("wrist_frames")
+        writer.add_episode(lfd_episode(record, frames))
+    splits, start = {}, 0
+    for split in SPLITS:
+        n = sum(1 for r in order if r.split == split)
+        if n:
+            splits[split] = f"{start}:{start + n}"
+            start += n
+    return writer.finalize(splits)
+
+
+def _progress(items: Iterable, enabled: bool, desc: str):
+    if not enabled:
+        return items
+    from tqdm import tqdm
+
+    items = list(items)
+    return tqdm(items, desc=desc, unit="ep")
