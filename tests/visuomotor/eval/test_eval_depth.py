@@ -17,7 +17,7 @@ import evaluate
 import train
 from lfd.robots import load_robot
 from lfd.sim.approach import TABLE_Z
-from lfd.sim.camera import (
+from lfd.sim.depth import (
     DEPTH_RANGE_M,
     RELIEF_DEADBAND_MM,
     RELIEF_RANGE_MM,

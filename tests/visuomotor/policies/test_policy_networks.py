@@ -359,3 +359,16 @@ def test_brightness_augment_is_checked_and_changes_only_training_batches(monkeyp
     assert (
         out[:, :3][obj.expand(-1, 3, -1, -1)] < image[:, :3][obj.expand(-1, 3, -1, -1)]
     ).all()  # factors <= 0.5 darken
+
+
+def test_policies_and_their_data_import_without_pybullet():
+    """The policies, their datamodule package, the ch. 5 models and the training helpers load
+    no simulator: only lfd.sim (and what drives a simulator) may import PyBullet."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, lfd.visuomotor.policies, lfd.visuomotor.data, lfd.model_reaching, lfd.training\n"
+        "assert 'pybullet' not in sys.modules, sorted(m for m in sys.modules if m.startswith('lfd'))"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -106,7 +106,7 @@ def rendered_batch():
     object's pixels in each, found independently: where the colour differs from a render
     of the empty scene."""
     from lfd.robots import load_robot
-    from lfd.sim.camera import rgbd_image
+    from lfd.sim.depth import rgbd_image
     from lfd.sim.objects import ObjectSpec, Placement
     from lfd.sim.scene import ReachScene
 

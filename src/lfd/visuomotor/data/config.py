@@ -42,7 +42,7 @@ class GeneratorConfig:
         image_size: side of the square camera images (px).
         wrist_camera: also record wrist-camera frames.
         depth: also record the fixed camera's depth images (``depth``, uint16 mm); policies
-            trained on such a dataset see RGB-D (:func:`lfd.sim.camera.rgbd_image`).
+            trained on such a dataset see RGB-D (:func:`lfd.sim.depth.rgbd_image`).
         duration, n_steps: demonstration length (s) and number of samples.
         substeps: physics steps per sample interval.
         approach_fraction: fraction of ``duration`` at which the approach pose is reached.

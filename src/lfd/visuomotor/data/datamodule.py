@@ -10,7 +10,7 @@ import torch
 from torch.utils.data import DataLoader, Dataset
 
 from lfd.io.files import DatasetError
-from lfd.sim.camera import DEPTH_ENCODINGS
+from lfd.sim.depth import DEPTH_ENCODINGS
 from lfd.sim.objects import SHAPES
 from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.datasets import (
@@ -50,7 +50,7 @@ class ReachDataModule(L.LightningDataModule):
             ``depth: true``) or RGB (``False``), ``None`` = ``depth``. So an RGB policy can
             train on an RGB-D dataset's colour frames: ``experiment=quick`` generates one
             dataset for both of its policies.
-        depth_encoding: the RGB-D depth channel (:data:`lfd.sim.camera.DEPTH_ENCODINGS`):
+        depth_encoding: the RGB-D depth channel (:data:`lfd.sim.depth.DEPTH_ENCODINGS`):
             ``"range"`` or ``"relief"`` (in front of the table plane); RGB-D input only.
         num_gen_workers: generation processes (default: all CPU cores).
         shard, num_shards: generate only shard ``shard`` of ``num_shards`` into

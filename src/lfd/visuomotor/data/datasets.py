@@ -9,7 +9,7 @@
 
 Frames are kept as uint8 tensors ``(N, H, W, C)`` and turned into float images
 ``(C, H, W)`` in ``[0, 1]`` per item, optionally through an augmentation callable; ``C = 3``
-(RGB), or 4 (RGB-D, :func:`lfd.sim.camera.rgbd_image`) for a dataset made with ``depth: true``
+(RGB), or 4 (RGB-D, :func:`lfd.sim.depth.rgbd_image`) for a dataset made with ``depth: true``
 unless the dataset class is given ``depth=False`` (RGB items from an RGB-D dataset).
 """
 
@@ -27,7 +27,7 @@ from torch.utils.data import Dataset
 
 from lfd.io.files import DatasetError, read_json
 from lfd.sim.approach import TABLE_Z
-from lfd.sim.camera import DEPTH_ENCODINGS, plane_depth_mm, rgbd_image
+from lfd.sim.depth import DEPTH_ENCODINGS, plane_depth_mm, rgbd_image
 from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import SPLITS, EpisodeRecord, episode_path
 from lfd.visuomotor.data.generate import code_version
@@ -114,8 +114,8 @@ def image_augmentation(image_size: int, max_shift_px: float = 4.0) -> Transform:
 
 def policy_frames(record: EpisodeRecord, depth: bool, depth_encoding: str = "range") -> np.ndarray:
     """The policy inputs of an episode: uint8 ``(T, H, W, 3)`` RGB frames, or with ``depth``
-    ``(T, H, W, 4)`` RGB-D (:func:`lfd.sim.camera.rgbd_image`) from its ``depth`` images, the
-    depth channel in ``depth_encoding`` (:data:`~lfd.sim.camera.DEPTH_ENCODINGS`; ``"relief"``
+    ``(T, H, W, 4)`` RGB-D (:func:`lfd.sim.depth.rgbd_image`) from its ``depth`` images, the
+    depth channel in ``depth_encoding`` (:data:`~lfd.sim.depth.DEPTH_ENCODINGS`; ``"relief"``
     against the table plane seen through the episode's recorded camera)."""
     if depth_encoding not in DEPTH_ENCODINGS:
         raise ValueError(

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from lfd.visuomotor.data.episodes import EpisodeRecord
+if TYPE_CHECKING:  # the episode reader pulls in the simulator's discard reasons
+    from lfd.visuomotor.data.episodes import EpisodeRecord
 
 #: Smallest standard deviation written (a constant quantity gets std = STD_FLOOR).
 STD_FLOOR = 1e-6

@@ -45,7 +45,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from lfd.sim.camera import rgbd_image
+from lfd.sim.depth import rgbd_image
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,7 @@ class Observation:
 
     Attributes:
         image: ``(H, W, 3)`` uint8 RGB frame of the fixed camera, or ``(H, W, 4)`` RGB-D
-            (:func:`lfd.sim.camera.rgbd_image`) for a policy trained on depth (None at steps
+            (:func:`lfd.sim.depth.rgbd_image`) for a policy trained on depth (None at steps
             where the controller said it does not look, to save rendering).
         joints: ``(n,)`` float64 measured joint angles, rad.
         time: seconds since the episode started (control step x control period).

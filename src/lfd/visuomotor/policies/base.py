@@ -20,7 +20,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from lfd.sim.camera import DEPTH_ENCODINGS
+from lfd.sim.depth import DEPTH_ENCODINGS
 from lfd.training import SCHEDULERS, make_optimizer
 from lfd.visuomotor.policies.vision import (
     COLOUR_ORDERS,
@@ -58,9 +58,9 @@ class VisuomotorPolicy(L.LightningModule):
         scheduler: ``"cosine"`` (per step, to 0), ``"onecycle"`` (per step, peak ``lr``)
             or ``"none"``.
         image_size: side (px) of the square camera images of the training data.
-        depth: the input is RGB-D (4 channels, :func:`lfd.sim.camera.rgbd_image`) instead of
+        depth: the input is RGB-D (4 channels, :func:`lfd.sim.depth.rgbd_image`) instead of
             RGB; the training data must have been made with ``depth: true``.
-        depth_encoding: the depth channel's encoding (:data:`lfd.sim.camera.DEPTH_ENCODINGS`):
+        depth_encoding: the depth channel's encoding (:data:`lfd.sim.depth.DEPTH_ENCODINGS`):
             ``"range"`` or ``"relief"``; evaluation renders it the same way.
         duration, n_steps: demonstration duration (s) and number of samples; the control
             period is ``duration / (n_steps - 1)``.

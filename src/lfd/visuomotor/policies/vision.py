@@ -76,7 +76,7 @@ class KeypointEncoder(nn.Module):
             ``(B, C)`` after the keypoints: *whether* and how strongly a feature is present,
             which keypoints (only *where*) cannot say. It lets the head tell object kinds
             apart (e.g. a box, approached from the top, from a cylinder, from the side).
-        in_channels: 3 (RGB) or 4 (RGB-D, :func:`lfd.sim.camera.rgbd_image`).
+        in_channels: 3 (RGB) or 4 (RGB-D, :func:`lfd.sim.depth.rgbd_image`).
 
     Output: ``(B, 2C)`` keypoints ``[x_0, y_0, ...]`` in ``[-1, 1]``, then with
     ``global_pool`` the ``(B, C)`` maxima (:attr:`out_dim` is the total).
@@ -144,7 +144,7 @@ def image_to_tensor(image: np.ndarray | torch.Tensor, channels: int = 3) -> torc
     Accepts uint8 ``(H, W, C)`` / ``(B, H, W, C)`` (as rendered) or float ``(C, H, W)`` /
     ``(B, C, H, W)`` already in [0, 1] (as stored in the datasets). With ``channels=3`` (RGB)
     a 4th uint8 channel (alpha) is dropped; with ``channels=4`` (RGB-D,
-    :func:`lfd.sim.camera.rgbd_image`) the image must have it.
+    :func:`lfd.sim.depth.rgbd_image`) the image must have it.
     """
     if channels not in (3, 4):
         raise ValueError(f"image_to_tensor.channels: expected 3 (RGB) or 4 (RGB-D), got {channels!r}")
@@ -155,7 +155,7 @@ def image_to_tensor(image: np.ndarray | torch.Tensor, channels: int = 3) -> torc
         raise ValueError(
             f"image must be (H, W, C), (B, H, W, C), (C, H, W) or (B, C, H, W); got shape {tuple(t.shape)}"
         )
-    what = "RGB-D images with 4 channels (lfd.sim.camera.rgbd_image)" if channels == 4 else "RGB images"
+    what = "RGB-D images with 4 channels (lfd.sim.depth.rgbd_image)" if channels == 4 else "RGB images"
     if t.dtype == torch.uint8:
         if t.shape[-1] not in (channels, 4):
             raise ValueError(
@@ -184,7 +184,7 @@ def foreground_mask(
     image: torch.Tensor, margin: float = 1.5 / 255, nearer_is_larger: bool = False
 ) -> torch.Tensor:
     """``(B, 1, H, W)`` bool: the pixels of an RGB-D batch ``(B, 4, H, W)`` (depth channel of
-    :func:`lfd.sim.camera.rgbd_image`) nearer than the farthest depth any image of the batch
+    :func:`lfd.sim.depth.rgbd_image`) nearer than the farthest depth any image of the batch
     has at that pixel, by more than ``margin``. The table and floor never move, so that
     farthest depth is the empty scene wherever one image of the batch leaves the pixel free
     (objects cover ~0.5 % of an image); the mask is then the object and whatever of the arm
