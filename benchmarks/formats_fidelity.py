@@ -44,7 +44,8 @@ def main(src: str, dst: str) -> None:
     dm = LeRobotDataModule(dst, mode="dmp")
     dm.setup("fit")
     print(
-        f"LeRobotDataModule(mode=dmp).setup('fit'): {time.perf_counter() - t:.1f} s, train {len(dm.datasets['train'])}, val {len(dm.datasets['val'])}"
+        f"LeRobotDataModule(mode=dmp).setup('fit'): {time.perf_counter() - t:.1f} s, "
+        f"train {len(dm.datasets['train'])}, val {len(dm.datasets['val'])}"
     )
 
 

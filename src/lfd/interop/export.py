@@ -23,7 +23,7 @@ def export_dataset(src: str | Path, out: str | Path, format: str = "lerobot", **
 
     Raises:
         ValueError: unknown ``format``.
-        lfd.visuomotor.data.DatasetError: ``src`` is missing, unfinished or corrupt.
+        lfd.io.files.DatasetError: ``src`` is missing, unfinished or corrupt.
         FileExistsError: ``out`` exists and ``overwrite`` is not set.
     """
     if format == "lerobot":

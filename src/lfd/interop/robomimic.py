@@ -76,18 +76,26 @@ def export_robomimic(
 
     Actions are the velocity commands that reproduce the demonstration under velocity control,
     the joints' mean velocity over each control period
-    (:func:`lfd.visuomotor.data.datasets.command_velocities`; the recorded instantaneous velocities are
-    ~1/8 of it and stay in ``obs/robot0_joint_vel``), divided by ``action_scale``, the
-    largest absolute command of each joint over the whole dataset, so they lie in
-    ``[-1, 1]``; ``data.attrs["action_scale"]`` (rad/s) turns them back.
+    (:func:`lfd.visuomotor.data.datasets.command_velocities`; the recorded instantaneous
+    velocities stay in ``obs/robot0_joint_vel``), divided by ``action_scale``, the largest
+    absolute command of each joint over the whole dataset, so they lie in ``[-1, 1]``;
+    ``data.attrs["action_scale"]`` (rad/s) turns them back. The file is written under a
+    temporary name and renamed when complete.
 
     Args:
         dataset: lfd dataset folder (verified against its manifest first).
         out: ``.hdf5`` file to write (``overwrite`` replaces an existing one).
         compression: h5py filter for the image datasets (``"gzip"``, ``"lzf"`` or None).
         limit: export only the first ``limit`` episodes (index order).
+
+    Returns:
+        ``out``.
+
+    Raises:
+        lfd.io.files.DatasetError: ``dataset`` is missing, unfinished or corrupt.
+        FileExistsError: ``out`` exists and ``overwrite`` is not set.
     """
-    from lfd.visuomotor.data.datasets import load_dataset
+    from lfd.visuomotor.data.datasets import command_velocities, load_dataset
 
     h5py = _h5py()
     data = load_dataset(dataset)
@@ -99,8 +107,6 @@ def export_robomimic(
     out.parent.mkdir(parents=True, exist_ok=True)
     records = data.episodes[:limit]
     cfg = data.config
-    from lfd.visuomotor.data.datasets import command_velocities
-
     commands = {r.index: command_velocities(r.arrays["joints"], r.arrays["t"]) for r in records}
     scale = np.max([np.abs(c).max(axis=0) for c in commands.values()], axis=0)
     scale = np.where(scale > 0, scale, 1.0)

@@ -131,6 +131,14 @@ def export_lerobot(
         codec: ``"av1"`` (default, as lerobot) or ``"h264"``.
         limit: export only the first ``limit`` episodes of that order (for quick looks).
 
+    Returns:
+        ``out``.
+
+    Raises:
+        lfd.io.files.DatasetError: ``dataset`` is missing, unfinished or corrupt.
+        FileExistsError: ``out`` exists and ``overwrite`` is not set.
+        ValueError: an unknown ``codec`` or bad rollover limits (:class:`LeRobotWriter`).
+
     Example::
 
         export_lerobot("data/quick_s42", "data/quick_s42.lerobot")

@@ -137,6 +137,7 @@ class LeRobotFolder:
         return slice(r["dataset_from_index"], r["dataset_to_index"])
 
     def video_path(self, ep: int, key: str) -> Path:
+        """The video file holding episode ``ep``'s frames of video feature ``key``."""
         r = self.episodes[ep]
         return self.root / self.info["video_path"].format(
             video_key=key,

@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from lfd.io.files import write_text_atomic
+
 SUCCESS_KEY = "success_5cm"
 
 
@@ -74,6 +76,9 @@ def eval_info(
         eval_s: wall time of the evaluation run, s.
         n_episodes_all_methods: episodes ``eval_s`` covered (default ``len(rows)``).
         video_paths: rollout videos written for the first episodes.
+
+    Raises:
+        ValueError: ``rows``, ``cases`` and ``traces`` differ in length.
     """
     from lfd.interop.lerobot.export import task_string
 
@@ -232,7 +237,7 @@ def write_lerobot_eval(
             )
             folder.mkdir(parents=True, exist_ok=True)
             path = folder / "eval_info.json"
-            path.write_text(json.dumps(_finite(info), indent=2))
+            write_text_atomic(path, json.dumps(_finite(info), indent=2))
             written[method] = path
     finally:
         if scene is not None:

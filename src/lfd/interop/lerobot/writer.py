@@ -193,7 +193,14 @@ class LeRobotWriter:
 
     # ------------------------------------------------------------------ episodes
     def add_episode(self, ep: LeRobotEpisode) -> int:
-        """Append one episode; returns its ``episode_index``."""
+        """Append one episode (its data rows, video frames, metadata row and statistics);
+        returns its ``episode_index``.
+
+        Raises:
+            ValueError: ``state`` / ``action`` not ``(T, S)`` / ``(T, A)`` with ``T >= 1`` or not
+                finite, cameras other than the writer's, frames not uint8 ``(T, H, W, 3)``, an
+                empty task, or ``extra`` keys other than the first episode's.
+        """
         pa, pq = pyarrow_modules()
         state, action = np.asarray(ep.state, np.float32), np.asarray(ep.action, np.float32)
         T = len(state)
@@ -392,6 +399,12 @@ class LeRobotWriter:
 
         Args:
             splits: ``{"train": "0:N", ...}`` episode ranges (default: all in ``train``).
+
+        Returns:
+            The dataset folder.
+
+        Raises:
+            ValueError: no episode was added.
         """
         pa, pq = pyarrow_modules()
         if self.n_episodes == 0:
