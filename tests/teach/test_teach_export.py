@@ -10,8 +10,8 @@ from teach_helpers import BOXES, FakeClock, drag_line
 
 from lfd.dmp import DMP
 from lfd.model_reaching.data import load_demo_csv, make_demonstration
+from lfd.sim.collision import CollisionWorld
 from lfd.teach import TeachSession
-from lfd.teach.collision import CollisionChecker
 from lfd.teach.export import dmp_options
 from lfd.visuomotor.data.episodes import EpisodeRecord
 
@@ -104,7 +104,7 @@ def test_exported_dmp_reproduces_a_path_over_the_obstacle(mirror):
     final, worst = _tool_errors(s, plan)
     assert final < 0.01  # within 1 cm of the recorded end
     assert worst < 0.02  # within 2 cm of the recorded tool path all along
-    checker = CollisionChecker(s.robot, s.scene.obstacles, s.scene.table_z)
+    checker = CollisionWorld(s.robot, s.scene.obstacles, s.scene.table_z)
     assert not any(checker.check(q).in_collision for q in plan)
     checker.close()
 

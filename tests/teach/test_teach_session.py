@@ -8,8 +8,8 @@ import torch
 from teach_helpers import BOXES, FakeClock, drag_line
 
 from lfd.robots import load_robot
+from lfd.sim.collision import CollisionWorld
 from lfd.teach import TeachSession
-from lfd.teach.collision import CollisionChecker
 from lfd.teach.drag_ik import DragIK
 from lfd.teach.kinematics import ChainKinematics
 
@@ -79,7 +79,7 @@ def test_collision_is_refused_counted_and_never_recorded(boxes_session):
     assert s.counters["refused_collision"] == sum(r.in_collision for r in refused)
     assert s.counters["refused_jump"] == sum(r.reason == "joint_jump" for r in refused)
     # no recorded configuration is in collision (checked by a fresh PyBullet client)
-    fresh = CollisionChecker(s.robot, s.scene.obstacles, s.scene.table_z)
+    fresh = CollisionWorld(s.robot, s.scene.obstacles, s.scene.table_z)
     assert not any(fresh.check(q).in_collision for q in s.recorded.q)
     fresh.close()
     # backing off and pushing in again is a second collision
@@ -193,7 +193,7 @@ def test_two_d_panel_waypoints_collisions_and_goal():
     rec = s.recorded
     np.testing.assert_allclose(rec.q[0], s.start)
     np.testing.assert_allclose(rec.q[-1], wp[-1])
-    fresh = CollisionChecker(s.robot, s.scene.obstacles, s.scene.table_z)
+    fresh = CollisionWorld(s.robot, s.scene.obstacles, s.scene.table_z)
     assert not any(fresh.check(q).in_collision for q in rec.q)
     fresh.close()
     # the sliders obey the same rule; Go Home returns to the start

@@ -32,6 +32,7 @@ import pybullet as p
 
 from lfd.sim.approach import TABLE_Z
 from lfd.sim.camera import Camera
+from lfd.sim.collision import overlapping_link_pairs
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.tracking import command_joints
 
@@ -47,10 +48,6 @@ FLOOR_RGBA = (0.35, 0.35, 0.38, 1.0)
 #: demonstration replays of the quick dataset toppled the capsule without any contact; with
 #: 1e-4 none did). Pushing still moves objects (tests/sim/test_sim_scene.py).
 OBJECT_ROLLING_FRICTION = 1e-3
-
-
-#: Per robot URDF: the link pairs whose self-collision is off (``ReachScene._filter_overlapping_links``).
-_OVERLAPPING_PAIRS: dict[str, list[tuple[int, int]]] = {}
 
 
 def pose_matrix(position, quaternion) -> np.ndarray:
@@ -81,7 +78,8 @@ class ReachScene:
             URDF effort limits (``robot.effort_limits``), what the real arm's motors have.
         limit_velocity: cap every joint's commanded velocity at its URDF velocity limit
             (``robot.velocity_limits``).
-        self_collision: collide the arm's links with each other (parent-child pairs excluded).
+        self_collision: collide the arm's links with each other (parent-child pairs and the
+            pairs of :func:`lfd.sim.collision.overlapping_link_pairs` excluded).
         position_gain, velocity_gain: PyBullet position-control gains.
         torso_height: height (m) of the torso frame above the floor.
         table_z: height of the table top in the torso frame.
@@ -187,31 +185,13 @@ class ReachScene:
         if object_spec is not None:
             self.object_id = self._add_object(object_spec, placement)
 
-    def _filter_overlapping_links(self, n_samples: int = 200, share: float = 0.25) -> None:
-        """Switch off self-collision between link pairs whose simplified collision shapes
-        overlap by construction: non-adjacent pairs in contact in at least ``share`` of
-        ``n_samples`` uniform configurations within the joint limits (seeded, so always the
-        same pairs; for the PR2 arm the grandparent pairs around each joint and the base
-        with the shoulder links). Every other pair collides. Found once per robot model,
-        re-applied after each :meth:`reset`."""
+    def _filter_overlapping_links(self) -> None:
+        """Switch off self-collision between the link pairs whose simplified collision shapes
+        overlap by construction (:func:`lfd.sim.collision.overlapping_link_pairs`, the one
+        self-collision rule); every other non-adjacent pair collides. Re-applied after each
+        :meth:`reset`."""
         c, rid = self.client, self.robot_id
-        key = self._urdf.read_text()
-        if key not in _OVERLAPPING_PAIRS:
-            import torch
-
-            q = self.robot.sample_q(n_samples, torch.Generator().manual_seed(0)).numpy()
-            links = range(-1, self.n_joints + 1)
-            pairs = [(a, b) for a in links for b in links if b > a + 1]
-            counts = dict.fromkeys(pairs, 0)
-            for sample in q:
-                for j in range(self.n_joints):
-                    p.resetJointState(rid, j, float(sample[j]), 0.0, physicsClientId=c)
-                for a, b in pairs:
-                    counts[(a, b)] += bool(
-                        p.getClosestPoints(rid, rid, 0.0, linkIndexA=a, linkIndexB=b, physicsClientId=c)
-                    )
-            _OVERLAPPING_PAIRS[key] = [pair for pair, n in counts.items() if n >= share * n_samples]
-        self.overlapping_links = _OVERLAPPING_PAIRS[key]
+        self.overlapping_links = overlapping_link_pairs(self.robot, c, rid, self._urdf.read_text())
         for a, b in self.overlapping_links:
             p.setCollisionFilterPair(rid, rid, a, b, 0, physicsClientId=c)
 

@@ -51,8 +51,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lfd.robots import available_robots, load_robot
+from lfd.sim.collision import CollisionWorld
 
-from .collision import CollisionChecker
 from .drag_ik import DragIK, IKStep
 from .kinematics import ChainKinematics
 from .scene import Box, TeachScene, load_scene
@@ -184,7 +184,7 @@ class TeachSession:
                 f"scene field 'start' must have {n} joint angles for {robot}, got {start.shape[0]}"
             )
         self.start = np.asarray(start, dtype=float)
-        self.checker = CollisionChecker(self.robot, self.scene.obstacles, self.scene.table_z, margin)
+        self.checker = CollisionWorld(self.robot, self.scene.obstacles, self.scene.table_z, margin)
         if validate:
             self._validate()
         self.q = self.start.copy()
@@ -519,10 +519,7 @@ class TeachSession:
             raise ValueError(f"obstacle at {box.center.tolist()} overlaps the robot base")
         self.checker.add_obstacle(box)
         if self.checker.check(self.q).in_collision:
-            from pybullet import removeBody
-
-            body, _ = self.checker.obstacles.pop()
-            removeBody(body, physicsClientId=self.checker.client)
+            self.checker.remove_obstacle(box)
             raise ValueError(f"obstacle at {box.center.tolist()} overlaps the arm in its current pose")
         self.scene = self.scene.with_obstacle(box)
         return box
