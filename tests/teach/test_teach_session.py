@@ -11,7 +11,6 @@ from lfd.robots import load_robot
 from lfd.sim.collision import CollisionWorld
 from lfd.teach import TeachSession
 from lfd.teach.drag_ik import DragIK
-from lfd.teach.kinematics import ChainKinematics
 
 ABOVE_WALL = 0.42  # m: tool height that clears the boxes.yaml wall (top 0.30 m)
 
@@ -20,15 +19,6 @@ def over_the_wall(session, goal) -> list:
     p0 = session.tool_position
     up, over = p0 + [0, 0, ABOVE_WALL - p0[2]], np.array([goal[0], goal[1], ABOVE_WALL])
     return drag_line(session, p0, up) + drag_line(session, up, over) + drag_line(session, over, goal)
-
-
-@pytest.mark.parametrize("name", ["wam4", "pr2_right_arm", "sawyer"])
-def test_numpy_kinematics_equals_robot_fk(name):
-    robot = load_robot(name)
-    kin = ChainKinematics(robot.spec)
-    for q in robot.sample_q(20, torch.Generator().manual_seed(3)).numpy():
-        np.testing.assert_allclose(kin.frames(q), robot.fk(q[None], all_links=True)[0].numpy(), atol=1e-12)
-        np.testing.assert_allclose(kin.jacobian(q), robot.jacobian(q[None])[0].numpy(), atol=1e-12)
 
 
 def test_drag_sequence_records_the_path_and_the_goal_ends_it(boxes_session):

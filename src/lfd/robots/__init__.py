@@ -25,12 +25,14 @@ Example (runnable)::
 
 from .analytic import wam4_ik_closed_form
 from .catalogue import available_robots, load_robot
+from .chain import ChainKinematics
 from .ik import IKResult, rotation_log, solve_ik, solve_near
 from .robot import Robot
 from .spec import RobotSpec, make_transform
 from .workspace import ReachTest, Workspace
 
 __all__ = [
+    "ChainKinematics",
     "IKResult",
     "ReachTest",
     "Robot",

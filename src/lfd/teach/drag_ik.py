@@ -40,9 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from lfd.robots import Robot, wam4_ik_closed_form
+from lfd.robots import ChainKinematics, Robot, wam4_ik_closed_form
 
-from .kinematics import ChainKinematics
 
 __all__ = ["DragIK", "IKStep", "as_rotation"]
 

@@ -50,11 +50,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from lfd.robots import available_robots, load_robot
+from lfd.robots import ChainKinematics, available_robots, load_robot
 from lfd.sim.collision import CollisionWorld
 
 from .drag_ik import DragIK, IKStep
-from .kinematics import ChainKinematics
 from .scene import Box, TeachScene, load_scene
 
 __all__ = ["TEACH_ROBOTS", "DragResult", "Recording", "TeachSession"]
