@@ -1,9 +1,12 @@
-"""MP4 video I/O with PyAV: LeRobot-style encoding (AV1 or H.264, yuv420p) and decoding by timestamp.
+"""Video I/O with PyAV: LeRobot-style MP4 encoding (AV1 or H.264, yuv420p), decoding by timestamp or frame by frame.
 
 LeRobot v3.0 stores the frames of many episodes one after the other in one MP4 per camera
 and file index; an episode's frames are found at ``from_timestamp + frame_index / fps``.
 :class:`VideoFileWriter` appends episodes to such a file, :func:`decode_video_frames`
 reads frames back by timestamp (seeking to the keyframe before the first one).
+:func:`iter_frames` decodes any video FFmpeg reads frame by frame with its presentation times
+(``pts * time_base``, so variable-frame-rate phone videos keep their real clock), and
+:func:`video_info` reads a stream's size, rate, frame count and codec without decoding.
 
 Encoder settings follow lerobot's ``encode_video_frames``: ``libsvtav1`` (preset 12) or
 ``libx264``, ``yuv420p``, GOP ``g=2``, ``crf=30``.
@@ -21,7 +24,9 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 import os
+from collections.abc import Iterator
 from fractions import Fraction
 from pathlib import Path
 
@@ -35,7 +40,7 @@ def _av():
     try:
         import av
     except ImportError as e:  # pragma: no cover - av is a declared dependency
-        raise ImportError("lfd.interop needs PyAV: pip install av") from e
+        raise ImportError("video encoding and decoding need PyAV: pip install av") from e
     return av
 
 
@@ -137,24 +142,89 @@ class VideoFileWriter:
         self.close()
 
 
-def video_info(path: str | Path) -> dict:
-    """The ``info`` block lerobot stores for a video feature (``video.height``, ...)."""
+def open_video(path: str | os.PathLike):
+    """An open PyAV container of ``path`` with at least one video stream (the caller closes it).
+
+    Raises:
+        FileNotFoundError: no such file, or a directory.
+        ValueError: the file cannot be decoded or has no video stream.
+    """
     av = _av()
-    with av.open(str(path)) as container:
-        stream = container.streams.video[0]
-        ctx = stream.codec_context
-        rate = stream.average_rate or stream.base_rate
-        fps = float(rate)
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"video file not found: {p}")
+    if p.is_dir():
+        raise FileNotFoundError(f"video path is a directory, not a file: {p}")
+    try:
+        container = av.open(str(p))
+    except Exception as exc:  # av.error.InvalidDataError and friends
+        raise ValueError(f"video {p}: cannot be decoded ({type(exc).__name__}: {exc})") from exc
+    if not container.streams.video:
+        container.close()
+        raise ValueError(f"video {p}: the file has no video stream")
+    return container
+
+
+@dataclasses.dataclass(frozen=True)
+class VideoInfo:
+    """What the first video stream of a file says about itself (read from the container, no decoding).
+
+    Attributes:
+        width, height: frame size, px.
+        fps: nominal frame rate (the stream's average rate), Hz; NaN when the container does not say.
+        frames: frame count; 0 when the container does not say.
+        duration: s; NaN when the container does not say.
+        codec: decoder name, AV1 decoders reported as ``"av1"`` (``"h264"``, ``"av1"``, ...).
+        pix_fmt: pixel format (``"yuv420p"``, ...).
+        has_audio: the file also has an audio stream.
+        base_fps: the stream's base rate, Hz (the fallback when ``fps`` is NaN).
+    """
+
+    width: int
+    height: int
+    fps: float
+    frames: int
+    duration: float
+    codec: str
+    pix_fmt: str
+    has_audio: bool
+    base_fps: float
+
+    def lerobot_info(self) -> dict:
+        """The ``info`` block lerobot stores for a video feature (``video.height``, ``video.fps``, ...)."""
+        fps = self.fps if np.isfinite(self.fps) else self.base_fps
         return {
-            "video.height": int(ctx.height),
-            "video.width": int(ctx.width),
-            "video.codec": ctx.codec.name if ctx.codec.name not in ("libdav1d", "libaom-av1") else "av1",
-            "video.pix_fmt": ctx.pix_fmt,
+            "video.height": self.height,
+            "video.width": self.width,
+            "video.codec": self.codec,
+            "video.pix_fmt": self.pix_fmt,
             "video.is_depth_map": False,
             "video.fps": int(fps) if fps == int(fps) else fps,
             "video.channels": 3,
-            "has_audio": len(container.streams.audio) > 0,
+            "has_audio": self.has_audio,
         }
+
+
+def video_info(path: str | os.PathLike) -> VideoInfo:
+    """:class:`VideoInfo` of the first video stream of ``path``.
+
+    Raises:
+        FileNotFoundError, ValueError: as :func:`open_video`.
+    """
+    with open_video(path) as container:
+        stream = container.streams.video[0]
+        ctx = stream.codec_context
+        return VideoInfo(
+            width=int(stream.width),
+            height=int(stream.height),
+            fps=float(stream.average_rate) if stream.average_rate else float("nan"),
+            frames=int(stream.frames or 0),
+            duration=float(stream.duration * stream.time_base) if stream.duration else float("nan"),
+            codec=ctx.codec.name if ctx.codec.name not in ("libdav1d", "libaom-av1") else "av1",
+            pix_fmt=ctx.pix_fmt,
+            has_audio=len(container.streams.audio) > 0,
+            base_fps=float(stream.base_rate) if stream.base_rate else float("nan"),
+        )
 
 
 def decode_video_frames(path: str | Path, timestamps, tolerance_s: float = 1e-4) -> np.ndarray:
@@ -212,3 +282,57 @@ def write_mp4(path: str | Path, frames, fps: float, codec: str = "h264", crf: in
     ) as w:
         w.write_episode(frames)
     return Path(path)
+
+
+def iter_frames(
+    path: str | os.PathLike, width: int | None = None, stride: int = 1, max_frames: int | None = None
+) -> Iterator[tuple[int, float, np.ndarray]]:
+    """Decode a video: yields ``(frame_index, t, rgb)``.
+
+    Args:
+        path: any video FFmpeg reads (mp4, mov, avi, mkv, webm, ...).
+        width: resize to this width in px (aspect kept, never enlarged); None = original size.
+        stride: keep every ``stride``-th frame (1 = all).
+        max_frames: stop after this many kept frames.
+
+    Yields:
+        frame index in the stream (0-based), presentation time t in s (from the first frame),
+        ``(H, W, 3)`` uint8 RGB image.
+
+    Raises:
+        FileNotFoundError: no such file. ValueError: not a decodable video, bad arguments.
+    """
+    if stride < 1 or (width is not None and width < 16) or (max_frames is not None and max_frames < 1):
+        raise ValueError(
+            f"iter_frames needs stride >= 1, width >= 16 or None, max_frames >= 1 or None; got "
+            f"stride={stride}, width={width}, max_frames={max_frames}"
+        )
+    container = open_video(path)
+    try:
+        stream = container.streams.video[0]
+        stream.thread_type = "AUTO"
+        t0, kept, index = None, 0, -1
+        try:
+            for frame in container.decode(stream):
+                index += 1
+                if index % stride:
+                    continue
+                t = frame.time if frame.time is not None else index / float(stream.average_rate or 30)
+                t0 = t if t0 is None else t0
+                if width is not None and width < frame.width:
+                    h = int(round(frame.height * width / frame.width / 2) * 2)
+                    rgb = frame.to_ndarray(format="rgb24", width=width, height=h)
+                else:
+                    rgb = frame.to_ndarray(format="rgb24")
+                yield index, float(t - t0), rgb
+                kept += 1
+                if max_frames is not None and kept >= max_frames:
+                    return
+        except Exception as exc:
+            if type(exc).__module__.startswith("av"):
+                raise ValueError(f"video {path}: decoding failed at frame {index + 1} ({exc})") from exc
+            raise
+        if index < 0:
+            raise ValueError(f"video {path}: no frame could be decoded")
+    finally:
+        container.close()

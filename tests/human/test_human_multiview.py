@@ -36,9 +36,19 @@ def test_qualisys_calibration_of_the_pose2sim_demo(pose2sim_demo):
 def test_toml_and_json_calibrations(sports2d_video, tmp_path):
     calib = read_calibration(sports2d_video.parent / "Calib_demo.toml")
     assert calib.names == ("demo",) and calib.K[0, 0, 0] == pytest.approx(2520.0897058227038)
-    doc = {"cameras": [{"name": n, "matrix": k.tolist(), "distortions": d.tolist(), "rotation": r.tolist(),
-                        "translation": t.tolist(), "size": s.tolist()}
-                       for n, k, d, r, t, s in zip(calib.names, calib.K, calib.dist, calib.R, calib.t, calib.size)]}  # fmt: skip
+    doc = {
+        "cameras": [
+            {
+                "name": n,
+                "matrix": k.tolist(),
+                "distortions": d.tolist(),
+                "rotation": r.tolist(),
+                "translation": t.tolist(),
+                "size": s.tolist(),
+            }
+            for n, k, d, r, t, s in zip(calib.names, calib.K, calib.dist, calib.R, calib.t, calib.size)
+        ]
+    }
     path = tmp_path / "calib.json"
     path.write_text(json.dumps(doc))
     back = read_calibration(path)
@@ -74,8 +84,19 @@ def test_triangulation_exact_and_rejects_a_wrong_view(pose2sim_demo):
 
 @pytest.mark.slow
 def test_monocular_vs_four_views_on_the_pose2sim_demo(pose2sim_demo, mediapipe_ok, tmp_path):
-    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "video_multiview.py"), "--demo", str(pose2sim_demo),
-                           "--cache", str(tmp_path)], capture_output=True, text=True, timeout=900)  # fmt: skip
+    proc = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "benchmarks" / "video_multiview.py"),
+            "--demo",
+            str(pose2sim_demo),
+            "--cache",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     out = json.loads(proc.stdout[proc.stdout.index("{") :])
     # Measured (docs/video.md): 8.9 px reprojection, 12.9 deg median RMSE; the targets
