@@ -10,22 +10,27 @@ The libraries themselves are not needed: pyarrow, PyAV and h5py write the files.
 See ``docs/formats.md``.
 """
 
-from lfd.interop.lerobot.datamodule import LeRobotDataModule
-from lfd.interop.lerobot.export import export_lerobot, task_string
-from lfd.interop.lerobot.paths import CODEBASE_VERSION, update_chunk_file_indices
-from lfd.interop.lerobot.reader import LeRobotFolder, read_info
-from lfd.interop.lerobot.writer import LeRobotEpisode, LeRobotWriter
-from lfd.interop.robomimic import export_robomimic
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "CODEBASE_VERSION",
-    "LeRobotDataModule",
-    "LeRobotEpisode",
-    "LeRobotFolder",
-    "LeRobotWriter",
-    "export_lerobot",
-    "export_robomimic",
-    "read_info",
-    "task_string",
-    "update_chunk_file_indices",
-]
+from lfd._lazy import exports, lazy_getattr
+
+_EXPORTS = exports(
+    {
+        "lerobot.datamodule": ["LeRobotDataModule"],
+        "lerobot.export": ["export_lerobot", "task_string"],
+        "lerobot.paths": ["CODEBASE_VERSION", "update_chunk_file_indices"],
+        "lerobot.reader": ["LeRobotFolder", "read_info"],
+        "lerobot.writer": ["LeRobotEpisode", "LeRobotWriter"],
+        "robomimic": ["export_robomimic"],
+    }
+)
+__all__ = sorted(_EXPORTS)
+__getattr__, __dir__ = lazy_getattr(__name__, _EXPORTS)
+
+if TYPE_CHECKING:
+    from lfd.interop.lerobot.datamodule import LeRobotDataModule
+    from lfd.interop.lerobot.export import export_lerobot, task_string
+    from lfd.interop.lerobot.paths import CODEBASE_VERSION, update_chunk_file_indices
+    from lfd.interop.lerobot.reader import LeRobotFolder, read_info
+    from lfd.interop.lerobot.writer import LeRobotEpisode, LeRobotWriter
+    from lfd.interop.robomimic import export_robomimic

@@ -28,6 +28,7 @@ Example::
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -70,7 +71,10 @@ class _Data:
         return [e for e in self.episodes if e.split == name]
 
 
+@cache
 def _velocity_dataset_class():
+    """The velocity item dataset for episodes of any lengths, built on first use so that
+    importing this module does not import :mod:`lfd.visuomotor.data` (nor what it loads)."""
     import torch
 
     from lfd.visuomotor.data.datasets import VelocityReachDataset, command_velocities, mode_labels
@@ -111,9 +115,6 @@ def _velocity_dataset_class():
             }
 
     return VelocityDataset
-
-
-_VelocityDataset = _velocity_dataset_class()
 
 
 def _import_lightning():
@@ -323,7 +324,7 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                 }
                 for name, entry in stats.items()
             }
-        view = MODES[self.mode] if self.mode == "dmp" else _VelocityDataset
+        view = MODES[self.mode] if self.mode == "dmp" else _velocity_dataset_class()
         augment = image_augmentation(self.config.image_size) if self.augment else None
         wanted = {"fit": ("train", "val"), "validate": ("val",), "test": ("test",), "predict": ("test",)}.get(
             stage or "", ("train", "val", "test")
