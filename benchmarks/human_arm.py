@@ -41,7 +41,8 @@ def speed(minutes: float, repeats: int) -> None:
     duration = rec.skeleton.t[-1] - rec.skeleton.t[0] + 1 / rec.skeleton.rate
     print(f"## Speed: {minutes:g} min at 30 Hz = {frames} frames (best of {repeats})")
     print(
-        f"whole pipeline: {best:.2f} s = {frames / best:,.0f} frames/s = {duration / best:.0f}x real time (target >= 50x)"
+        f"whole pipeline: {best:.2f} s = {frames / best:,.0f} frames/s = {duration / best:.0f}x real time "
+        "(target >= 50x)"
     )
     robot = arm_model()
     q, qd, qdd, g = result.q, result.qd, result.qdd, result.gravity * [1, 1, 1]
@@ -63,8 +64,11 @@ def speed(minutes: float, repeats: int) -> None:
         model.gravity.linear = g[i]
         ref[i] = pin.rnea(model, data, q[i], qd[i], qdd[i])
     t_pin = time.perf_counter() - start
-    print(f"torques of {len(q)} frames: lfd batched RNE {t_ours * 1e3:.0f} ms, Pinocchio RNEA per frame {t_pin * 1e3:.0f} ms "
-          f"(ratio {t_pin / t_ours:.2f}x), max difference {np.abs(ours - ref).max():.1e} N m")  # fmt: skip
+    print(
+        f"torques of {len(q)} frames: lfd batched RNE {t_ours * 1e3:.0f} ms, "
+        f"Pinocchio RNEA per frame {t_pin * 1e3:.0f} ms "
+        f"(ratio {t_pin / t_ours:.2f}x), max difference {np.abs(ours - ref).max():.1e} N m"
+    )
 
 
 def accuracy(seeds, duration: float) -> None:
@@ -81,8 +85,12 @@ def accuracy(seeds, duration: float) -> None:
         + " |"
     )
     print("|---|---|---|---|")
-    recs = [synthetic_recording(duration=duration, seed=s, noise=0.01, dropouts=12, long_gap=0.5, outlier_burst=True, swap=True)
-            for s in seeds]  # fmt: skip
+    recs = [
+        synthetic_recording(
+            duration=duration, seed=s, noise=0.01, dropouts=12, long_gap=0.5, outlier_burst=True, swap=True
+        )
+        for s in seeds
+    ]
     peak = np.max([np.abs(r.tau[side]).max(0) for r in recs for side in ("left", "right")], axis=0)
     for filt, fit in combos:
         angle, torque = [], []

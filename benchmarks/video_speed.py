@@ -12,7 +12,8 @@ import argparse
 import time
 
 from lfd.human import analyze_arm
-from lfd.human.video import estimate_keypoints, iter_frames
+from lfd.human.video import estimate_keypoints
+from lfd.io.video import iter_frames
 
 
 def main() -> None:

@@ -1,4 +1,4 @@
-"""Analyse the arm motion and joint torques of a person in skeleton recordings (SPEC 6).
+"""Analyse the arm motion and joint torques of a person in skeleton recordings (docs/human.md).
 
 Usage::
 

@@ -21,8 +21,15 @@ def _rmse(a, b):
 
 @pytest.fixture(scope="module", params=SEEDS)
 def corrupted(request):
-    return synthetic_recording(duration=20.0, seed=request.param, noise=0.01, dropouts=12, long_gap=0.5,
-                               outlier_burst=True, swap=True)  # fmt: skip
+    return synthetic_recording(
+        duration=20.0,
+        seed=request.param,
+        noise=0.01,
+        dropouts=12,
+        long_gap=0.5,
+        outlier_burst=True,
+        swap=True,
+    )
 
 
 @pytest.mark.parametrize("side", ["right", "left"])
@@ -141,9 +148,14 @@ def test_plots_and_gif(tmp_path):
 
 def test_bad_options():
     sk = synthetic_recording(duration=1.0, seed=0).skeleton
-    for kwargs, match in [({"side": "both"}, "side must be one of"), ({"sex": "x"}, "sex must be one of"),
-                          ({"filter": "kalman"}, "filter must be one of"), ({"fit": "fourier"}, "fit must be one of"),
-                          ({"body_mass": -3}, "body_mass must be a positive"), ({"max_gap": float("nan")}, "max_gap")]:  # fmt: skip
+    for kwargs, match in [
+        ({"side": "both"}, "side must be one of"),
+        ({"sex": "x"}, "sex must be one of"),
+        ({"filter": "kalman"}, "filter must be one of"),
+        ({"fit": "fourier"}, "fit must be one of"),
+        ({"body_mass": -3}, "body_mass must be a positive"),
+        ({"max_gap": float("nan")}, "max_gap"),
+    ]:
         with pytest.raises(ValueError, match=match):
             analyze_arm(sk, **kwargs)
     with pytest.raises(FileNotFoundError):

@@ -30,8 +30,17 @@ def _cfg(overrides):
 
 
 def test_config_overrides_reach_analyze_arm():
-    cfg = _cfg(["file=x.csv", "subject.body_mass=80", "subject.sex=female", "side=left", "filter=median",
-                "fit.method=spline", "subject.hand_load=2"])  # fmt: skip
+    cfg = _cfg(
+        [
+            "file=x.csv",
+            "subject.body_mass=80",
+            "subject.sex=female",
+            "side=left",
+            "filter=median",
+            "fit.method=spline",
+            "subject.hand_load=2",
+        ]
+    )
     options = _script().analysis_options(cfg)
     assert options["body_mass"] == 80.0 and options["sex"] == "female" and options["side"] == "left"
     assert options["filter"] == "median" and options["median_kernel"] == 5 and options["fit"] == "spline"
@@ -46,7 +55,8 @@ def test_batch_mode_writes_summary(tmp_path):
     (folder / "broken.csv").write_text("t,wrist_x\n0,1\n")  # no arm joints: reported, not fatal
     cfg = _cfg([f"file={folder}", "outputs.plots=false"])
     out = _script().run(cfg, tmp_path / "out")
-    rows = list(csv.DictReader(open(out / "summary.csv")))
+    with open(out / "summary.csv") as f:
+        rows = list(csv.DictReader(f))
     assert [r["file"] for r in rows] == ["a.csv", "b.trc", "broken.csv"]
     assert rows[0]["status"] == rows[1]["status"] == "ok"
     assert rows[2]["status"].startswith("error:") and "missing" in rows[2]["status"]
@@ -57,11 +67,22 @@ def test_batch_mode_writes_summary(tmp_path):
 @pytest.mark.slow
 def test_command_line_single_file(tmp_path):
     proc = subprocess.run(
-        [sys.executable, str(ROOT / "scripts" / "analyze_arm.py"), f"file={FIXTURES / 'kimore_ex1_excerpt.csv.gz'}",
-         "subject.body_mass=80", "subject.sex=female", "side=left", "filter=butterworth", "outputs.gif_frames=8",
-         f"paths.root_dir={tmp_path}"],
-        capture_output=True, text=True, check=True, cwd=ROOT,
-    )  # fmt: skip
+        [
+            sys.executable,
+            str(ROOT / "scripts" / "analyze_arm.py"),
+            f"file={FIXTURES / 'kimore_ex1_excerpt.csv.gz'}",
+            "subject.body_mass=80",
+            "subject.sex=female",
+            "side=left",
+            "filter=butterworth",
+            "outputs.gif_frames=8",
+            f"paths.root_dir={tmp_path}",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=ROOT,
+    )
     out = Path(proc.stdout.strip().splitlines()[-1].split("outputs in ")[1])
     doc = json.loads((out / "arm.json").read_text())
     assert doc["subject"]["sex"] == "female" and doc["summary"]["side"] == "left"

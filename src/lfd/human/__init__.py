@@ -1,4 +1,4 @@
-"""Observing a person: upper-limb motion and joint torques from skeleton recordings (SPEC section 6).
+"""Observing a person: upper-limb motion and joint torques from skeleton recordings (docs/human.md).
 
 Pipeline: :func:`read_skeleton` (Kinect v2 CSV, NTU RGB+D, UI-PRMD, OpenSim .trc, generic
 CSV) -> :func:`analyze_arm` (gap handling, swap repair, filters, trunk frame, closed-form

@@ -1,4 +1,4 @@
-"""The arm-analysis pipeline (SPEC section 6) and its result type :class:`ArmAnalysis`.
+"""The arm-analysis pipeline (docs/human.md) and its result type :class:`ArmAnalysis`.
 
 skeleton -> left/right swap repair -> (Hampel) -> bone-length outliers -> short-gap
 interpolation -> filter (Butterworth or median) -> trunk frame -> closed-form 4-DoF IK ->
@@ -159,7 +159,7 @@ class ArmAnalysis:
                 "accelerations": "deg/s^2",
                 "torques": "N m",
                 "positions": "m, trunk frame (x forward, y left, z up, origin spine_shoulder)",
-            },  # fmt: skip
+            },
             "frames": self.table(),
         }
         return write_text_atomic(path, json.dumps(clean(doc), indent=1) + "\n")
@@ -360,10 +360,23 @@ def analyze_arm(
         branch_switches=int((np.diff(ik.branch) != 0).sum()),
         missing_frames=int(missing_frames.sum()),
     )
-    settings = dict(filter=filter, cutoff=cutoff, filter_order=filter_order, median_kernel=median_kernel, hampel=hampel,
-                    max_gap=max_gap, use_inferred=use_inferred, repair_swaps=repair_swaps_, bone_tolerance=bone_tolerance,
-                    fit=fit, poly_max_order=poly_max_order, poly_window=poly_window, spline_cutoff=spline_cutoff, singular_deg=singular_deg,
-                    rate_hz=rate)  # fmt: skip
+    settings = dict(
+        filter=filter,
+        cutoff=cutoff,
+        filter_order=filter_order,
+        median_kernel=median_kernel,
+        hampel=hampel,
+        max_gap=max_gap,
+        use_inferred=use_inferred,
+        repair_swaps=repair_swaps_,
+        bone_tolerance=bone_tolerance,
+        fit=fit,
+        poly_max_order=poly_max_order,
+        poly_window=poly_window,
+        spline_cutoff=spline_cutoff,
+        singular_deg=singular_deg,
+        rate_hz=rate,
+    )
     return ArmAnalysis(
         t=t, q=q, qd=qd, qdd=qdd, tau=tau, q_ik=ik.q, positions=positions, raw_positions=raw_positions,
         reconstructed=recon, gravity=mirror(g_trunk, side), segment_lengths=lengths, quality=quality, side=side,

@@ -1,4 +1,4 @@
-r"""Closed-form inverse kinematics of the 4-DoF human arm (SPEC section 3), both sides.
+r"""Closed-form inverse kinematics of the 4-DoF human arm (docs/human.md), both sides.
 
 Model (``load_robot("human_arm")``, right arm, base at the shoulder, x forward, y left,
 z up, all angles zero = arm hanging down): ``R_12 = Rx(-q1) Ry(q2)`` (abduction about -x,
@@ -46,7 +46,7 @@ import numpy as np
 
 __all__ = ["LIMITS", "ArmIKResult", "arm_fk", "arm_ik", "mirror"]
 
-# (abduction, flexion, rotation, elbow flexion) limits in rad (SPEC 3, = load_robot("human_arm")).
+# (abduction, flexion, rotation, elbow flexion) limits in rad, those of load_robot("human_arm").
 LIMITS = np.deg2rad(np.array([[-90.0, -130.0, -90.0, 0.0], [90.0, 45.0, 90.0, 150.0]]))
 _MIRROR = np.array([1.0, -1.0, 1.0])
 

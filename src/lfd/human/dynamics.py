@@ -1,8 +1,8 @@
 """Joint torques of the human arm by recursive Newton-Euler (``lfd.robots`` batched RNE).
 
-The model is ``load_robot("human_arm", ...)`` (SPEC 3): segment masses are de Leva (1996)
-fractions of the body mass for the given sex (upper arm 2.71/2.55 %, forearm 1.62/1.38 %,
-hand 0.61/0.56 %, male/female), centres of mass at 57.7 % (upper arm) and 45.7 %
+The model is ``load_robot("human_arm", ...)`` (the 4-DoF human-arm model, docs/human.md):
+segment masses are de Leva (1996) fractions of the body mass for the given sex (upper arm
+2.71/2.55 %, forearm 1.62/1.38 %, hand 0.61/0.56 %, male/female), centres of mass at 57.7 % (upper arm) and 45.7 %
 (forearm) of the segment from the proximal joint, the hand's at half its length beyond
 the wrist. An optional load held in the hand (kg) is a point mass at the hand's centre of
 mass, added to the forearm link.
@@ -68,7 +68,7 @@ def arm_model(
 @contextlib.contextmanager
 def _single_thread():
     """Run small batched torch ops on one thread: on a busy 2-core machine the thread pool's
-    hand-offs cost more than the work (measured 60x slower for 600 frames); restored after."""
+    hand-offs cost more than the work; the previous thread count is restored after."""
     before = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
@@ -97,8 +97,12 @@ def arm_torques(
     qt = torch.from_numpy(np.ascontiguousarray(q[ok]))
     zero = torch.zeros_like(qt)
     with _single_thread():
-        total = robot.inverse_dynamics(qt, torch.from_numpy(np.ascontiguousarray(qd[ok])),
-                                       torch.from_numpy(np.ascontiguousarray(qdd[ok])), gravity=(0.0, 0.0, 0.0)).numpy()  # fmt: skip
+        total = robot.inverse_dynamics(
+            qt,
+            torch.from_numpy(np.ascontiguousarray(qd[ok])),
+            torch.from_numpy(np.ascontiguousarray(qdd[ok])),
+            gravity=(0.0, 0.0, 0.0),
+        ).numpy()
         for k in range(3):
             unit = np.zeros(3)
             unit[k] = 1.0

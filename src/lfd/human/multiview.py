@@ -22,8 +22,7 @@ reports the per-joint reprojection error (px).
 The ``.qca.txt`` reader follows the conventions of Pose2Sim's own converter
 (``Pose2Sim.calibration.read_qca`` + ``calib_qca_fun``: ``R = Rx(pi) @ M``, principal point
 minus the video field's ``left``/``top``, sizes from ``fov_video``), except that Pose2Sim
-also divides the distortion coefficients by 64; on the demo that changes the triangulation's
-median reprojection error by 0.02 px (distortion is near zero there).
+also divides the distortion coefficients by 64 and this reader does not.
 
 Example::
 
@@ -124,7 +123,7 @@ def _read_qca(path: Path) -> Calibration:
             fov, tr, intr = cam.find("fov_video"), cam.find("transform").attrib, cam.find("intrinsic").attrib
             left, top = float(fov.get("left")), float(fov.get("top"))
             size.append([float(fov.get("right")) - left + 1, float(fov.get("bottom")) - top + 1])
-            f = lambda key: float(intr[key])  # noqa: E731
+            f = lambda key, intr=intr: float(intr[key])  # noqa: E731
             K.append([[f("focalLengthU") / 64, 0, f("centerPointU") / 64 - left],
                       [0, f("focalLengthV") / 64, f("centerPointV") / 64 - top], [0, 0, 1]])  # fmt: skip
             dist.append(

@@ -82,8 +82,16 @@ def plot_analysis(
     paths.append(
         _four_panels(plt, t, [deg(result.qdd)], "deg/s²", "joint accelerations", out / "accelerations.png")
     )
-    paths.append(_four_panels(plt, t, [result.tau], "N m", f"joint torques (Newton-Euler, {result.subject['body_mass']:g} kg "
-                              f"{result.subject['sex']})", out / "torques.png"))  # fmt: skip
+    paths.append(
+        _four_panels(
+            plt,
+            t,
+            [result.tau],
+            "N m",
+            f"joint torques (Newton-Euler, {result.subject['body_mass']:g} kg {result.subject['sex']})",
+            out / "torques.png",
+        )
+    )
     if gif:
         paths.append(stick_figure_gif(result, out / "stick_figure.gif", max_frames=max_gif_frames))
     return paths

@@ -19,9 +19,10 @@ y left, z up; :attr:`lfd.human.ArmAnalysis.positions`):
   clamped and flagged.
 * :func:`retarget_wrist_path` (7-DoF arms, PR2, Sawyer): the wrist path relative to the
   shoulder, scaled by ``robot reach / (upper arm + forearm)``, expressed in the robot's base
-  frame (same axes as the trunk) with its centre (median) at the tool of the robot's home pose, then damped least-squares IK per
-  frame warm-started from the previous solution (continuous in joint space) with an elbow
-  hint in the null space (the robot's elbow drawn towards the person's scaled elbow).
+  frame (same axes as the trunk) with its centre (median) at the tool of the robot's home
+  pose, then damped least-squares IK per frame warm-started from the previous solution
+  (continuous in joint space) with an elbow hint in the null space (the robot's elbow drawn
+  towards the person's scaled elbow).
 
 :func:`time_scale` stretches time where joint velocities exceed the robot's limits.
 

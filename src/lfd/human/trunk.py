@@ -45,7 +45,8 @@ def trunk_frames(skeleton: Skeleton, positions: np.ndarray | None = None) -> tup
     pos = skeleton.positions if positions is None else positions
     if not skeleton.has("shoulder_left", "shoulder_right"):
         raise ValueError(
-            f"trunk frame needs joints shoulder_left and shoulder_right; {skeleton.source or 'skeleton'} has {skeleton.names}"
+            "trunk frame needs joints shoulder_left and shoulder_right; "
+            f"{skeleton.source or 'skeleton'} has {skeleton.names}"
         )
 
     def joint(name):

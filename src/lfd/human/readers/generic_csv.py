@@ -92,8 +92,14 @@ def _read_csv_long(path, header_line, lower, it, body, scale, up) -> Skeleton:
     for ti, ji, xyz, tr in records:
         positions[ti, ji] = xyz
         tracked[ti, ji] = tr
-    return Skeleton(np.array(times), canonical_names(names, path, header_line), positions * scale, tracked,
-                    source=f"{path} (csv long)", up=np.asarray(up, float))  # fmt: skip
+    return Skeleton(
+        np.array(times),
+        canonical_names(names, path, header_line),
+        positions * scale,
+        tracked,
+        source=f"{path} (csv long)",
+        up=np.asarray(up, float),
+    )
 
 
 def _read_csv_wide(path, header_line, header, it, body, scale, up) -> Skeleton:
@@ -122,5 +128,10 @@ def _read_csv_wide(path, header_line, header, it, body, scale, up) -> Skeleton:
                 if tok[col].strip():
                     positions[r, j, k] = parse_float(tok[col], path, number, header[col])
     check_time(t, path, [n for n, _ in body], header[it])
-    return Skeleton(t, canonical_names(names, path, header_line), positions * scale,
-                    source=f"{path} (csv wide)", up=np.asarray(up, float))  # fmt: skip
+    return Skeleton(
+        t,
+        canonical_names(names, path, header_line),
+        positions * scale,
+        source=f"{path} (csv wide)",
+        up=np.asarray(up, float),
+    )
