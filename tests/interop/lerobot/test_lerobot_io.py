@@ -9,7 +9,15 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from lfd.interop.lerobot.io import read_json, read_parquet_columns, read_tasks, write_json, write_tasks
+from lfd.interop.lerobot.io import (
+    extra_column_type,
+    hf_feature,
+    read_json,
+    read_parquet_columns,
+    read_tasks,
+    write_json,
+    write_tasks,
+)
 
 
 def test_json_indent_and_unicode(tmp_path):
@@ -45,3 +53,18 @@ def test_parquet_columns_concatenated_and_lists_as_2d(tmp_path):
     assert cols["x"].shape == (4, 3) and cols["x"].dtype == np.float32
     np.testing.assert_array_equal(cols["x"][2], [10, 11, 12])
     np.testing.assert_array_equal(cols["i"], [0, 0, 1, 1])
+
+
+def test_column_types_of_extras_and_hf_features():
+    assert extra_column_type(True) == pa.bool_() and extra_column_type(np.int32(3)) == pa.int64()
+    assert extra_column_type(0.5) == pa.float64() and extra_column_type("side") == pa.string()
+    assert extra_column_type(np.arange(3)) == pa.list_(pa.int64())
+    assert extra_column_type([1.0, 2.0]) == pa.list_(pa.float64())
+    with pytest.raises(ValueError, match="unsupported value"):
+        extra_column_type(np.zeros((2, 2)))
+    assert hf_feature({"dtype": "int64", "shape": [1]}) == {"dtype": "int64", "_type": "Value"}
+    assert hf_feature({"dtype": "float32", "shape": [7]}) == {
+        "feature": {"dtype": "float32", "_type": "Value"},
+        "length": 7,
+        "_type": "List",
+    }

@@ -30,6 +30,40 @@ def pyarrow_modules():
     return pa, pq
 
 
+def hf_feature(feature: dict) -> dict:
+    """The Hugging Face ``datasets`` feature of an ``info.json`` feature, as stored in the
+    ``huggingface`` metadata of the data parquet: a ``Value`` for shape ``[1]``, else a
+    fixed-length ``List`` of values."""
+    value = {"dtype": feature["dtype"], "_type": "Value"}
+    if feature["shape"] == [1]:
+        return value
+    return {"feature": value, "length": int(feature["shape"][0]), "_type": "List"}
+
+
+def extra_column_type(value: Any):
+    """The arrow type of an extra episode column holding ``value``: bool, int64, float64,
+    string, or a list of int64 / float64 for a flat numeric sequence.
+
+    Raises:
+        ValueError: any other value.
+    """
+    pa, _ = pyarrow_modules()
+    if isinstance(value, bool | np.bool_):
+        return pa.bool_()
+    if isinstance(value, int | np.integer):
+        return pa.int64()
+    if isinstance(value, float | np.floating):
+        return pa.float64()
+    if isinstance(value, str):
+        return pa.string()
+    arr = np.asarray(value)
+    if arr.ndim == 1 and arr.dtype.kind in "fiu":
+        return pa.list_(pa.int64() if arr.dtype.kind in "iu" else pa.float64())
+    raise ValueError(
+        f"LeRobotEpisode.extra: unsupported value {value!r} (str, number, bool or a flat numeric list)"
+    )
+
+
 def write_json(path: Path, obj: Any) -> None:
     """``obj`` as JSON with a 4-space indent and non-ASCII characters kept, as lerobot's
     ``write_json`` writes it (atomically: temp file + rename)."""

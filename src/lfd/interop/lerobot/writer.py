@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from lfd.interop.lerobot.io import pyarrow_modules, write_json, write_tasks
+from lfd.interop.lerobot.io import extra_column_type, hf_feature, pyarrow_modules, write_json, write_tasks
 from lfd.interop.lerobot.paths import (
     CODEBASE_VERSION,
     DATA_PATH,
@@ -73,30 +73,6 @@ class LeRobotEpisode:
     frames: dict[str, np.ndarray]
     task: str
     extra: dict[str, Any] = field(default_factory=dict)
-
-
-def _hf_feature(ft: dict) -> dict:
-    value = {"dtype": ft["dtype"], "_type": "Value"}
-    if ft["shape"] == [1]:
-        return value
-    return {"feature": value, "length": int(ft["shape"][0]), "_type": "List"}
-
-
-def _extra_type(pa, value):
-    if isinstance(value, bool | np.bool_):
-        return pa.bool_()
-    if isinstance(value, int | np.integer):
-        return pa.int64()
-    if isinstance(value, float | np.floating):
-        return pa.float64()
-    if isinstance(value, str):
-        return pa.string()
-    arr = np.asarray(value)
-    if arr.ndim == 1 and arr.dtype.kind in "fiu":
-        return pa.list_(pa.int64() if arr.dtype.kind in "iu" else pa.float64())
-    raise ValueError(
-        f"LeRobotEpisode.extra: unsupported value {value!r} (str, number, bool or a flat numeric list)"
-    )
 
 
 class LeRobotWriter:
@@ -201,7 +177,6 @@ class LeRobotWriter:
                 finite, cameras other than the writer's, frames not uint8 ``(T, H, W, 3)``, an
                 empty task, or ``extra`` keys other than the first episode's.
         """
-        pa, pq = pyarrow_modules()
         state, action = np.asarray(ep.state, np.float32), np.asarray(ep.action, np.float32)
         T = len(state)
         for name, arr, feat in (("state", state, "observation.state"), ("action", action, "action")):
@@ -281,7 +256,7 @@ class LeRobotWriter:
             else:
                 arrays.append(pa.array(value))
         if self._data_schema is None:
-            hf = {k: _hf_feature(self.features[k]) for k in columns}
+            hf = {k: hf_feature(self.features[k]) for k in columns}
             fingerprint = hashlib.sha256(json.dumps(self.features, sort_keys=True).encode()).hexdigest()[:16]
             meta = {"huggingface": json.dumps({"info": {"features": hf}, "fingerprint": fingerprint})}
             self._data_schema = pa.schema(
@@ -338,7 +313,7 @@ class LeRobotWriter:
             if key == "tasks":
                 t = pa.list_(pa.string())
             elif key in extra:
-                t = _extra_type(pa, extra[key])
+                t = extra_column_type(extra[key])
             elif key.startswith("stats/"):
                 feat, stat = key[len("stats/") :].rsplit("/", 1)
                 if stat == "count":
@@ -406,7 +381,6 @@ class LeRobotWriter:
         Raises:
             ValueError: no episode was added.
         """
-        pa, pq = pyarrow_modules()
         if self.n_episodes == 0:
             raise ValueError("LeRobotWriter.finalize: no episodes were added")
         if self._data["writer"] is not None:
