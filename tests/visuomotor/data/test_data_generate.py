@@ -51,7 +51,7 @@ def test_generated_dataset_reloads(reference):
         assert len(data.split(split)) == n
 
     # validation: known objects, placements never used in training; test: new objects
-    # compared by value (shape, dimensions, colour), not by name (issue 12)
+    # compared by value (shape, dimensions, colour), not by name
     def by_value(split):
         return {(e.obj.shape, e.obj.dims, e.obj.rgba) for e in data.split(split)}
 

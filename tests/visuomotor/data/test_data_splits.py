@@ -1,4 +1,4 @@
-"""Issue 12: split items come from streams keyed by (seed, group, object, placement), so
+"""Split items come from streams keyed by (seed, group, object, placement), so
 no experiment's test item is another experiment's training item -- compared by value
 (geometry, colour, placement), never by name."""
 

@@ -1,4 +1,4 @@
-"""Slow accuracy test (issue 12): a small CNN -> DMP training must reach *new* objects.
+"""Slow accuracy test: a small CNN -> DMP training must reach *new* objects.
 
 The quick experiment shrunk to a few minutes of CPU (64 px, 150 training objects x 2
 placements, 600 steps; the quick experiment's CNN -> DMP options, RGB-D input included),

@@ -29,8 +29,9 @@ from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.scene import ReachScene
 from lfd.visuomotor.data import ReachDataModule
 from lfd.visuomotor.data.datasets import DMPReachDataset, VelocityReachDataset, load_dataset
-from lfd.visuomotor.eval.rollout import PlanController, observe
+from lfd.visuomotor.eval.rollout import observe
 from lfd.visuomotor.policies import POLICIES, load_policy
+from lfd.visuomotor.policies.control import PlanController
 from lfd.visuomotor.policies.vision import image_to_tensor, permute_colour_channels
 
 TINY = [

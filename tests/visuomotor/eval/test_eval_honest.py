@@ -1,4 +1,4 @@
-"""Issue 12's honest evaluation: scenario validation, the metric definitions, cluster
+"""The honest evaluation: scenario validation, the metric definitions, cluster
 intervals and what an episode records about contacts and the object."""
 
 from __future__ import annotations
@@ -188,7 +188,8 @@ def test_episode_records_object_push_and_contact(robot):
     pl = Placement(0.58, -0.1, 0.0)
 
     class Hold:
-        needs_image, dt = False, 0.04
+        needs_image, dt, actuation = False, 0.04, "position"
+        input_channels, depth_encoding = 3, "range"
 
         def __init__(self, q):
             self.q = q

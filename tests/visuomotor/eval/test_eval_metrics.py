@@ -64,7 +64,7 @@ def test_summarise_layout_and_values():
     assert out["final_distance_m"]["median"] == pytest.approx(0.035)
     assert out["success_5cm"] == 0.75 and out["success_2cm"] == 0.25
     assert out["success_5cm_ci"] == pytest.approx(list(wilson_interval(3, 4)))
-    assert out["approach_correct"] == 0.5  # issue 12: the 10 cm episode is not correct (distance condition)
+    assert out["approach_correct"] == 0.5  # the 10 cm episode is not correct (distance condition)
     assert out["jerk_ratio"] == pytest.approx(8.0 / 4.0)  # the episode without a demonstration is left out
     assert out["jerk_ratio_median"] == pytest.approx(2.0)
     assert out["joint_limit_violations"] == 4

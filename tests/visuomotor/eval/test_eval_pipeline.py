@@ -140,6 +140,10 @@ class RecordingPolicy:
         self._record("act", args, kwargs)
         return self.policy.act(*args, **kwargs)
 
+    def controller(self, dt):
+        """The wrapped policy's kind of controller, calling this wrapper."""
+        return type(self.policy.controller(dt))(self, dt)
+
 
 def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace, monkeypatch):
     recorders = {}
@@ -164,7 +168,7 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
         assert (
             set(m["final_distance_m"]) == {"mean", "median", "p90", "ci"}
             and m["final_distance_m"]["mean"] > 0
-        )  # ci: cluster bootstrap (issue 12)
+        )  # ci: cluster bootstrap
         for key in ("success_5cm", "success_2cm", "approach_correct"):
             assert 0.0 <= m[key] <= 1.0
         for key in ("success_5cm_ci", "success_2cm_ci"):
@@ -179,7 +183,7 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
     assert len(rows) == 4 and {r["method"] for r in rows} == {"cnn_dmp", "velocity"}
     for r in rows:
         assert float(r["final_distance_m"]) >= 0 and r["success_5cm"] in ("True", "False")
-        # issue 12: the object's distance and displacement, contacts, the ood mark
+        # the object's distance and displacement, contacts, the ood mark
         assert float(r["object_distance_m"]) >= 0 and float(r["object_displacement_m"]) >= 0
         assert r["arm_table_contact"] in ("True", "False") and r["arm_object_contact"] in ("True", "False")
         assert r["ood"] == "False"  # the test split is drawn from the training ranges
@@ -251,7 +255,7 @@ def test_evaluator_interface_cannot_pass_the_object_pose():
     """The controllers only ever get an Observation: an image, joints and the clock."""
     from dataclasses import fields
 
-    from lfd.visuomotor.eval.rollout import Observation
+    from lfd.visuomotor.protocols import Observation
 
     assert [f.name for f in fields(Observation)] == ["image", "joints", "time"]
 
@@ -282,7 +286,7 @@ def test_mismatched_image_size_is_refused(checkpoints, tiny, workspace):
 
 
 def test_checkpoint_carries_fingerprint_and_own_training_items_are_refused(checkpoints, tiny, workspace):
-    """Issue 12: the checkpoint knows its dataset; evaluating it on a training object is refused, naming both."""
+    """The checkpoint knows its dataset; evaluating it on a training object is refused, naming both."""
     from lfd.io.files import sha256_file
     from lfd.visuomotor.data.datasets import load_dataset
 

@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from lfd.visuomotor.eval.rollout import PlanController, VelocityController, run_episode
+from lfd.visuomotor.eval.rollout import run_episode
+from lfd.visuomotor.policies.control import PlanController, VelocityController
+from lfd.visuomotor.protocols import Controller
 
 N = 3
 DT = 0.1
@@ -36,13 +38,14 @@ class IdealScene:
         self.q = np.array(q_target, dtype=float)
 
     def step_velocity(self, qd_target):
-        """Velocity control (issue 12): the joints move at the commanded velocity."""
+        """Velocity control: the joints move at the commanded velocity."""
         self.commands.append((self.q + DT * np.asarray(qd_target), np.array(qd_target)))
         self.q = self.q + DT * np.asarray(qd_target, dtype=float)
 
 
 class LinePlanner:
     kind = "cnn_dmp"
+    input_channels, depth_encoding = 3, "range"
 
     def __init__(self):
         self.calls, self.horizons = [], []
@@ -56,6 +59,7 @@ class LinePlanner:
 
 class ConstantVelocity:
     kind = "velocity"
+    input_channels, depth_encoding = 3, "range"
 
     def __init__(self, qd):
         self.qd, self.calls = np.asarray(qd, dtype=float), []
@@ -113,6 +117,7 @@ def test_no_frames_recorded_unless_asked():
 @pytest.mark.parametrize("controller", [PlanController, VelocityController])
 def test_policy_calls_carry_only_image_and_joints(controller):
     policy = LinePlanner() if controller is PlanController else ConstantVelocity(np.zeros(N))
+    assert isinstance(controller(policy, DT), Controller)
     run_episode(IdealScene(), controller(policy, DT), steps=3, lower=LIMITS[0], upper=LIMITS[1])
     for image, joints, *time in policy.calls:
         assert image.shape == (4, 4, 3) and image.dtype == np.uint8 and joints.shape == (N,)
@@ -120,7 +125,7 @@ def test_policy_calls_carry_only_image_and_joints(controller):
 
 
 def test_executed_joint_velocity_matches_the_command_in_pybullet():
-    """Issue 12: the velocity baseline's actuation executes what the policy commands
+    """The velocity baseline's actuation executes what the policy commands
     (within 5 %), for speeds like the demonstrations' and inside the URDF limits."""
     from lfd.robots import load_robot
     from lfd.sim.scene import ReachScene
@@ -143,7 +148,7 @@ def test_executed_joint_velocity_matches_the_command_in_pybullet():
 
 
 def test_scene_applies_urdf_effort_and_velocity_limits():
-    """Issue 12: a step command far away moves no joint faster than its URDF limit."""
+    """A step command far away moves no joint faster than its URDF limit."""
     from lfd.robots import load_robot
     from lfd.sim.scene import ReachScene
 

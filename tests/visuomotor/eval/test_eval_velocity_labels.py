@@ -1,4 +1,4 @@
-"""The velocity baseline's labels and actuation agree (issue 12): commanding the labels
+"""The velocity baseline's labels and actuation agree: commanding the labels
 the policy is trained on, by the velocity controller used in evaluation, reproduces the
 demonstration they were made from."""
 
@@ -9,12 +9,15 @@ import pytest
 import torch
 
 from lfd.visuomotor.data.datasets import VelocityReachDataset, command_velocities
-from lfd.visuomotor.eval.rollout import VelocityController, run_episode
+from lfd.visuomotor.eval.rollout import run_episode
+from lfd.visuomotor.policies.control import VelocityController
 from lfd.visuomotor.policies.velocity import LABEL, VelocityPolicy
 
 
 class Replay:
     """A 'policy' that commands a fixed sequence of velocities ``(T, n)``, indexed by time."""
+
+    input_channels, depth_encoding = 3, "range"
 
     def __init__(self, qd: np.ndarray, dt: float) -> None:
         self.qd, self.dt = qd, dt
@@ -91,7 +94,10 @@ def test_output_statistics_are_those_of_the_labels():
     command = torch.randn(50, 7) * torch.linspace(0.1, 1.0, 7) + 0.3
     stats = {name: {"mean": torch.zeros(7), "std": torch.ones(7)} for name in ("joints", "velocity")}
     dm = SimpleNamespace(
-        stats=stats, mode="velocity", datasets={"train": SimpleNamespace(tensors={LABEL: command})}
+        stats=stats,
+        mode="velocity",
+        config=None,
+        datasets={"train": SimpleNamespace(tensors={LABEL: command})},
     )
     vel.trainer = SimpleNamespace(datamodule=dm)  # only what setup() reads
     vel.setup("fit")

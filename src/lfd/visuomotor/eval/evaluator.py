@@ -47,9 +47,10 @@ from lfd.visuomotor.eval.metrics import (
     summarise,
 )
 from lfd.visuomotor.eval.plots import distance_bars, paths_3d, write_gif
-from lfd.visuomotor.eval.rollout import CONTROLLERS, EpisodeTrace, Observation, observe, run_episode
+from lfd.visuomotor.eval.rollout import EpisodeTrace, observe, run_episode
 from lfd.visuomotor.eval.scenario import load_scenario
-from lfd.visuomotor.policies import checkpoint_kind, load_policy
+from lfd.visuomotor.policies import POLICIES, checkpoint_kind, load_policy
+from lfd.visuomotor.protocols import Controller, Observation
 
 #: Checkpoint config key per policy kind (``python evaluate.py ckpt_dmp=... ckpt_velocity=...``).
 CKPT_KEYS = {"cnn_dmp": "ckpt_dmp", "velocity": "ckpt_velocity"}
@@ -160,17 +161,17 @@ class ReachEvaluator:
     ) -> None:
         if split not in ("test", "val"):
             raise ValueError(f"ReachEvaluator.split: expected 'test' or 'val', got {split!r}")
-        unknown = sorted(set(methods) - set(CONTROLLERS))
+        unknown = sorted(set(methods) - set(POLICIES))
         if unknown:
             raise ValueError(
-                f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(CONTROLLERS)}"
+                f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(POLICIES)}"
             )
         if max_steps is not None and max_steps < 1:
             raise ValueError(f"ReachEvaluator.max_steps: expected an int >= 1 or null, got {max_steps}")
-        bad = sorted(set(colour_tta) - set(CONTROLLERS))
+        bad = sorted(set(colour_tta) - set(POLICIES))
         if bad:
             raise ValueError(
-                f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(CONTROLLERS)}"
+                f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(POLICIES)}"
             )
         self.colour_tta = tuple(colour_tta)
         self.scenario = scenario
@@ -273,10 +274,10 @@ class ReachEvaluator:
             checkpoints: ``{kind: path}`` of the policies to run (:meth:`resolve_checkpoints`).
             out_dir: run directory for the outputs (created).
         """
-        unknown = sorted(set(checkpoints) - set(CONTROLLERS))
+        unknown = sorted(set(checkpoints) - set(POLICIES))
         if unknown or not checkpoints:
             raise ValueError(
-                f"ReachEvaluator.run: checkpoints must map some of {sorted(CONTROLLERS)} to files, got {sorted(checkpoints)}"
+                f"ReachEvaluator.run: checkpoints must map some of {sorted(POLICIES)} to files, got {sorted(checkpoints)}"
             )
         t0 = time.perf_counter()
         out_dir = Path(out_dir)
@@ -317,7 +318,7 @@ class ReachEvaluator:
                     labels = [
                         (f"{c.obj.name} at placement {c.placement_index}", c.obj, c.placement) for c in cases
                     ]
-                    overlap = training_overlap(getattr(policy, "dataset_fingerprint", None), labels)
+                    overlap = training_overlap(policy.dataset_fingerprint, labels)
                     if overlap:
                         shown = "; ".join(overlap[:5]) + (
                             f"; ... ({len(overlap)} in all)" if len(overlap) > 5 else ""
@@ -390,7 +391,7 @@ class ReachEvaluator:
         continuous = robot.continuous.numpy()
         lower = np.where(continuous, -np.inf, robot.lower.numpy())
         upper = np.where(continuous, np.inf, robot.upper.numpy())
-        controller = CONTROLLERS[kind](policy, dt)
+        controller = policy.controller(dt)
         self._warm_up(scene, cases[0], controller, steps)
         traces = []
         for i, case in enumerate(cases):
@@ -409,7 +410,7 @@ class ReachEvaluator:
         return traces
 
     @staticmethod
-    def _warm_up(scene, case: Case, controller, steps: int) -> None:
+    def _warm_up(scene, case: Case, controller: Controller, steps: int) -> None:
         """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
         scene.reset(case.obj, case.placement, q=scene.robot.home.numpy())
         controller.start(steps)

@@ -1,28 +1,13 @@
-"""Closed-loop controllers: a visuomotor policy in a :class:`~lfd.sim.scene.ReachScene`
+"""Closed loops: a visuomotor policy's controller in a :class:`~lfd.sim.scene.ReachScene`
 (:func:`run_episode`), and learned forward + inverse models driving simulated arms
 (:func:`closed_loop_reach`).
 
-The policy is reached only through a *controller* that receives an :class:`Observation`:
-the fixed camera's RGB frame, the measured joint angles and the robot's clock (seconds
-since the episode started), nothing else. The scene (and
-with it the object's pose) never leaves :func:`run_episode`, so no policy can be given the
-object pose by construction.
-
-Controllers:
-
-* :class:`PlanController` (CNN -> DMP): one ``policy.plan(image, joints, n_steps=S + 1)``
-  call on the first observation of an episode of ``S`` control steps, then the planned
-  trajectory is tracked sample by sample (position control with velocity feed-forward,
-  like the demonstrations); the DMP plan covers the whole episode (past its duration it
-  keeps converging to its goal), and a shorter plan is held at its last sample.
-* :class:`VelocityController` (velocity baseline): ``policy.act(image, joints, time)``
-  every control step, executed by *velocity control* (``scene.step_velocity``): the
-  commanded joint velocity is the velocity the joints move at for the control period, as
-  the policy's labels are the demonstrations' joint motion per period,
-  ``(q[t+1] - q[t]) / dt`` (:func:`lfd.visuomotor.data.datasets.command_velocities`); commanding the
-  labels reproduces a demonstration (``tests/visuomotor/eval/test_eval_velocity_labels.py``). (Before
-  issue 12 it was a position target ``q + qd * dt`` plus ``qd`` as feed-forward, which
-  executed ~1.3x the command.)
+The policy is reached only through its controller (:class:`lfd.visuomotor.protocols.Controller`,
+from :meth:`lfd.visuomotor.policies.VisuomotorPolicy.controller`), which receives an
+:class:`~lfd.visuomotor.protocols.Observation`: the fixed camera's image, the measured joint
+angles and the robot's clock (seconds since the episode started), nothing else. The scene
+(and with it the object's pose) never leaves :func:`run_episode`, so no policy can be given
+the object pose by construction.
 
 Every command is clamped into the joint limits before execution: a position target (with
 no velocity feed-forward on the clamped joints), or a velocity that would leave the limits
@@ -30,14 +15,13 @@ within one control period (reduced to land on the limit); the number of steps wh
 needed it is counted as joint-limit violations. The scene caps velocities and torques at
 the URDF limits (:class:`~lfd.sim.scene.ReachScene`).
 
-:func:`closed_loop_reach` (Sawyer protocol, SPEC 5) needs no camera: a forward model
-estimates the tool position from the measured joints and an inverse model turns the
+:func:`closed_loop_reach` (the Sawyer protocol of thesis ch. 5) needs no camera: a forward
+model estimates the tool position from the measured joints and an inverse model turns the
 estimated error into joint velocities for a batch of arms (:mod:`lfd.sim.arms`).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -46,94 +30,16 @@ import torch
 from torch import Tensor
 
 from lfd.sim.depth import rgbd_image
+from lfd.visuomotor.protocols import Controller, Observation
 
 
-@dataclass(frozen=True)
-class Observation:
-    """What a policy may see at one control step.
-
-    Attributes:
-        image: ``(H, W, 3)`` uint8 RGB frame of the fixed camera, or ``(H, W, 4)`` RGB-D
-            (:func:`lfd.sim.depth.rgbd_image`) for a policy trained on depth (None at steps
-            where the controller said it does not look, to save rendering).
-        joints: ``(n,)`` float64 measured joint angles, rad.
-        time: seconds since the episode started (control step x control period).
-    """
-
-    image: np.ndarray
-    joints: np.ndarray
-    time: float = 0.0
-
-
-class PlanController:
-    """Runs a trajectory-planning policy (``plan(image, joints) -> (T, n)``) in closed loop."""
-
-    def __init__(self, policy, dt: float) -> None:
-        self.policy, self.dt = policy, dt
-        self.plan: np.ndarray | None = None
-        self.velocity: np.ndarray | None = None
-        self.horizon: int | None = None
-
-    @property
-    def needs_image(self) -> bool:
-        """Whether :meth:`command` will look at the image this step."""
-        return self.plan is None
-
-    def start(self, steps: int | None = None) -> None:
-        """A new episode of ``steps`` control steps (None: plan the policy's default length)."""
-        self.plan = self.velocity = None
-        self.horizon = None if steps is None else steps + 1
-
-    def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
-        """Joint position and velocity targets for control step ``step`` (0-based)."""
-        if self.plan is None:
-            t0 = time.perf_counter()
-            if self.horizon is None:
-                plan = self.policy.plan(obs.image, obs.joints)
-            else:
-                plan = self.policy.plan(obs.image, obs.joints, n_steps=self.horizon)
-            self.plan = np.asarray(plan, dtype=np.float64)
-            latencies.append((time.perf_counter() - t0) * 1e3)
-            self.velocity = np.gradient(self.plan, self.dt, axis=0)
-        k = step + 1
-        if k < len(self.plan):
-            return self.plan[k], self.velocity[k]
-        return self.plan[-1], np.zeros_like(self.plan[-1])
-
-
-class VelocityController:
-    """Runs a velocity policy (``act(image, joints, time) -> (n,)`` rad/s) every control step;
-    :meth:`command` returns the position one period ahead and the velocity, which
-    :func:`run_episode` executes by velocity control (:attr:`actuation`)."""
-
-    needs_image = True
-    actuation = "velocity"
-
-    def __init__(self, policy, dt: float) -> None:
-        self.policy, self.dt = policy, dt
-
-    def start(self, steps: int | None = None) -> None:
-        """Nothing to reset: the controller is stateless (it acts until the episode ends)."""
-
-    def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
-        t0 = time.perf_counter()
-        qd = np.asarray(self.policy.act(obs.image, obs.joints, obs.time), dtype=np.float64)
-        latencies.append((time.perf_counter() - t0) * 1e3)
-        return obs.joints + qd * self.dt, qd
-
-
-CONTROLLERS = {"cnn_dmp": PlanController, "velocity": VelocityController}
-
-
-def observe(scene, controller) -> np.ndarray:
+def observe(scene, controller: Controller) -> np.ndarray:
     """The fixed camera's image in the form ``controller``'s policy takes: RGB ``(H, W, 3)``,
-    or RGB-D ``(H, W, 4)`` uint8 when the policy has 4 input channels (one render call), its
-    depth channel in the policy's ``depth_encoding`` (``"relief"``: against the scene's
-    table plane)."""
-    policy = getattr(controller, "policy", None)
-    if getattr(policy, "input_channels", 3) == 4:
-        hparams = getattr(policy, "hparams", {})
-        relief = hparams.get("depth_encoding", "range") == "relief"
+    or RGB-D ``(H, W, 4)`` uint8 when it takes 4 input channels (one render call), its depth
+    channel in the controller's ``depth_encoding`` (``"relief"``: against the scene's table
+    plane)."""
+    if controller.input_channels == 4:
+        relief = controller.depth_encoding == "relief"
         reference = scene.camera.plane_depth_mm(scene.table_z) if relief else None
         return rgbd_image(*scene.render(with_depth=True), reference)
     return scene.render()
@@ -167,13 +73,14 @@ class EpisodeTrace:
 
 
 def run_episode(
-    scene, controller, steps: int, lower: np.ndarray, upper: np.ndarray, record_every: int = 0
+    scene, controller: Controller, steps: int, lower: np.ndarray, upper: np.ndarray, record_every: int = 0
 ) -> EpisodeTrace:
     """Run ``controller`` for ``steps`` control steps in ``scene`` (already reset with the object).
 
     Args:
         scene: a :class:`~lfd.sim.scene.ReachScene` (never handed to the controller).
-        controller: :class:`PlanController` or :class:`VelocityController`.
+        controller: the policy's :class:`~lfd.visuomotor.protocols.Controller` (executed as its
+            ``actuation`` says).
         lower, upper: ``(n,)`` joint limits used to clamp commands (``-inf``/``inf`` for
             continuous joints).
         record_every: keep a camera frame every this many steps for a GIF (0: none).
@@ -204,7 +111,7 @@ def run_episode(
         clamped = np.clip(q_target, lower, upper)
         outside = clamped != q_target
         violations += int(outside.any())
-        if getattr(controller, "actuation", "position") == "velocity":
+        if controller.actuation == "velocity":
             # the commanded velocity, reduced where it would leave the limits within the period
             scene.step_velocity(np.where(outside, (clamped - q) / controller.dt, qd_target))
         else:

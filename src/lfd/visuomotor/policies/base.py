@@ -2,10 +2,12 @@
 
 A policy sees only what a robot's own sensors give it: the fixed camera's RGB image and
 the arm's joint angles. Subclasses define the network, the loss, the dataset item mode
-they train on and a closed-loop method (``plan`` or ``act``).
+they train on and their one inference interface, :meth:`VisuomotorPolicy.controller`
+(a :class:`~lfd.visuomotor.protocols.Controller` the closed-loop evaluator steps).
 
 Normalisation statistics (train split of the dataset, see :mod:`lfd.visuomotor.data.stats`) are
-copied from the datamodule at ``setup("fit")`` into persistent buffers, so a checkpoint
+copied from the datamodule (:class:`~lfd.visuomotor.protocols.PolicyData`) at ``setup("fit")``
+into persistent buffers, so a checkpoint
 carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
 """
 
@@ -31,6 +33,7 @@ from lfd.visuomotor.policies.vision import (
     permute_colour_channels,
     scale_foreground_brightness,
 )
+from lfd.visuomotor.protocols import Controller, GeneratedPolicyData, PolicyData
 
 #: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
 ONECYCLE_PCT_START = 0.3
@@ -81,9 +84,7 @@ class VisuomotorPolicy(L.LightningModule):
             shared features encode *what* the object is and *where* its target lies.
         mode_heads: one output head per approach mode (side, top) instead of one for both
             (needs ``aux_weight > 0``: the auxiliary mode logit picks the head at run time;
-            in training the demonstration's own mode does). A single regression head
-            blends the two modes' very different postures where it is unsure of the mode,
-            which is wrong for both; two heads each learn one mode's smooth mapping.
+            in training the demonstration's own mode does).
         plot_every_n_val: a validation sample plot goes to TensorBoard at every this many
             validation runs (0: never).
         kind: when given (from a checkpoint), must equal the class's :attr:`kind` (checked
@@ -91,8 +92,8 @@ class VisuomotorPolicy(L.LightningModule):
         unknown: any other keyword raises ``TypeError``.
 
     Subclasses set :attr:`kind` and :attr:`item_mode`, call :meth:`_build` at the end of
-    ``__init__`` and define ``losses(batch) -> {"loss": ..., ...}`` (scalar tensors) and
-    ``sample_figure(batch) -> matplotlib figure``.
+    ``__init__`` and define ``losses(batch) -> {"loss": ..., ...}`` (scalar tensors),
+    ``sample_figure(batch) -> matplotlib figure`` and :meth:`controller`.
     """
 
     #: Fixed identifier of the policy family, stored in the checkpoint's hyper-parameters.
@@ -186,6 +187,17 @@ class VisuomotorPolicy(L.LightningModule):
     def input_channels(self) -> int:
         """Image channels the policy takes: 3 (RGB) or 4 (RGB-D, ``depth``)."""
         return self.encoder.in_channels
+
+    @property
+    def depth_encoding(self) -> str:
+        """The RGB-D depth channel's encoding (``"range"`` for checkpoints older than the option)."""
+        return self.hparams.get("depth_encoding", "range")
+
+    def controller(self, dt: float) -> Controller:
+        """The policy's one inference interface: a new closed-loop controller with control
+        period ``dt`` (s), which the evaluator starts once per episode and steps every period
+        (:func:`lfd.visuomotor.eval.rollout.run_episode`)."""
+        raise NotImplementedError(f"{type(self).__name__} defines no controller")
 
     def _build(self, output_dim: int, stat_shapes: dict[str, tuple[int, ...]], extra_inputs: int = 0) -> None:
         """Subclasses call this at the end of ``__init__``: the fully connected head with
@@ -362,30 +374,36 @@ class VisuomotorPolicy(L.LightningModule):
 
     # ------------------------------------------------------------------ Lightning hooks
     def setup(self, stage: str) -> None:
+        """Lightning hook, at ``fit``: check the datamodule (:class:`PolicyData`) against the
+        hyper-parameters and copy its statistics into the buffers; a generated dataset
+        (:class:`GeneratedPolicyData`) also gives the served depth and the fingerprint.
+
+        Raises:
+            RuntimeError: the trainer has no datamodule offering :class:`PolicyData`.
+            ValueError: its item mode, data settings or depth encoding differ from the policy's.
+        """
         if stage != "fit":
             return
-        dm = getattr(self.trainer, "datamodule", None)
-        stats = getattr(dm, "stats", None)
-        if stats is None:
+        dm = self.trainer.datamodule
+        if not isinstance(dm, PolicyData):
             raise RuntimeError(
                 f"{type(self).__name__} needs a datamodule with normalisation statistics (ReachDataModule)"
             )
-        mode = getattr(dm, "mode", self.item_mode)
-        if mode != self.item_mode:
+        if dm.mode != self.item_mode:
             raise ValueError(
-                f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {mode!r}"
+                f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {dm.mode!r}"
             )
-        config = getattr(dm, "config", None)
-        if config is not None:
-            self.check_data(config, depth=getattr(dm, "input_depth", None))
-        served = getattr(dm, "depth_encoding", "range")
-        if self.hparams.depth and served != self.hparams.get("depth_encoding", "range"):
+        generated = isinstance(dm, GeneratedPolicyData)
+        if dm.config is not None:
+            self.check_data(dm.config, depth=dm.input_depth if generated else None)
+        served = dm.depth_encoding if generated else "range"
+        if self.hparams.depth and served != self.depth_encoding:
             raise ValueError(
-                f"{type(self).__name__} was built with depth_encoding={self.hparams.get('depth_encoding', 'range')!r}, "
+                f"{type(self).__name__} was built with depth_encoding={self.depth_encoding!r}, "
                 f"the datamodule serves depth_encoding={served!r}"
             )
-        fingerprint = getattr(dm, "fingerprint", None)
-        self.dataset_fingerprint = fingerprint() if callable(fingerprint) else None
+        self.dataset_fingerprint = dm.fingerprint() if generated else None
+        stats = dm.stats
         for stat in self.stat_names:
             for moment in ("mean", "std"):
                 buffer = getattr(self, f"{stat}_{moment}")
@@ -450,27 +468,3 @@ class VisuomotorPolicy(L.LightningModule):
         hp = self.hparams
         groups = [{"params": list(self.parameters()), "lr": hp.lr, "weight_decay": hp.weight_decay}]
         return make_optimizer(self, groups, hp.scheduler, pct_start=ONECYCLE_PCT_START)
-
-
-def joint_figure(
-    t: np.ndarray, predicted: np.ndarray, demonstrated: np.ndarray, title: str, ylabel: str = "rad"
-):
-    """Figure with one panel per joint: ``predicted`` vs ``demonstrated`` ``(T, n)`` over ``t (T,)`` s."""
-    import matplotlib.pyplot as plt
-
-    n = predicted.shape[1]
-    cols = 4
-    rows = math.ceil(n / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.4 * rows), sharex=True, squeeze=False)
-    for j, ax in enumerate(axes.flat):
-        if j >= n:
-            ax.axis("off")
-            continue
-        ax.plot(t, demonstrated[:, j], "k-", lw=1.5, label="demonstrated")
-        ax.plot(t, predicted[:, j], "r--", lw=1.5, label="predicted")
-        ax.set_title(f"joint {j}", fontsize=9)
-        ax.set_ylabel(ylabel, fontsize=8)
-    axes.flat[0].legend(fontsize=7)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    return fig

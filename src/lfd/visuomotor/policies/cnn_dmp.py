@@ -16,7 +16,9 @@ import torch
 from torch.nn import functional as F
 
 from lfd.dmp import DMPLayer
-from lfd.visuomotor.policies.base import VisuomotorPolicy, joint_figure
+from lfd.visuomotor.policies.base import VisuomotorPolicy
+from lfd.visuomotor.policies.control import PlanController
+from lfd.visuomotor.policies.plots import joint_figure
 
 LOSSES = ("trajectory", "params")
 
@@ -158,9 +160,14 @@ class CNNDMPPolicy(VisuomotorPolicy):
             t, predicted, batch["trajectory"][0].cpu().numpy(), f"CNN->DMP, episode {int(batch['index'][0])}"
         )
 
+    def controller(self, dt: float) -> PlanController:
+        """A :class:`~lfd.visuomotor.policies.control.PlanController`: one :meth:`plan` on the
+        episode's first observation, then the plan tracked every ``dt`` (s)."""
+        return PlanController(self, dt)
+
     @torch.inference_mode()
     def plan(self, image, joints, n_steps: int | None = None) -> np.ndarray:
-        """Closed-loop entry point: camera image(s) uint8 ``(H, W, 3)`` / ``(B, H, W, 3)`` and
+        """The planning call of :meth:`controller`: camera image(s) uint8 ``(H, W, 3)`` / ``(B, H, W, 3)`` and
         current joints ``(n,)`` / ``(B, n)`` rad -> planned joint trajectory ``(T, n)`` /
         ``(B, T, n)`` rad (float64), sampled every :attr:`control_dt` seconds, starting at
         ``joints``; ``T = n_steps`` (default: the demonstrations' length; longer plans run the

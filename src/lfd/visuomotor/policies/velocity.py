@@ -34,7 +34,9 @@ import torch
 from torch.nn import functional as F
 
 from lfd.visuomotor.data.stats import STD_FLOOR
-from lfd.visuomotor.policies.base import VisuomotorPolicy, joint_figure
+from lfd.visuomotor.policies.base import VisuomotorPolicy
+from lfd.visuomotor.policies.control import VelocityController
+from lfd.visuomotor.policies.plots import joint_figure
 
 #: Item key of the training label (rad/s, the velocity to command for the next period).
 LABEL = "command"
@@ -94,8 +96,8 @@ class VelocityPolicy(VisuomotorPolicy):
         super().setup(stage)
         if stage != "fit":
             return
-        train = getattr(self.trainer.datamodule, "datasets", {}).get("train")
-        tensors = getattr(train, "tensors", {})
+        train = self.trainer.datamodule.datasets.get("train")  # PolicyData, checked by super().setup
+        tensors = train.tensors if train is not None else {}
         if LABEL not in tensors:
             raise ValueError(
                 f"VelocityPolicy: the train items have no '{LABEL}' (velocity command) key; got {sorted(tensors)}"
@@ -135,9 +137,14 @@ class VelocityPolicy(VisuomotorPolicy):
             t, predicted, demo, f"velocity policy (integrated), episode {int(batch['index'][0])}"
         )
 
+    def controller(self, dt: float) -> VelocityController:
+        """A :class:`~lfd.visuomotor.policies.control.VelocityController`: :meth:`act` every
+        control period ``dt`` (s), executed by velocity control."""
+        return VelocityController(self, dt)
+
     @torch.inference_mode()
     def act(self, image, joints, time=None) -> np.ndarray:
-        """Closed-loop entry point: camera image(s) uint8 ``(H, W, 3)`` / ``(B, H, W, 3)``,
+        """The per-step call of :meth:`controller`: camera image(s) uint8 ``(H, W, 3)`` / ``(B, H, W, 3)``,
         current joints ``(n,)`` / ``(B, n)`` rad and the time since the episode started (s,
         scalar or ``(B,)``; needed with ``phase_input``) -> joint velocity command ``(n,)`` /
         ``(B, n)`` rad/s (float64) for the next control period."""
