@@ -1,7 +1,7 @@
 """Teach by dragging: program an arm in a browser 3-D scene, or with a 2-D joint panel.
 
-SPEC section 7 (the thesis' VARM system). :class:`TeachSession` is the whole logic
-(IK, collisions, recording, export, Send) and runs without a browser;
+The thesis' VARM teaching system, described in docs/teach.md. :class:`TeachSession` is the
+whole logic (IK, collisions, recording, export, Send) and runs without a browser;
 :class:`~lfd.teach.server.TeachServer` puts it behind a local viser web app
 (``python scripts/teach.py robot=wam4 scene=configs/teach/boxes.yaml``).
 

@@ -42,7 +42,6 @@ import torch
 
 from lfd.robots import ChainKinematics, Robot, wam4_ik_closed_form
 
-
 __all__ = ["DragIK", "IKStep", "as_rotation"]
 
 WAM_Q3_MODES = ("fixed", "free")
@@ -171,7 +170,8 @@ class DragIK:
         if orientation is not None:
             if self.robot.n_dof < 6:
                 raise ValueError(
-                    f"{self.robot.name} has {self.robot.n_dof} joints: it cannot follow an orientation; pass orientation=None"
+                    f"{self.robot.name} has {self.robot.n_dof} joints: it cannot follow an orientation; "
+                    "pass orientation=None"
                 )
             rot = as_rotation(orientation)
         if self.closed_form and rot is None:

@@ -397,7 +397,10 @@ class TeachServer:
         if self.executed_line is not None:
             self.executed_line.remove()
         self.executed_line = self._draw_path("/paths/executed", res.executed.tool, (255, 140, 0))
-        self.status_text = f"sent: final error {res.final_error * 100:.2f} cm, max deviation {res.max_path_deviation * 100:.2f} cm"
+        self.status_text = (
+            f"sent: final error {res.final_error * 100:.2f} cm, "
+            f"max deviation {res.max_path_deviation * 100:.2f} cm"
+        )
 
     def _add_box(self) -> None:
         box = self.session.add_obstacle(np.array(self.box_center.value), np.array(self.box_size.value))

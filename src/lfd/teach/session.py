@@ -9,10 +9,11 @@ bounded-time IK (:class:`~lfd.teach.drag_ik.DragIK`). An update is *refused* (th
 stays at its last accepted configuration) when the IK step would change a joint by more
 than ``max_joint_step`` rad, when the target is out of reach and the best-effort pose
 is no closer to it, or when the new configuration is in collision (arm - obstacle, arm -
-table, self) anywhere on its joint-space segment from the last accepted configuration
-(checked every ``sweep_resolution`` rad, so a fast drag cannot pass through a thin wall). Recording starts on the first accepted drag (its first sample is the
-configuration before it) and ends when the tool enters the goal region or on
-:meth:`stop`.
+table, self; :mod:`lfd.sim.collision`) anywhere on its joint-space segment from the last
+accepted configuration (checked every ``sweep_resolution`` rad, :func:`lfd.teach.checks.sweep`,
+so a fast drag cannot pass through a thin wall). Recording starts on the first accepted
+drag (its first sample is the configuration before it) and ends when the tool enters the
+goal region or on :meth:`stop`.
 
 **2-D panel** (the baseline): :meth:`set_joints` (the sliders) and :meth:`move_to` (the
 x/y/z entry, IK) move the arm, with the same collision rule; :meth:`store` appends the
@@ -20,7 +21,8 @@ current configuration as a waypoint, refused when the joint-space segment from t
 previous waypoint passes through a collision; the recording is the waypoint path
 (minimum-jerk segments timed by ``panel_speed``). Recording starts on the first arm
 motion of the panel and ends when a stored waypoint puts the tool in the goal, or on
-:meth:`stop`.
+:meth:`stop`. The panel's actions live in :mod:`lfd.teach.panel`, the recording state
+machine in :mod:`lfd.teach.recording`, obstacle editing in :mod:`lfd.teach.obstacles`.
 
 **Collisions** counts collision *events*: runs of consecutive refused updates count as
 one (the user pushing into an obstacle for 20 updates made one collision);
@@ -43,17 +45,21 @@ Example::
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from lfd.robots import ChainKinematics, available_robots, load_robot
 from lfd.sim.collision import CollisionWorld
 
+from .checks import check_vector, sweep, validate_scene
 from .drag_ik import DragIK, IKStep
+from .latency import latency_summary
+from .obstacles import add_box
+from .panel import PanelMixin
+from .recording import RecordingMixin
+from .results import DragResult, Recording
 from .scene import Box, TeachScene, load_scene
 
 __all__ = ["TEACH_ROBOTS", "DragResult", "Recording", "TeachSession"]
@@ -63,59 +69,7 @@ TEACH_ROBOTS = ("wam4", "pr2_right_arm", "sawyer")
 MODES = ("3d", "2d")
 
 
-@dataclass(frozen=True)
-class DragResult:
-    """Outcome of one drag update (or panel move).
-
-    Attributes:
-        accepted: the arm moved to the new configuration.
-        q: (n,) configuration after the update (the old one when refused), rad.
-        in_collision: the candidate configuration was in collision (so it was refused).
-        reached_goal: the tool is inside the goal region after the update.
-        reachable: IK put the tool on the target (False: workspace boundary, best effort).
-        reason: ``"ok"``, ``"best_effort"`` (accepted, target out of reach),
-            ``"collision"``, ``"joint_jump"``, ``"unreachable"``.
-        tool: (3,) tool position after the update, m.
-        target: (3,) requested tool position, m.
-        latency: seconds spent in IK + collision check.
-        detail: collision kind or IK note, for the UI.
-    """
-
-    accepted: bool
-    q: np.ndarray
-    in_collision: bool
-    reached_goal: bool
-    reachable: bool = True
-    reason: str = "ok"
-    tool: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    target: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    latency: float = 0.0
-    detail: str = ""
-
-
-@dataclass(frozen=True)
-class Recording:
-    """A recorded demonstration: ``t`` (N,) s from 0, strictly increasing; ``q`` (N, n) rad;
-    ``tool`` (N, 3) m (tool positions, base frame)."""
-
-    t: np.ndarray
-    q: np.ndarray
-    tool: np.ndarray
-
-    def __len__(self) -> int:
-        return int(self.t.shape[0])
-
-    @property
-    def path_length(self) -> float:
-        """Length of the tool path, m."""
-        return float(np.linalg.norm(np.diff(self.tool, axis=0), axis=1).sum()) if len(self) > 1 else 0.0
-
-
-def _min_jerk(s: np.ndarray) -> np.ndarray:
-    return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
-
-
-class TeachSession:
+class TeachSession(RecordingMixin, PanelMixin):
     """Session logic of the teach interface (see the module docstring).
 
     Args:
@@ -185,7 +139,7 @@ class TeachSession:
         self.start = np.asarray(start, dtype=float)
         self.checker = CollisionWorld(self.robot, self.scene.obstacles, self.scene.table_z, margin)
         if validate:
-            self._validate()
+            validate_scene(self.robot, robot, self.scene, self.start, self.checker)
         self.q = self.start.copy()
         self.collisions = 0
         self.counters: dict[str, int] = {
@@ -203,36 +157,6 @@ class TeachSession:
         self._refusing = False
         self._reset_recording()
         self.last_send = None
-
-    # ------------------------------------------------------------------ validation
-    def _validate(self) -> None:
-        spec = self.robot.spec
-        bad = np.where(
-            ~spec.continuous & ((self.start < spec.lower - 1e-9) | (self.start > spec.upper + 1e-9))
-        )[0]
-        if bad.size:
-            j = int(bad[0])
-            raise ValueError(
-                f"scene field 'start': joint {j} = {self.start[j]:.3f} rad is outside [{spec.lower[j]:.3f}, {spec.upper[j]:.3f}]"
-            )
-        for i, box in enumerate(self.scene.obstacles):
-            if self.checker.base_overlaps(box):
-                raise ValueError(
-                    f"scene field 'obstacles[{i}]' overlaps the robot base (centre {box.center.tolist()})"
-                )
-        report = self.checker.check(self.start)
-        if report.in_collision:
-            raise ValueError(
-                f"scene field 'start': the start pose is in collision ({report.kind}: {report.detail})"
-            )
-        goal = self.scene.goal
-        if goal is not None:
-            res = self.robot.ik(goal.center[None], restarts=64, tol_pos=1e-3)
-            if float(res.pos_error[0]) > goal.radius:
-                raise ValueError(
-                    f"scene field 'goal': unreachable for {self.robot_name}: no configuration within the joint limits "
-                    f"puts the tool within {goal.radius} m of {goal.center.tolist()} (closest {float(res.pos_error[0]):.3f} m)"
-                )
 
     # ------------------------------------------------------------------ state
     @property
@@ -261,15 +185,6 @@ class TeachSession:
     def in_goal(self) -> bool:
         return self.scene.goal is not None and self.scene.goal.contains(self.tool_position)
 
-    def _reset_recording(self) -> None:
-        self.recording_state = "idle"  # idle -> recording -> done
-        self._t: list[float] = []
-        self._q: list[np.ndarray] = []
-        self._tool: list[np.ndarray] = []
-        self._waypoints: list[np.ndarray] = []
-        self._t0 = 0.0
-        self.end_reason: str | None = None
-
     def clear(self) -> None:
         """Forget the recording (and the last Send) and put the arm back at the start
         (counters kept: they count the whole session)."""
@@ -277,64 +192,6 @@ class TeachSession:
         self.last_send = None
         self.q = self.start.copy()
         self._refusing = False
-
-    def _append(self, q: np.ndarray) -> None:
-        t = self.clock() - self._t0
-        if self._t and t <= self._t[-1]:
-            t = self._t[-1] + 1e-3
-        self._t.append(float(t))
-        self._q.append(q.copy())
-        self._tool.append(self.kin.tool_position(q))
-
-    def _begin(self) -> None:
-        self.recording_state = "recording"
-        self._t0 = self.clock()
-        if self._mode == "3d":
-            self._t, self._q, self._tool = [0.0], [self.q.copy()], [self.tool_position]
-        else:
-            self._waypoints = [self.q.copy()]
-
-    def _finish(self, reason: str) -> None:
-        self.recording_state = "done"
-        self.end_reason = reason
-
-    def stop(self) -> None:
-        """End the recording (the Stop button)."""
-        if self.recording_state == "recording":
-            self._finish("stop")
-
-    @property
-    def recorded(self) -> Recording:
-        """The demonstration so far: drag samples (3-D) or the waypoint path (2-D)."""
-        if self._mode == "2d":
-            t, q = self._waypoint_path(self._waypoints)
-            tool = np.array([self.kin.tool_position(x) for x in q]).reshape(-1, 3)
-        else:
-            t, q = np.array(self._t, dtype=float), np.array(self._q, dtype=float).reshape(-1, self.n_dof)
-            tool = np.array(self._tool, dtype=float).reshape(-1, 3)
-        return Recording(t, q, tool)
-
-    @property
-    def waypoints(self) -> np.ndarray:
-        """(W, n) stored waypoints of the 2-D panel, rad."""
-        return np.array(self._waypoints, dtype=float).reshape(-1, self.n_dof)
-
-    def _waypoint_path(
-        self, waypoints: list[np.ndarray], rate: float = 50.0
-    ) -> tuple[np.ndarray, np.ndarray]:
-        if len(waypoints) < 2:
-            q = np.array(waypoints, dtype=float).reshape(-1, self.n_dof)
-            return np.arange(len(q), dtype=float), q
-        ts, qs, t0 = [0.0], [waypoints[0]], 0.0
-        for a, b in zip(waypoints[:-1], waypoints[1:], strict=True):
-            duration = max(float(np.max(np.abs(b - a))) / self.panel_speed, 0.5)
-            k = max(int(math.ceil(duration * rate)), 2)
-            s = np.linspace(0.0, 1.0, k + 1)[1:]
-            seg = a + _min_jerk(s)[:, None] * (b - a)
-            ts.extend((t0 + s * duration).tolist())
-            qs.extend(seg)
-            t0 += duration
-        return np.array(ts), np.array(qs)
 
     # ------------------------------------------------------------------ shared rule
     def _refuse(
@@ -361,26 +218,11 @@ class TeachSession:
         )
 
     def _check_vector(self, x, length: int, name: str) -> np.ndarray:
-        try:
-            arr = np.asarray(x, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"{name} must be {length} numbers, got {x!r}") from None
-        if arr.shape != (length,):
-            raise ValueError(f"{name} must have shape ({length},), got {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} contains NaN or inf: {arr.tolist()}")
-        return arr
+        return check_vector(x, length, name)
 
     def _sweep(self, q_from: np.ndarray, q_to: np.ndarray):
-        """Collision report of the straight joint-space motion ``q_from -> q_to``, checked
-        every ``sweep_resolution`` rad of the largest joint change (end included), so
-        one update cannot jump through a thin obstacle."""
-        steps = max(1, int(math.ceil(float(np.max(np.abs(q_to - q_from))) / self.sweep_resolution)))
-        for s in np.linspace(0.0, 1.0, steps + 1)[1:][::-1]:  # the end first: most refusals are there
-            report = self.checker.check(q_from + s * (q_to - q_from))
-            if report.in_collision:
-                return report
-        return report
+        """Collision report of the joint-space segment ``q_from -> q_to`` (:func:`~lfd.teach.checks.sweep`)."""
+        return sweep(self.checker, q_from, q_to, self.sweep_resolution)
 
     # ------------------------------------------------------------------ 3-D mode
     def drag(self, position, orientation=None) -> DragResult:
@@ -437,103 +279,15 @@ class TeachSession:
             latency=latency,
         )
 
-    # ------------------------------------------------------------------ 2-D panel
-    def set_joints(self, q) -> DragResult:
-        """The sliders: put the arm at ``q`` (n,) rad if it is collision-free (else refused).
-
-        Raises:
-            ValueError: wrong length, NaN, a joint outside its limits (named).
-        """
-        q = self._check_vector(q, self.n_dof, "q")
-        spec = self.robot.spec
-        for j in range(self.n_dof):
-            if not spec.continuous[j] and not spec.lower[j] - 1e-9 <= q[j] <= spec.upper[j] + 1e-9:
-                raise ValueError(
-                    f"joint {j} ({spec.joint_names[j]}) = {q[j]:.4f} rad is outside [{spec.lower[j]:.4f}, {spec.upper[j]:.4f}]"
-                )
-        q = self.ik._clamp(q)
-        tic = time.perf_counter()
-        self.counters["panel_moves"] += 1
-        report = self._sweep(self.q, q)
-        latency = time.perf_counter() - tic
-        target = self.kin.tool_position(q)
-        if report.in_collision:
-            return self._refuse("collision", target, None, latency, report.kind or "")
-        return self._accept(q, target, True, latency)
-
-    def move_to(self, position, orientation=None) -> DragResult:
-        """The x/y/z entry: IK (from the current configuration, with restarts if that
-        fails) to ``position`` (3,) m, then the same rule as :meth:`set_joints`;
-        refused (``"unreachable"``) when no configuration reaches it within 1 mm."""
-        target = self._check_vector(position, 3, "position")
-        tic = time.perf_counter()
-        rot = None if orientation is None else orientation
-        step = DragIK(self.robot, time_budget=0.2, wam_q3=self.ik.wam_q3).solve(self.q, target, rot)
-        if not step.reached:
-            res = self.robot.ik(target[None], self.q[None], restarts=32, tol_pos=1e-4)
-            if bool(res.success[0]):
-                step = IKStep(res.q[0].numpy(), True, float(res.pos_error[0]), 0.0, 0, False, "lm")
-        if not step.reached:
-            self.counters["panel_moves"] += 1
-            return self._refuse("unreachable", target, step, time.perf_counter() - tic, "no IK solution")
-        result = self.set_joints(step.q)
-        return result
-
-    def store(self) -> bool:
-        """Store the current configuration as a waypoint (2-D). Returns False (and counts a
-        collision) when the joint-space segment from the previous waypoint collides."""
-        if self._mode != "2d":
-            raise ValueError("store() is the 2-D panel's action; this session is in mode '3d'")
-        if self.recording_state == "done":
-            return False
-        if self.recording_state == "idle":
-            self._begin()
-        self.counters["stores"] += 1
-        if self._sweep(self._waypoints[-1], self.q).in_collision:
-            self.counters["refused_stores"] += 1
-            self._refuse("collision", self.tool_position, None, 0.0, "segment")
-            return False
-        self._refusing = False
-        self._waypoints.append(self.q.copy())
-        if self.in_goal:
-            self._finish("goal")
-        return True
-
-    def go_home(self) -> None:
-        """Put the arm back at the scene's start pose (not recorded)."""
-        self.q = self.start.copy()
-
     # ------------------------------------------------------------------ scene edits
     def add_obstacle(self, center, size, yaw_deg: float = 0.0) -> Box:
         """Add a box obstacle (the UI's "Add box"); refused with ``ValueError`` when it
-        overlaps the robot base or the arm where it stands now."""
-        box = Box(
-            self._check_vector(center, 3, "center"),
-            self._check_vector(size, 3, "size"),
-            math.radians(float(yaw_deg)),
-        )
-        if np.any(box.size <= 0):
-            raise ValueError(f"size must be positive (m), got {box.size.tolist()}")
-        if self.checker.base_overlaps(box):
-            raise ValueError(f"obstacle at {box.center.tolist()} overlaps the robot base")
-        self.checker.add_obstacle(box)
-        if self.checker.check(self.q).in_collision:
-            self.checker.remove_obstacle(box)
-            raise ValueError(f"obstacle at {box.center.tolist()} overlaps the arm in its current pose")
+        overlaps the robot base or the arm where it stands now (:func:`lfd.teach.obstacles.add_box`)."""
+        box = add_box(self.checker, self.q, center, size, yaw_deg)
         self.scene = self.scene.with_obstacle(box)
         return box
 
     # ------------------------------------------------------------------ playback, export, send
-    def playback(self, rate: float = 30.0) -> np.ndarray:
-        """(F, n) configurations replaying the recording in real time at ``rate`` frames/s."""
-        rec = self.recorded
-        if len(rec) == 0:
-            return np.zeros((0, self.n_dof))
-        if len(rec) == 1:
-            return rec.q.copy()
-        times = np.arange(0.0, rec.t[-1] + 1e-9, 1.0 / rate)
-        return np.stack([np.interp(times, rec.t, rec.q[:, j]) for j in range(self.n_dof)], axis=1)
-
     def fit_dmp(self, n_samples: int = 200, n_basis: int = 30):
         """Fit a DMP to the recording resampled on a uniform grid (see :mod:`lfd.teach.export`)."""
         from .export import fit_recording_dmp
@@ -557,7 +311,6 @@ class TeachSession:
 
     def summary(self) -> dict:
         """Counters for the UI and the JSON export."""
-        lat = np.array(self.latencies) if self.latencies else np.zeros(1)
         return {
             "robot": self.robot_name,
             "mode": self._mode,
@@ -566,8 +319,7 @@ class TeachSession:
             "samples": len(self._t) if self._mode == "3d" else len(self._waypoints),
             "collisions": self.collisions,
             "counters": dict(self.counters),
-            "latency_median_ms": float(np.median(lat) * 1e3),
-            "latency_p95_ms": float(np.percentile(lat, 95) * 1e3),
+            **latency_summary(self.latencies),
         }
 
     def close(self) -> None:
