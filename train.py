@@ -19,6 +19,8 @@ from __future__ import annotations
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
+from lfd.training import Adaptable, AdaptationSource
+
 
 def _instantiate_group(group: DictConfig | None) -> list:
     """Instantiate every ``_target_`` entry of a config group mapping (callbacks, loggers)."""
@@ -37,9 +39,8 @@ def main(cfg: DictConfig) -> str | None:
     callbacks = _instantiate_group(cfg.get("callbacks"))
     loggers = _instantiate_group(cfg.get("logger"))
     trainer = hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False)
-    # Models that take normalisation statistics (and demonstrations) from their training
-    # data get them here, as plain objects: the model never reaches into the datamodule.
-    if callable(getattr(model, "adapt", None)) and callable(getattr(datamodule, "adaptation_data", None)):
+    # a model that takes statistics (and demonstrations) from its data gets them as plain objects
+    if isinstance(model, Adaptable) and isinstance(datamodule, AdaptationSource):
         model.adapt(datamodule.adaptation_data())
 
     if trainer.is_global_zero:
@@ -65,8 +66,10 @@ def main(cfg: DictConfig) -> str | None:
                 step = torch.load(ckpt, map_location="cpu", weights_only=False, mmap=True).get(
                     "global_step"
                 )  # no tensor is read
+                best = float(callback.best_model_score)
                 print(
-                    f"[lfd]   the best {callback.monitor} on validation ({float(callback.best_model_score):.4g}), at step {step} of {trainer.global_step}"
+                    f"[lfd]   the best {callback.monitor} on validation ({best:.4g}), "
+                    f"at step {step} of {trainer.global_step}"
                 )
     return ckpt
 

@@ -54,3 +54,37 @@ def test_experiment_fast_dev_run(compose, tiny_reaching, tmp_path_factory, capsy
     )
     train.main(cfg)  # instantiates datamodule, model, callbacks, loggers, trainer; fits one batch
     assert f"[lfd] run directory: {run}" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("experiment", ["quick", "original"])
+def test_experiment_specialises_each_policy(compose, experiment):
+    """configs/experiment_model/<experiment>_<model>.yaml gives each policy its own options."""
+    dmp = compose("train", f"experiment={experiment}", "model=cnn_dmp")
+    vel = compose("train", f"experiment={experiment}", "model=velocity")
+    assert (dmp.model.global_pool, dmp.model.aux_weight, dmp.model.mode_heads) == (True, 1.0, True)
+    assert (vel.model.global_pool, vel.model.aux_weight, vel.model.mode_heads) == (False, 0.0, False)
+    assert dmp.callbacks.model_checkpoint.monitor == "val/final_ee_err_m"
+    assert vel.callbacks.model_checkpoint.monitor == "val/loss"
+    if experiment == "quick":  # one RGB-D dataset: CNN -> DMP reads its relief depth, the velocity CNN RGB
+        assert dmp.data.name == vel.data.name and dmp.data.depth and vel.data.depth
+        assert (dmp.data.input_depth, dmp.data.depth_encoding) == (True, "relief")
+        assert (vel.data.input_depth, vel.data.depth_encoding) == (False, "range")
+        assert (dmp.model.depth, vel.model.depth) == (True, False)
+    # a command-line override still wins over the specialization
+    relief = compose("train", f"experiment={experiment}", "model=velocity", "data.depth_encoding=relief")
+    assert relief.model.depth_encoding == "relief"
+
+
+def test_evaluators_satisfy_the_entry_points_protocol(compose):
+    """Every configs/eval/*.yaml names an lfd.training.Evaluator; experiment=quick switches on
+    CNN -> DMP's colour averaging (configs/eval_experiment/reach_quick.yaml), nothing else does."""
+    import hydra
+
+    from lfd.training import Evaluator
+
+    for name in ("reach", "sawyer"):
+        cfg = compose("evaluate", f"eval={name}")
+        assert isinstance(hydra.utils.instantiate(cfg.eval, _recursive_=False), Evaluator), name
+    assert list(compose("evaluate", "experiment=quick").eval.colour_tta) == ["cnn_dmp"]
+    assert list(compose("evaluate", "experiment=original").eval.colour_tta) == []
+    assert "global_pool" not in compose("evaluate", "experiment=original").model  # no policy options

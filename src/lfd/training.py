@@ -1,5 +1,8 @@
-"""Training helpers shared by every LightningModule of :mod:`lfd.visuomotor.policies`: activations by
-name, AdamW with a per-step learning-rate schedule, and hyper-parameters saved per module.
+"""Training helpers shared by the LightningModules of :mod:`lfd.visuomotor.policies` and
+:mod:`lfd.model_reaching`: activations by name, AdamW with a per-step learning-rate schedule,
+hyper-parameters saved per module; and the protocols the entry points rely on:
+:class:`Adaptable` / :class:`AdaptationSource` (``train.py``: a model that takes plain data from
+its datamodule before fitting) and :class:`Evaluator` (``evaluate.py``).
 
 Example::
 
@@ -11,13 +14,24 @@ Example::
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
 
 import lightning as L
 import torch
 from torch import nn
 
-__all__ = ["ACTIVATIONS", "SCHEDULERS", "make_activation", "make_optimizer", "save_own_hyperparameters"]
+__all__ = [
+    "ACTIVATIONS",
+    "SCHEDULERS",
+    "Adaptable",
+    "AdaptationSource",
+    "Evaluator",
+    "make_activation",
+    "make_optimizer",
+    "save_own_hyperparameters",
+]
 
 #: Hidden activations by name (``activation`` in the model configs).
 ACTIVATIONS = {"silu": nn.SiLU, "gelu": nn.GELU, "relu": nn.ReLU, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid}
@@ -60,3 +74,51 @@ def make_optimizer(
             opt, max_lr=[g["lr"] for g in groups], total_steps=total + 1, pct_start=pct_start
         )
     return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
+
+
+# ---------------------------------------------------------------------------- protocols
+@runtime_checkable
+class AdaptationSource(Protocol):
+    """A datamodule that hands its model plain data before fitting (normalisation statistics,
+    demonstrations), e.g. :class:`lfd.model_reaching.SawyerModelsDataModule`."""
+
+    def adaptation_data(self) -> Any:
+        """The data :meth:`Adaptable.adapt` takes (built on first call)."""
+        ...
+
+
+@runtime_checkable
+class Adaptable(Protocol):
+    """A model that takes plain data from its datamodule before fitting (``train.py`` calls
+    ``model.adapt(datamodule.adaptation_data())`` when the datamodule is an
+    :class:`AdaptationSource`), e.g. :class:`lfd.model_reaching.SawyerModels`."""
+
+    def adapt(self, data: Any) -> None:
+        """Take ``data`` (:meth:`AdaptationSource.adaptation_data`); the model never reaches
+        into the datamodule itself."""
+        ...
+
+
+@runtime_checkable
+class Evaluator(Protocol):
+    """What ``evaluate.py`` needs of the object ``eval._target_`` names
+    (:class:`lfd.visuomotor.eval.ReachEvaluator`, :class:`lfd.model_reaching.protocol.SawyerProtocol`).
+
+    Attributes:
+        needs_datamodule: :meth:`run` reads the ``data`` config's datamodule (else it gets None).
+    """
+
+    needs_datamodule: bool
+
+    def resolve_checkpoints(
+        self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None
+    ) -> dict[str, Path]:
+        """``{kind: path}`` of the checkpoints to evaluate: those ``given`` (by kind), else the
+        newest under ``output_root``. Raises ``FileNotFoundError`` when none can be found."""
+        ...
+
+    def run(
+        self, datamodule: Any, checkpoints: Mapping[str, str | Path], out_dir: str | Path
+    ) -> dict[str, Any]:
+        """Evaluate the ``checkpoints``, write the outputs into ``out_dir`` and return the metrics."""
+        ...

@@ -118,7 +118,7 @@ def _expert_path(expert: ScriptedExpert, scene, obj: ObjectSpec, placement: Plac
 
 
 class ReachEvaluator:
-    """Closed-loop evaluation of the CNN -> DMP and velocity policies.
+    """Closed-loop evaluation of the CNN -> DMP and velocity policies (an :class:`lfd.training.Evaluator`).
 
     Args:
         scenario: scenario YAML file (:mod:`lfd.visuomotor.eval.scenario`); None = the ``split`` of
