@@ -1,4 +1,5 @@
-"""scripts/imitate.py end to end on a real video (sports2d demo), and its input errors."""
+"""The imitation pipeline end to end on a real video (sports2d demo) as scripts/imitate.py runs it, and its
+input errors."""
 
 from __future__ import annotations
 
@@ -11,13 +12,17 @@ import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 
-ROOT = Path(__file__).resolve().parents[3]
+import lfd.imitation
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _script():
+    """scripts/imitate.py, loaded as the entry point is (its ``run`` is lfd.imitation.run)."""
     spec = importlib.util.spec_from_file_location("imitate_script", ROOT / "scripts" / "imitate.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    assert module.run is lfd.imitation.run
     return module
 
 
@@ -27,15 +32,23 @@ def _cfg(overrides):
 
 
 def test_imitate_wam_on_real_video(sports2d_video, mediapipe_ok, tmp_path):
-    cfg = _cfg([f"video={sports2d_video}", "robot=wam4", "side=right", "pose.max_frames=60", "pose.stride=2",
-                "pose.repair_flips=false", "goal=[0.3,-0.5,0.2]", "outputs.gif_frames=10", "sim.image_size=[96,96]"])  # fmt: skip
+    cfg = _cfg(
+        [f"video={sports2d_video}", "robot=wam4", "side=right", "pose.max_frames=60", "pose.stride=2"]
+        + [
+            "pose.repair_flips=false",
+            "goal=[0.3,-0.5,0.2]",
+            "outputs.gif_frames=10",
+            "sim.image_size=[96,96]",
+        ]
+    )
     summary = _script().run(cfg, tmp_path)
     for name in ("keypoints.csv", "keypoints.npz", "arm.csv", "arm.mot", "arm.json", "dmp.npz",
                  "robot_trajectory.csv", "summary.json", "side_by_side.mp4", "side_by_side.gif"):  # fmt: skip
         assert (tmp_path / name).stat().st_size > 0, name
     assert json.loads((tmp_path / "summary.json").read_text()) == json.loads(json.dumps(summary))
     assert summary["executed_within_limits"] and summary["time_scale_factor"] >= 1.0
-    rows = list(csv.DictReader(open(tmp_path / "robot_trajectory.csv")))
+    with open(tmp_path / "robot_trajectory.csv") as f:
+        rows = list(csv.DictReader(f))
     dmp = np.array([[float(r[f"wam_j{j}_dmp"]) for j in range(1, 5)] for r in rows])
     executed = np.array([[float(r[f"wam_j{j}_executed"]) for j in range(1, 5)] for r in rows])
     # PyBullet position control follows the DMP closely (time-scaled to the velocity limits).
