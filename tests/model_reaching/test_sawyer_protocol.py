@@ -14,7 +14,7 @@ import pytest
 import torch
 
 from lfd.model_reaching import load_sawyer_models
-from lfd.model_reaching.data import DEMO_GOAL, TASK_ORIENTATIONS_DEG, make_demonstration
+from lfd.model_reaching.demonstrations import DEMO_GOAL, TASK_ORIENTATIONS_DEG, make_demonstration
 from lfd.model_reaching.protocol import GOALS
 from lfd.rl import refine
 from lfd.robots import Workspace, load_robot, make_transform, solve_near

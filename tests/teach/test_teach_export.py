@@ -9,7 +9,7 @@ import pytest
 from teach_helpers import BOXES, FakeClock, drag_line
 
 from lfd.dmp import DMP
-from lfd.model_reaching.data import load_demo_csv, make_demonstration
+from lfd.model_reaching.demonstrations import load_demo_csv, make_demonstration
 from lfd.sim.collision import CollisionWorld
 from lfd.teach import TeachSession
 from lfd.teach.export import dmp_options

@@ -1,4 +1,4 @@
-"""Forward model of an arm: joint angles -> end-effector position, a residual MLP (SPEC 5).
+"""Forward model of an arm: joint angles -> end-effector position, a residual MLP (thesis ch. 5).
 
 Inputs are the joint angles normalised to ``[-1, 1]`` over the joint limits plus their
 sines and cosines (the forward kinematics is a polynomial in those); outputs are
@@ -10,11 +10,11 @@ has: turning the first joint by ``q0`` rotates the whole arm rigidly about that 
 axis. The MLP sees ``q1 .. q_{n-1}`` only and predicts the position in the frame that
 turns with joint 0; the prediction is then rotated by ``q0`` about the axis (Rodrigues'
 formula; the axis and a point on it come from the robot model at ``q = 0``). This removes
-one input dimension and halves the error at a given training budget (Sawyer, 2000
-steps: 5.8 mm vs 11.9 mm mean); the network still learns the rest of the kinematics from
-samples. ``yaw_equivariant=False`` gives the plain MLP on all joints. Both normalisations are buffers computed from the robot model, so a
-checkpoint loads on its own. Errors are reported in millimetres against the robot's
-forward kinematics: mean, median, 99th percentile and maximum of the Euclidean distance.
+one input dimension (docs/decisions.md); the network still learns the rest of the
+kinematics from samples. ``yaw_equivariant=False`` gives the plain MLP on all joints. Both
+normalisations are buffers computed from the robot model, so a checkpoint loads on its own.
+Errors are reported in millimetres against the robot's forward kinematics: mean, median,
+99th percentile and maximum of the Euclidean distance.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Inverse model of one task: Cartesian error -> joint velocities (SPEC 5).
+"""Inverse model of one task: Cartesian error -> joint velocities (thesis ch. 5).
 
 :class:`InverseModel` is the original's MLP ``3 -> 300 -> 200 -> 100 -> 7`` with sigmoid
 hidden units (configurable) from the end-effector error ``x_e - goal`` (m) to a
@@ -19,7 +19,7 @@ import lightning as L
 import torch
 from torch import Tensor, nn
 
-from lfd.model_reaching.data import InverseData, JointDemonstration
+from lfd.model_reaching.demonstrations import InverseData, JointDemonstration
 from lfd.training import make_activation, make_optimizer, save_own_hyperparameters
 
 __all__ = ["DEMOS_KEY", "InverseModel"]
@@ -73,7 +73,7 @@ class InverseModel(L.LightningModule):
 
     def adapt(self, data: InverseData | Mapping[str, InverseData]) -> None:
         """Take the normalisation statistics and the demonstration from the training data:
-        this task's :class:`~lfd.model_reaching.data.InverseData`, or ``{task: InverseData}``
+        this task's :class:`~lfd.model_reaching.demonstrations.InverseData`, or ``{task: InverseData}``
         (``SawyerInverseDataModule.adaptation_data()``, which ``train.py`` hands over)."""
         if isinstance(data, Mapping):
             if self.hparams.task not in data:

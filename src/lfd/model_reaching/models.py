@@ -1,4 +1,4 @@
-"""The Sawyer forward model and one inverse model per task, trained together (SPEC 5).
+"""The Sawyer forward model and one inverse model per task, trained together (thesis ch. 5).
 
 :class:`SawyerModels` holds one :class:`~lfd.model_reaching.forward.ForwardModel` and one
 :class:`~lfd.model_reaching.inverse.InverseModel` per task and trains them from
@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from lfd.model_reaching.data import InverseData
+from lfd.model_reaching.demonstrations import InverseData
 from lfd.model_reaching.forward import ForwardModel, error_summary, format_error_table, report_test_errors
 from lfd.model_reaching.inverse import DEMOS_KEY, InverseModel
 from lfd.training import make_optimizer

@@ -1,4 +1,4 @@
-"""Sawyer protocol (SPEC 5): forward + inverse models reach, a DMP learns the reach, PoWER refines it.
+"""Sawyer protocol (thesis ch. 5): forward + inverse models reach, a DMP learns the reach, PoWER refines it.
 
 For each task (end-effector orientation: cube, cup) and each goal:
 
@@ -40,7 +40,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from lfd.model_reaching.data import SAWYER_START_DEG, SawyerFKDataModule
+from lfd.model_reaching.data import SawyerFKDataModule
+from lfd.model_reaching.demonstrations import SAWYER_START_DEG
 from lfd.model_reaching.models import SawyerModels, load_sawyer_models
 from lfd.model_reaching.report import ORIGINAL_EPISODES, SCENARIOS, protocol_tables, write_report
 from lfd.rl import refine
@@ -70,7 +71,7 @@ def models_robot(models: SawyerModels):
 
 # ---------------------------------------------------------------------------- protocol
 class SawyerProtocol:
-    """The original evaluation protocol (``python evaluate.py eval=sawyer``).
+    """The original evaluation protocol (``python evaluate.py eval=sawyer``; an :class:`lfd.training.Evaluator`).
 
     Args:
         checkpoint: :class:`~lfd.model_reaching.SawyerModels` checkpoint; None = the newest
@@ -152,7 +153,8 @@ class SawyerProtocol:
         found = find_checkpoints(output_root, (SawyerModels.kind,)).get(SawyerModels.kind)
         if found is None:
             raise FileNotFoundError(
-                f"no Sawyer models checkpoint under {output_root}/train; run `python train.py experiment=sawyer_models` "
+                f"no Sawyer models checkpoint under {output_root}/train; run `python train.py "
+                "experiment=sawyer_models` "
                 "first or pass eval.checkpoint=PATH"
             )
         return {SawyerModels.kind: found}

@@ -25,7 +25,7 @@ __all__ = ["ORIGINAL_EPISODES", "SCENARIOS", "protocol_tables", "reach_table", "
 
 SCENARIOS = ("models", "demo")
 SCENARIO_LABELS = {"models": "models", "demo": "demo only"}
-#: Original episodes to convergence per goal (SPEC 5): models vs demonstration only.
+#: Original episodes to convergence per goal (thesis ch. 5): models vs demonstration only.
 ORIGINAL_EPISODES = {
     "cube": {"models": (18, 17, 14, 6, 6), "demo": (29, 12, 19, 13, 9)},
     "cup": {"models": (14, 18, 17, 8, 8), "demo": (17, 6, 15, 12, 13)},
@@ -64,7 +64,8 @@ def protocol_tables(metrics: Mapping[str, Any], goals: np.ndarray) -> str:
             + " |"
         )
     total_cells = [
-        f"{metrics['totals'][t][s]['episodes']:.1f} ({metrics['totals'][t][s]['converged']}/{metrics['totals'][t][s]['runs']})"
+        f"{metrics['totals'][t][s]['episodes']:.1f} "
+        f"({metrics['totals'][t][s]['converged']}/{metrics['totals'][t][s]['runs']})"
         for t in tasks
         for s in SCENARIOS
     ]
@@ -92,12 +93,14 @@ def reach_table(metrics: Mapping[str, Any], tasks: Sequence[str]) -> str:
                 continue
             r, p = entry["reach"], entry["power"]
             lines.append(
-                f"| {task} | {i + 1} | {r['steps']} | {'yes' if r['reached'] else 'no'} | {100 * r['final_error_m']:.2f} | "
+                f"| {task} | {i + 1} | {r['steps']} | {'yes' if r['reached'] else 'no'} | "
+                f"{100 * r['final_error_m']:.2f} | "
                 f"{100 * r['estimated_error_m']:.2f} | {r['orientation_error_deg']:.1f} | "
                 f"{100 * p['models']['initial_error_m']:.2f} / {100 * p['demo']['initial_error_m']:.2f} |"
             )
     return (
-        f"## Closed-loop reaches with the models ({settings['simulator']}, dt {settings['dt']} s, stop at an estimated error "
+        f"## Closed-loop reaches with the models ({settings['simulator']}, dt {settings['dt']} s, stop at "
+        "an estimated error "
         f"< {settings['threshold_m'] * 100:.1f} cm or {settings['max_steps']} steps)\n\n" + "\n".join(lines)
     )
 
