@@ -97,16 +97,18 @@ def main() -> None:
     parser.add_argument("--updates", type=int, default=300)
     args = parser.parse_args()
     print(
-        "| robot | drag IK | updates accepted | IK + collision: median / p95 | whole update: median / p95 / max | reference (Robot.ik) whole update: median / p95 | reference / ours (median) |"
+        "| robot | drag IK | updates accepted | IK + collision: median / p95 | whole update: median / p95 / max "
+        "| reference (Robot.ik) whole update: median / p95 | reference / ours (median) |"
     )
     print("|---|---|---:|---:|---:|---:|---:|")
     for robot, scene, q3, label in CASES:
         ours = measure(robot, scene, q3, args.updates, reference=False)
         ref = measure(robot, scene, q3, args.updates, reference=True)
         print(
-            f"| {robot} | {label} | {ours['accepted']}/{ours['n']} | {ours['core_med']:.2f} / {ours['core_p95']:.2f} ms | "
-            f"{ours['tot_med']:.2f} / {ours['tot_p95']:.2f} / {ours['tot_max']:.1f} ms | {ref['tot_med']:.2f} / {ref['tot_p95']:.2f} ms | "
-            f"{ref['tot_med'] / ours['tot_med']:.1f}x |"
+            f"| {robot} | {label} | {ours['accepted']}/{ours['n']} "
+            f"| {ours['core_med']:.2f} / {ours['core_p95']:.2f} ms "
+            f"| {ours['tot_med']:.2f} / {ours['tot_p95']:.2f} / {ours['tot_max']:.1f} ms "
+            f"| {ref['tot_med']:.2f} / {ref['tot_p95']:.2f} ms | {ref['tot_med'] / ours['tot_med']:.1f}x |"
         )
 
 

@@ -37,20 +37,27 @@ def main() -> None:
             r = user(task)
             runs.setdefault(r.user, []).append(r)
     print(
-        f"{args.tasks} tasks (seeds {args.first_seed}..{args.first_seed + args.tasks - 1}), WAM, one wall between start and goal"
+        f"{args.tasks} tasks (seeds {args.first_seed}..{args.first_seed + args.tasks - 1}), WAM, "
+        "one wall between start and goal"
     )
     print()
     print(
-        "| interface (scripted user) | success | collisions / task | tool path (m) | drag segments | slider moves | clicks | keystrokes | actions / task | KLM time / task (model) |"
+        "| interface (scripted user) | success | collisions / task | tool path (m) | drag segments | slider moves "
+        "| clicks | keystrokes | actions / task | KLM time / task (model) |"
     )
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for name, rs in runs.items():
         ok = [r for r in rs if r.success]
-        mean = lambda key: np.mean([r.actions[key] for r in rs])  # noqa: E731
+        mean = {
+            key: np.mean([r.actions[key] for r in rs])
+            for key in ("drag_segments", "slider_moves", "clicks", "keystrokes")
+        }
+        path = np.mean([r.path_length for r in ok]) if ok else float("nan")
         print(
-            f"| {name} | {len(ok)}/{len(rs)} | {np.mean([r.collisions for r in rs]):.2f} | "
-            f"{np.mean([r.path_length for r in ok]) if ok else float('nan'):.2f} | {mean('drag_segments'):.1f} | {mean('slider_moves'):.1f} | "
-            f"{mean('clicks'):.1f} | {mean('keystrokes'):.1f} | {np.mean([r.n_actions for r in rs]):.1f} | {np.mean([klm_seconds(r) for r in rs]):.1f} s |"
+            f"| {name} | {len(ok)}/{len(rs)} | {np.mean([r.collisions for r in rs]):.2f} | {path:.2f} "
+            f"| {mean['drag_segments']:.1f} | {mean['slider_moves']:.1f} | {mean['clicks']:.1f} "
+            f"| {mean['keystrokes']:.1f} | {np.mean([r.n_actions for r in rs]):.1f} "
+            f"| {np.mean([klm_seconds(r) for r in rs]):.1f} s |"
         )
 
 

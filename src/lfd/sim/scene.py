@@ -44,9 +44,8 @@ FLOOR_RGBA = (0.35, 0.35, 0.38, 1.0)
 #: Rolling and spinning friction of the objects (PyBullet's contact model: a resisting
 #: torque of this many metres times the normal force). Real objects touch the table over a
 #: small patch, a rigid capsule on its hemispherical cap over a point: without it an upright
-#: capsule is in unstable equilibrium and falls over by itself within seconds (39 of 57
-#: demonstration replays of the quick dataset toppled the capsule without any contact; with
-#: 1e-4 none did). Pushing still moves objects (tests/sim/test_sim_scene.py).
+#: capsule is in unstable equilibrium and falls over by itself (see docs/decisions). Pushing
+#: still moves objects (tests/sim/test_sim_scene.py).
 OBJECT_ROLLING_FRICTION = 1e-3
 
 
