@@ -4,7 +4,7 @@ Files written by :func:`export_session` (atomically, temp file + rename):
 
 * ``demo.csv``: header ``time,j0,...,j{n-1}``, seconds and radians, one row per recorded
   sample: the ``t, q0..qn`` columns under the names the Sawyer / PoWER tools
-  read (:func:`lfd.model_reaching.data.load_demo_csv` with ``n_joints=n``).
+  read (:func:`lfd.model_reaching.demonstrations.load_demo_csv` with ``n_joints=n``).
 * ``demo.json``: robot, scene, mode, collisions, counters, timings (drag latency
   median / p95, recording duration), the recording (``t``, ``q``, ``tool``), the 2-D
   waypoints and, after a Send, its errors.
