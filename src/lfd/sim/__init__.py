@@ -1,4 +1,6 @@
-"""PyBullet reaching scenes, objects, cameras, the scripted expert and simulated arms.
+"""The only owner of PyBullet: reaching scenes, objects, cameras, the scripted expert, simulated
+arms, the one joint-trajectory tracker (:mod:`lfd.sim.tracking`) and the collision world with
+the one self-collision rule (:mod:`lfd.sim.collision`).
 
 Names are loaded on first use (PEP 562), so the modules without PyBullet
 (:mod:`lfd.sim.objects`, :mod:`lfd.sim.approach`, :mod:`lfd.sim.trajectory`) import
@@ -36,6 +38,7 @@ _EXPORTS = exports(
             "side_grasp_height",
         ],
         "arms": ["ARMS", "KinematicArm", "PyBulletArm"],
+        "collision": ["CollisionReport", "CollisionWorld", "overlapping_link_pairs"],
         "camera": ["Camera", "look_at", "perspective", "project_points"],
         "expert": [
             "DISCARD_REASONS",
@@ -79,6 +82,7 @@ if TYPE_CHECKING:
     from .approach import SHOULDER_XY, TABLE_Z, ApproachPlan, box_grasp_yaw, plan_approach, side_grasp_height
     from .arms import ARMS, KinematicArm, PyBulletArm
     from .camera import Camera, look_at, perspective, project_points
+    from .collision import CollisionReport, CollisionWorld, overlapping_link_pairs
     from .expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert, run_demonstration
     from .objects import (
         SHAPE_DIMS,
