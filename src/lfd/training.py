@@ -1,6 +1,6 @@
 """Training helpers shared by the LightningModules of :mod:`lfd.visuomotor.policies` and
 :mod:`lfd.model_reaching`: activations by name, AdamW with a per-step learning-rate schedule,
-hyper-parameters saved per module; and the protocols the entry points rely on:
+hyper-parameters saved per module, finding checkpoints by kind; and the protocols the entry points rely on:
 :class:`Adaptable` / :class:`AdaptationSource` (``train.py``: a model that takes plain data from
 its datamodule before fitting) and :class:`Evaluator` (``evaluate.py``).
 
@@ -24,10 +24,13 @@ from torch import nn
 
 __all__ = [
     "ACTIVATIONS",
+    "CHECKPOINT_GLOB",
     "SCHEDULERS",
     "Adaptable",
     "AdaptationSource",
     "Evaluator",
+    "checkpoint_kind",
+    "find_checkpoints",
     "make_activation",
     "make_optimizer",
     "save_own_hyperparameters",
@@ -74,6 +77,34 @@ def make_optimizer(
             opt, max_lr=[g["lr"] for g in groups], total_steps=total + 1, pct_start=pct_start
         )
     return {"optimizer": opt, "lr_scheduler": {"scheduler": sched, "interval": "step"}}
+
+
+# ---------------------------------------------------------------------------- checkpoints
+#: Where training runs leave their checkpoints, relative to ``paths.output_root``.
+CHECKPOINT_GLOB = "train/**/checkpoints/last.ckpt"
+
+
+def checkpoint_kind(path: str | Path) -> str | None:
+    """The model kind stored in a Lightning checkpoint's hyper-parameters (``kind``; None if it
+    has none). Memory-maps the file: no tensor is read."""
+    ckpt = torch.load(path, map_location="cpu", weights_only=False, mmap=True)
+    return ckpt.get("hyper_parameters", {}).get("kind")
+
+
+def find_checkpoints(output_root: str | Path, kinds: tuple[str, ...]) -> dict[str, Path]:
+    """The newest (by modification time) ``last.ckpt`` of each model kind (:func:`checkpoint_kind`)
+    under ``<output_root>/train/**/checkpoints/``; kinds without one are left out."""
+    found: dict[str, Path] = {}
+    candidates = sorted(
+        Path(output_root).glob(CHECKPOINT_GLOB), key=lambda p: p.stat().st_mtime, reverse=True
+    )
+    for path in candidates:
+        kind = checkpoint_kind(path)
+        if kind in kinds and kind not in found:
+            found[kind] = path
+        if len(found) == len(kinds):
+            break
+    return found
 
 
 # ---------------------------------------------------------------------------- protocols

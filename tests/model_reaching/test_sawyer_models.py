@@ -8,13 +8,13 @@ import pytest
 import torch
 
 from lfd.model_reaching import SawyerModels, load_sawyer_models
+from lfd.model_reaching.closed_loop import closed_loop_reach
 from lfd.model_reaching.data import SawyerFKDataModule, SawyerInverseDataModule, sample_fk
 from lfd.model_reaching.demonstrations import TASK_ORIENTATIONS_DEG, InverseDataConfig
 from lfd.model_reaching.forward import ForwardModel, error_summary, position_errors_mm
 from lfd.model_reaching.inverse import InverseModel
 from lfd.robots import load_robot
 from lfd.sim.arms import KinematicArm
-from lfd.visuomotor.eval.rollout import closed_loop_reach
 
 START = np.radians([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])
 

@@ -14,12 +14,12 @@ import pytest
 import torch
 
 from lfd.model_reaching import load_sawyer_models
+from lfd.model_reaching.closed_loop import closed_loop_reach
 from lfd.model_reaching.demonstrations import DEMO_GOAL, TASK_ORIENTATIONS_DEG, make_demonstration
 from lfd.model_reaching.protocol import GOALS
 from lfd.rl import refine
 from lfd.robots import Workspace, load_robot, make_transform, solve_near
 from lfd.sim.arms import KinematicArm, PyBulletArm
-from lfd.visuomotor.eval.rollout import closed_loop_reach
 
 ROOT = Path(__file__).resolve().parents[2]
 START = np.radians([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])

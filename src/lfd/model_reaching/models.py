@@ -54,7 +54,7 @@ class SawyerModels(L.LightningModule):
         inverse: :class:`InverseModel` arguments shared by all tasks (without ``task``).
         tasks: task names; must match the datamodule's tasks.
         kind: stored in the checkpoint's hyper-parameters so that evaluation can find
-            Sawyer checkpoints (:func:`lfd.visuomotor.eval.evaluator.find_checkpoints`); any other
+            Sawyer checkpoints (:func:`lfd.training.find_checkpoints`); any other
             value than :attr:`kind` is rejected.
     """
 

@@ -6,7 +6,7 @@ For each task (end-effector orientation: cube, cup) and each goal:
    and the goal's distance from the shoulder (joint 1) against the arm's maximum reach.
    A goal without a position-only IK solution is not attempted: it is reported as
    unreachable when it also lies beyond the reach, as "no IK solution" otherwise.
-2. **Models** (:func:`lfd.visuomotor.eval.rollout.closed_loop_reach`): the forward model estimates the
+2. **Models** (:func:`lfd.model_reaching.closed_loop.closed_loop_reach`): the forward model estimates the
    end-effector position from the measured joints, the task's inverse model turns the
    estimated error into joint velocities (clamped to the velocity limits), the arm
    integrates them (:class:`lfd.sim.arms.KinematicArm`, or PyBullet with the generated URDF,
@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from lfd.model_reaching.closed_loop import ReachTrace, closed_loop_reach
 from lfd.model_reaching.data import SawyerFKDataModule
 from lfd.model_reaching.demonstrations import SAWYER_START_DEG
 from lfd.model_reaching.models import SawyerModels, load_sawyer_models
@@ -49,8 +50,7 @@ from lfd.robots import Workspace, load_robot, rotation_log
 from lfd.robots.spec import matrix_to_rpy
 from lfd.sim.arms import ARMS
 from lfd.sim.tracking import replay_in_pybullet
-from lfd.visuomotor.eval.evaluator import find_checkpoints
-from lfd.visuomotor.eval.rollout import ReachTrace, closed_loop_reach
+from lfd.training import find_checkpoints
 
 __all__ = ["GOALS", "ORIGINAL_EPISODES", "SawyerProtocol"]
 

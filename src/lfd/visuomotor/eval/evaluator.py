@@ -23,7 +23,6 @@ import math
 import time
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,12 +32,11 @@ import torch
 from lfd.interop.lerobot.report import write_lerobot_eval
 from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
-from lfd.sim.approach import TABLE_Z, ApproachPlan, plan_approach
-from lfd.sim.expert import DemoDiscarded, ScriptedExpert
-from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.scene import ReachScene
+from lfd.training import CHECKPOINT_GLOB, find_checkpoints
 from lfd.visuomotor.data.datasets import load_dataset
 from lfd.visuomotor.data.fingerprint import training_overlap
+from lfd.visuomotor.eval.cases import Case, evaluation_cases
 from lfd.visuomotor.eval.metrics import (
     MAX_DISPLACEMENT_M,
     SUCCESS_RADIUS_M,
@@ -48,73 +46,13 @@ from lfd.visuomotor.eval.metrics import (
 )
 from lfd.visuomotor.eval.plots import distance_bars, paths_3d, write_gif
 from lfd.visuomotor.eval.rollout import EpisodeTrace, observe, run_episode
-from lfd.visuomotor.eval.scenario import load_scenario
-from lfd.visuomotor.policies import POLICIES, checkpoint_kind, load_policy
+from lfd.visuomotor.policies import POLICIES, load_policy
 from lfd.visuomotor.protocols import Controller, Observation
 
 #: Checkpoint config key per policy kind (``python evaluate.py ckpt_dmp=... ckpt_velocity=...``).
 CKPT_KEYS = {"cnn_dmp": "ckpt_dmp", "velocity": "ckpt_velocity"}
 #: Training command per policy kind, quoted when a checkpoint is missing.
 TRAIN_COMMANDS = {"cnn_dmp": "python train.py model=cnn_dmp", "velocity": "python train.py model=velocity"}
-#: Where training runs leave their checkpoints, relative to ``paths.output_root``.
-CHECKPOINT_GLOB = "train/**/checkpoints/last.ckpt"
-
-
-def find_checkpoints(output_root: str | Path, kinds: tuple[str, ...]) -> dict[str, Path]:
-    """The newest (by modification time) ``last.ckpt`` of each policy kind under
-    ``<output_root>/train/**/checkpoints/``; kinds without one are left out."""
-    found: dict[str, Path] = {}
-    candidates = sorted(
-        Path(output_root).glob(CHECKPOINT_GLOB), key=lambda p: p.stat().st_mtime, reverse=True
-    )
-    for path in candidates:
-        kind = checkpoint_kind(path)
-        if kind in kinds and kind not in found:
-            found[kind] = path
-        if len(found) == len(kinds):
-            break
-    return found
-
-
-@dataclass(frozen=True)
-class Case:
-    """One object at one placement, with what the evaluation knows about it (the policy
-    never sees any of it).
-
-    Attributes:
-        object_index, placement_index: position in the scenario / test split.
-        obj, placement: the object and where it stands.
-        plan: the approach rule's target poses (grasp target point, approach direction).
-        demo_ee: ``(T, 3)`` demonstrated tool path, or None if the expert failed here.
-        ood: why the case lies outside the training ranges ("" = inside; scenario cases only).
-    """
-
-    object_index: int
-    placement_index: int
-    obj: ObjectSpec
-    placement: Placement
-    plan: ApproachPlan
-    demo_ee: np.ndarray | None
-    ood: str = ""
-    table_z: float = TABLE_Z
-
-    @property
-    def object_centre(self) -> np.ndarray:
-        """``(3,)`` the object's centre where it was placed (torso frame)."""
-        return np.array([self.placement.x, self.placement.y, self.table_z + self.obj.height / 2])
-
-    @property
-    def label(self) -> str:
-        p = self.placement
-        return f"p{self.placement_index} ({p.x:.2f}, {p.y:+.2f}, {math.degrees(p.yaw):+.0f} deg)"
-
-
-def _expert_path(expert: ScriptedExpert, scene, obj: ObjectSpec, placement: Placement) -> np.ndarray | None:
-    """Tool path ``(T, 3)`` of the scripted expert's demonstration of a case (None if discarded)."""
-    try:
-        return expert.run(scene, obj, placement).ee_poses[:, :3, 3]
-    except DemoDiscarded:
-        return None
 
 
 class ReachEvaluator:
@@ -213,56 +151,9 @@ class ReachEvaluator:
         return {k: p for k, p in out.items() if p is not None}
 
     def cases(self, data, scene) -> tuple[list[Case], str]:
-        """The evaluation cases and a description of their source. Scenario cases get the
-        scripted expert's demonstration (the jerk reference) run in ``scene``."""
-        table_z = scene.table_z
-        if self.scenario is not None:
-            gen = data.config
-            scenario = load_scenario(
-                self.scenario, camera=scene.camera, robot=scene.robot, training=gen, table_z=table_z
-            )
-            expert = ScriptedExpert(
-                scene.robot,
-                duration=gen.duration,
-                n_steps=gen.n_steps,
-                approach_fraction=gen.approach_fraction,
-                tolerance=gen.tolerance,
-            )
-            cases = [
-                Case(
-                    i,
-                    j,
-                    obj,
-                    placement,
-                    plan_approach(obj, placement, table_z=table_z),
-                    _expert_path(expert, scene, obj, placement),
-                    scenario.ood(i, j),
-                    table_z,
-                )
-                for i, obj, j, placement in scenario.cases()
-            ]
-            return cases[: self.limit], f"scenario {scenario.source}"
-        records = (
-            data.split("test") if self.split == "test" else [r for r in data.split("val") if r.group == "val"]
-        )
-        if not records:
-            raise ValueError(
-                f"dataset {data.path} has no {self.split} split; give eval.scenario=FILE or another eval.split"
-            )
-        cases = [
-            Case(
-                r.object_index,
-                int(r.arrays["placement_index"]),
-                r.obj,
-                r.placement,
-                plan_approach(r.obj, r.placement, table_z=table_z),
-                r.arrays["ee_poses"][:, :3, 3],
-                "",
-                table_z,
-            )
-            for r in records
-        ]
-        return cases[: self.limit], f"{self.split} split of {data.path}"
+        """The evaluation cases and a description of their source
+        (:func:`~lfd.visuomotor.eval.cases.evaluation_cases` of this evaluator's settings)."""
+        return evaluation_cases(data, scene, self.scenario, self.split, self.limit)
 
     # ------------------------------------------------------------------ run
     def run(self, datamodule, checkpoints: Mapping[str, str | Path], out_dir: str | Path) -> dict[str, Any]:
@@ -277,7 +168,8 @@ class ReachEvaluator:
         unknown = sorted(set(checkpoints) - set(POLICIES))
         if unknown or not checkpoints:
             raise ValueError(
-                f"ReachEvaluator.run: checkpoints must map some of {sorted(POLICIES)} to files, got {sorted(checkpoints)}"
+                f"ReachEvaluator.run: checkpoints must map some of {sorted(POLICIES)} to files, got "
+                f"{sorted(checkpoints)}"
             )
         t0 = time.perf_counter()
         out_dir = Path(out_dir)
@@ -289,7 +181,8 @@ class ReachEvaluator:
                 policies[kind].colour_tta = True
             except ValueError as e:
                 raise ValueError(
-                    f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: eval.colour_tta=[]"
+                    f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: "
+                    "eval.colour_tta=[]"
                 ) from e
         gen = datamodule.config
         for kind, policy in policies.items():
@@ -324,7 +217,8 @@ class ReachEvaluator:
                             f"; ... ({len(overlap)} in all)" if len(overlap) > 5 else ""
                         )
                         raise ValueError(
-                            f"{kind} checkpoint {checkpoints[kind]} was trained on items of the evaluation cases ({source}): "
+                            f"{kind} checkpoint {checkpoints[kind]} was trained on items of the evaluation "
+                            f"cases ({source}): "
                             f"{shown}; evaluate on cases it never saw"
                         )
                 traces = {

@@ -84,7 +84,8 @@ def cluster_bootstrap_ci(
     clusters = np.asarray(clusters).reshape(-1)
     if values.shape != clusters.shape or values.size == 0:
         raise ValueError(
-            f"cluster_bootstrap_ci: need equal-length non-empty values and clusters, got {values.shape}, {clusters.shape}"
+            f"cluster_bootstrap_ci: need equal-length non-empty values and clusters, got {values.shape}, "
+            f"{clusters.shape}"
         )
     if not 0 < level < 1 or n_boot < 1:
         raise ValueError(f"cluster_bootstrap_ci: need 0 < level < 1 and n_boot >= 1, got {level}, {n_boot}")

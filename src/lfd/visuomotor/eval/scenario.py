@@ -129,12 +129,12 @@ def _parse_object(entry: Any, where: str) -> ObjectSpec:
     fields["rgba"] = (4, "4 numbers in [0, 1]")
     fields["mass"] = (1, "a mass in kg")
     values: dict[str, list[float]] = {}
-    for field, (n, expected) in fields.items():
-        raw = entry.get(field, DEFAULT_MASS if field == "mass" else None)
+    for key, (n, expected) in fields.items():
+        raw = entry.get(key, DEFAULT_MASS if key == "mass" else None)
         parsed = _numbers(raw, n) if n > 1 else [_number(raw)]
         if parsed is None or None in parsed:
-            raise ScenarioError(f"{where}: field '{field}' must be {expected}, got {raw!r}")
-        values[field] = parsed
+            raise ScenarioError(f"{where}: field '{key}' must be {expected}, got {raw!r}")
+        values[key] = parsed
     dims = tuple(v for f in SIZE_FIELDS[shape] for v in values[f])
     try:
         return ObjectSpec(

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import torch
 
+from lfd.training import checkpoint_kind
 from lfd.visuomotor.policies.base import VisuomotorPolicy
 from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
 from lfd.visuomotor.policies.velocity import VelocityPolicy
@@ -25,12 +26,6 @@ __all__ = ["POLICIES", "checkpoint_kind", "load_policy"]
 
 #: Policy kind (``Policy.kind``, stored in the checkpoint's hyper-parameters) -> class.
 POLICIES: dict[str, type[VisuomotorPolicy]] = {cls.kind: cls for cls in (CNNDMPPolicy, VelocityPolicy)}
-
-
-def checkpoint_kind(path: str | Path) -> str | None:
-    """The policy kind stored in a Lightning checkpoint's hyper-parameters (None if it has none)."""
-    ckpt = torch.load(path, map_location="cpu", weights_only=False, mmap=True)
-    return ckpt.get("hyper_parameters", {}).get("kind")
 
 
 def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> VisuomotorPolicy:
