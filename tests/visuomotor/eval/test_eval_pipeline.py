@@ -301,13 +301,15 @@ def test_checkpoint_carries_fingerprint_and_own_training_items_are_refused(check
     scenario = workspace / "own.yaml"
     scenario.write_text(
         "objects:\n"
-        f"  - {{name: mine, shape: cylinder, radius: {obj.dims[0]!r}, height: {obj.dims[1]!r}, rgba: {list(obj.rgba)!r}}}\n"
+        "  - "
+        f"{{name: mine, shape: cylinder, radius: {obj.dims[0]!r}, height: {obj.dims[1]!r}, rgba: {list(obj.rgba)!r}}}\n"
         "placements:\n  - [0.55, 0.05, 0.3]\n"
     )
     cfg = tiny("evaluate", f"eval.scenario={scenario}", "eval.n_gifs=0", "eval.max_steps=2")
     with pytest.raises(
         ValueError,
-        match=rf"checkpoint .* was trained on items of the evaluation cases .*object 'mine' is training object '{obj.name}'",
+        match=rf"checkpoint .* was trained on items of the evaluation cases "
+        rf".*object 'mine' is training object '{obj.name}'",
     ):
         evaluate.evaluate(cfg, workspace / "eval-own")
 

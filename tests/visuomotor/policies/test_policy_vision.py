@@ -1,4 +1,5 @@
-"""SpatialSoftmax, the keypoint trunk and the training augmentations: analytic keypoints, shapes, gradients, masks on rendered frames."""
+"""SpatialSoftmax, the keypoint trunk and the training augmentations: analytic keypoints,
+shapes, gradients, masks on rendered frames."""
 
 import numpy as np
 import pytest

@@ -117,7 +117,8 @@ class GeneratorConfig:
         for name, value in cycles.items():
             if value is not None and (not value or any(f not in SHAPES for f in value)):
                 raise ValueError(
-                    f"GeneratorConfig.{name}: expected a non-empty list of {SHAPES} (repeats allowed), got {list(value)}"
+                    f"GeneratorConfig.{name}: expected a non-empty list of {SHAPES} (repeats allowed), got "
+                    f"{list(value)}"
                 )
         for name in ("x_range", "y_range", "yaw_range_deg"):
             low_high = getattr(self, name)

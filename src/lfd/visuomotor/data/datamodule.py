@@ -141,12 +141,14 @@ class ReachDataModule(L.LightningDataModule):
             )
         if depth_encoding != "range" and not self.input_depth:
             raise ValueError(
-                f"ReachDataModule.depth_encoding: {depth_encoding!r} is an encoding of the depth channel; the input is RGB (input_depth: false)"
+                f"ReachDataModule.depth_encoding: {depth_encoding!r} is an encoding of the depth channel; "
+                "the input is RGB (input_depth: false)"
             )
         self.depth_encoding = depth_encoding
         if augment and self.input_depth:
             raise ValueError(
-                "ReachDataModule: augment (colour jitter + shifts of RGB images) does not support RGB-D input (input_depth / depth: true); set augment: false"
+                "ReachDataModule: augment (colour jitter + shifts of RGB images) does not support RGB-D "
+                "input (input_depth / depth: true); set augment: false"
             )
         self.name, self.mode = name, mode
         self.path = dataset_dir(root, name, shard, num_shards)

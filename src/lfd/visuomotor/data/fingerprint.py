@@ -85,6 +85,7 @@ def training_overlap(
             if hit.size:
                 x, y, yaw = placements[hit[0]]
                 out.append(
-                    f"evaluation case {label}: placement ({pl.x}, {pl.y}, {pl.yaw}) is training placement #{hit[0]} ({x}, {y}, {yaw})"
+                    f"evaluation case {label}: placement ({pl.x}, {pl.y}, {pl.yaw}) is training placement "
+                    f"#{hit[0]} ({x}, {y}, {yaw})"
                 )
     return out

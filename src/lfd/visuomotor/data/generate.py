@@ -65,7 +65,8 @@ _GENERATOR_SOURCES = (
 
 def code_version() -> str:
     """``"<lfd version>+<sha256 prefix of the generator sources>"``; the hash covers
-    ``lfd/sim``, ``lfd/robots``, ``lfd/dmp`` and the generating modules of ``lfd/visuomotor/data`` and ``lfd/io/files.py``."""
+    ``lfd/sim``, ``lfd/robots``, ``lfd/dmp`` and the generating modules of
+    ``lfd/visuomotor/data`` and ``lfd/io/files.py``."""
     root = Path(lfd.__file__).parent
     h = hashlib.sha256()
     for entry in _GENERATOR_SOURCES:

@@ -13,7 +13,6 @@ carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import lightning as L
@@ -24,10 +23,12 @@ from torch.nn import functional as F
 
 from lfd.sim.depth import DEPTH_ENCODINGS
 from lfd.training import SCHEDULERS, make_optimizer
+from lfd.visuomotor.policies.plots import log_sample_figure
 from lfd.visuomotor.policies.vision import (
     COLOUR_ORDERS,
     KeypointEncoder,
     all_colour_orders,
+    brightness_range,
     image_to_tensor,
     mlp,
     permute_colour_channels,
@@ -143,7 +144,8 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(f"{type(self).__name__}.aux_weight: expected a number >= 0, got {aux_weight}")
         if mode_heads and not aux_weight > 0:
             raise ValueError(
-                f"{type(self).__name__}.mode_heads: needs aux_weight > 0 (the mode logit picks the head), got aux_weight={aux_weight}"
+                f"{type(self).__name__}.mode_heads: needs aux_weight > 0 (the mode logit picks the head), "
+                f"got aux_weight={aux_weight}"
             )
         if n_steps < 2 or not duration > 0:
             raise ValueError(
@@ -155,21 +157,7 @@ class VisuomotorPolicy(L.LightningModule):
             )
         if depth_encoding != "range" and not depth:
             raise ValueError(f"{type(self).__name__}.depth_encoding: {depth_encoding!r} needs depth=true")
-        if brightness_augment is not None:
-            values = list(brightness_augment)
-            if (
-                len(values) != 2
-                or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
-                or not 0 < values[0] <= values[1]
-            ):
-                raise ValueError(
-                    f"{type(self).__name__}.brightness_augment: expected [low, high] with 0 < low <= high, or null; got {brightness_augment!r}"
-                )
-            if not depth:
-                raise ValueError(
-                    f"{type(self).__name__}.brightness_augment: needs depth=true (the depth channel finds the object)"
-                )
-            brightness_augment = [float(v) for v in values]
+        brightness_augment = brightness_range(brightness_augment, depth, type(self).__name__)
         self.save_hyperparameters(ignore=["name"])
         self.hparams["kind"] = self.kind
         self.config_name = name or self.kind
@@ -413,7 +401,7 @@ class VisuomotorPolicy(L.LightningModule):
         if self.hparams.colour_augment:
             batch = {**batch, "image": permute_colour_channels(batch["image"])}
         if self.hparams.get("brightness_augment"):
-            nearer = self.hparams.get("depth_encoding", "range") == "relief"
+            nearer = self.depth_encoding == "relief"
             batch = {
                 **batch,
                 "image": scale_foreground_brightness(
@@ -445,24 +433,8 @@ class VisuomotorPolicy(L.LightningModule):
         if batch_idx == 0 and not self.trainer.sanity_checking:
             every = self.hparams.plot_every_n_val
             if every and self._val_runs % every == 0:
-                self._log_figure(batch)
+                log_sample_figure(self, batch)
             self._val_runs += 1
-
-    def _log_figure(self, batch: dict[str, torch.Tensor]) -> None:
-        from lightning.pytorch.loggers import TensorBoardLogger
-
-        tb = [lg for lg in self.loggers if isinstance(lg, TensorBoardLogger)]
-        if not tb or not self.trainer.is_global_zero:
-            return
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        with torch.no_grad():
-            fig = self.sample_figure(batch)
-        tb[0].experiment.add_figure("val/sample", fig, global_step=self.global_step)
-        plt.close(fig)
 
     def configure_optimizers(self) -> dict[str, Any]:
         hp = self.hparams

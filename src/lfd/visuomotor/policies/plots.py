@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import torch
 
 
 def joint_figure(
@@ -29,3 +30,23 @@ def joint_figure(
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def log_sample_figure(module, batch: dict[str, torch.Tensor]) -> None:
+    """``module.sample_figure(batch)`` to the first TensorBoard logger of ``module`` (a
+    :class:`~lfd.visuomotor.policies.VisuomotorPolicy`) as ``val/sample``, on the global-zero
+    rank only; nothing without a TensorBoard logger."""
+    from lightning.pytorch.loggers import TensorBoardLogger
+
+    tb = [lg for lg in module.loggers if isinstance(lg, TensorBoardLogger)]
+    if not tb or not module.trainer.is_global_zero:
+        return
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with torch.no_grad():
+        fig = module.sample_figure(batch)
+    tb[0].experiment.add_figure("val/sample", fig, global_step=module.global_step)
+    plt.close(fig)

@@ -198,6 +198,29 @@ def foreground_mask(
     return depth < depth.amax(dim=0, keepdim=True) - margin
 
 
+def brightness_range(value, depth: bool, owner: str) -> list[float] | None:
+    """A validated ``brightness_augment`` option: None, or ``[low, high]`` as floats.
+
+    Raises:
+        ValueError (naming ``owner``): not two finite numbers with ``0 < low <= high``, or
+            given without ``depth`` (the depth channel tells the object from the table).
+    """
+    if value is None:
+        return None
+    values = list(value)
+    if (
+        len(values) != 2
+        or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
+        or not 0 < values[0] <= values[1]
+    ):
+        raise ValueError(
+            f"{owner}.brightness_augment: expected [low, high] with 0 < low <= high, or null; got {value!r}"
+        )
+    if not depth:
+        raise ValueError(f"{owner}.brightness_augment: needs depth=true (the depth channel finds the object)")
+    return [float(v) for v in values]
+
+
 def scale_foreground_brightness(
     image: torch.Tensor, low: float, high: float, nearer_is_larger: bool = False
 ) -> torch.Tensor:
