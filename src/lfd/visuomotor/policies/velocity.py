@@ -5,20 +5,18 @@ normalised joint velocity ``(n,)``, trained by mean squared error against the
 demonstration's velocity *command* at that step (the items' ``command``,
 ``(q[t+1] - q[t]) / dt``: :func:`lfd.visuomotor.data.datasets.command_velocities`), and executed every
 control step in closed loop by velocity control for one period, so that commanding the
-labels reproduces the demonstration (about 0.1-0.3 cm from its end point).
+labels reproduces the demonstration (``tests/visuomotor/eval/test_eval_velocity_labels.py``).
 
 The label is not the recorded ``velocities``: those are the joints' instantaneous
-velocities at the sample instants, ~1/8 of their motion per period under the
-demonstrations' position control (the joints move in a burst at the start of each period),
-and commanding them moved the arm ~1/8 of the way (every closed-loop episode ended 25-45 cm
-from its target, as far as the start pose). The output statistics (``velocity_mean`` /
+velocities at the sample instants, a fraction of their motion per period under the
+demonstrations' position control (the joints move in a burst at the start of each period;
+docs/decisions.md). The output statistics (``velocity_mean`` /
 ``velocity_std``) are those of the commands over the train split, computed at fit time.
 
 By default the head also sees the phase ``min(t / duration, 1)`` (``t``: seconds since the
 episode started, the robot's own clock). Without it the baseline cannot leave the start
 pose: every demonstration starts at rest, so at the start image and joints the learned
-velocity is ~0 and the closed loop stays at that fixed point (``phase_input=False``
-reproduces this: about 29 cm final error, the arm barely moves).
+velocity is ~0 and the closed loop stays at that fixed point (docs/decisions.md).
 
 Trained on the demonstrated states only, the closed loop falls behind the demonstration
 and never sees how to catch up (covariate shift). With ``state_noise`` the training joints
