@@ -25,16 +25,25 @@ from lfd.training import Evaluator
 from lfd.visuomotor.eval.evaluator import CKPT_KEYS
 
 
-def evaluate(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
-    """Instantiate ``cfg.eval`` and (for evaluators that read a dataset) ``cfg.data``, resolve
-    the checkpoints (``ckpt_dmp``, ``ckpt_velocity``, ``eval.checkpoint`` or the newest under
-    ``paths.output_root``) and run; returns the metrics. Raises ``TypeError`` when
-    ``eval._target_`` is not an :class:`lfd.training.Evaluator`."""
-    evaluator = hydra.utils.instantiate(cfg.eval, _recursive_=False)
+def instantiate_evaluator(cfg: DictConfig) -> Evaluator:
+    """``cfg.eval`` instantiated (nested ``_target_``s too, as plain containers).
+
+    Raises:
+        TypeError: ``eval._target_`` is not an :class:`lfd.training.Evaluator`.
+    """
+    evaluator = hydra.utils.instantiate(cfg.eval, _convert_="all")
     if not isinstance(evaluator, Evaluator):
         raise TypeError(
             f"eval._target_={cfg.eval._target_}: {type(evaluator).__name__} is not an lfd.training.Evaluator"
         )
+    return evaluator
+
+
+def evaluate(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
+    """Instantiate ``cfg.eval`` and (for evaluators that read a dataset) ``cfg.data``, resolve
+    the checkpoints (``ckpt_dmp``, ``ckpt_velocity``, ``eval.checkpoint`` or the newest under
+    ``paths.output_root``) and run; returns the metrics (:func:`instantiate_evaluator` raises)."""
+    evaluator = instantiate_evaluator(cfg)
     datamodule = hydra.utils.instantiate(cfg.data) if evaluator.needs_datamodule else None
     given = {kind: cfg.get(key) for kind, key in CKPT_KEYS.items()}
     checkpoints = evaluator.resolve_checkpoints(cfg.paths.output_root, given)

@@ -78,13 +78,16 @@ def test_experiment_specialises_each_policy(compose, experiment):
 def test_evaluators_satisfy_the_entry_points_protocol(compose):
     """Every configs/eval/*.yaml names an lfd.training.Evaluator; experiment=quick switches on
     CNN -> DMP's colour averaging (configs/eval_experiment/reach_quick.yaml), nothing else does."""
-    import hydra
-
+    import evaluate
+    from lfd.interop.lerobot.report import write_lerobot_eval
     from lfd.training import Evaluator
 
     for name in ("reach", "sawyer"):
-        cfg = compose("evaluate", f"eval={name}")
-        assert isinstance(hydra.utils.instantiate(cfg.eval, _recursive_=False), Evaluator), name
+        evaluator = evaluate.instantiate_evaluator(compose("evaluate", f"eval={name}"))
+        assert isinstance(evaluator, Evaluator), name
+    # the LeRobot episode report is wired in by the config (lfd.visuomotor does not import lfd.interop)
+    (report,) = evaluate.instantiate_evaluator(compose("evaluate")).episode_reports
+    assert report.func is write_lerobot_eval
     assert list(compose("evaluate", "experiment=quick").eval.colour_tta) == ["cnn_dmp"]
     assert list(compose("evaluate", "experiment=original").eval.colour_tta) == []
     assert "global_pool" not in compose("evaluate", "experiment=original").model  # no policy options

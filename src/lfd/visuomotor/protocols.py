@@ -5,6 +5,8 @@
   closed-loop evaluator (:func:`lfd.visuomotor.eval.rollout.run_episode`) starts once per
   episode and steps every control period with an :class:`Observation`, whatever the policy's
   kind.
+* :class:`EpisodeReport`: a writer of the evaluated episodes in another layout, which the
+  evaluator calls after its own outputs (configured in ``configs/eval/reach.yaml``).
 * :class:`PolicyData` and :class:`GeneratedPolicyData`: what a policy takes from its datamodule
   at ``setup("fit")`` (:class:`lfd.visuomotor.data.ReachDataModule` offers both,
   :class:`lfd.interop.lerobot.datamodule.LeRobotDataModule` the first).
@@ -17,11 +19,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["Controller", "GeneratedPolicyData", "Observation", "PolicyData"]
+__all__ = ["Controller", "EpisodeReport", "GeneratedPolicyData", "Observation", "PolicyData"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +75,35 @@ class Controller(Protocol):
         """``(q_target, qd_target)``, both ``(n,)`` float64 (rad, rad/s), for control step ``step``
         (0-based); appends the wall time (ms) of each network call to ``latencies``."""
         ...
+
+
+class EpisodeReport(Protocol):
+    """Writes one evaluation's episodes into ``out_dir`` in some layout, e.g.
+    :func:`lfd.interop.lerobot.report.write_lerobot_eval`.
+
+    Args:
+        out_dir: the evaluation's run directory.
+        rows: one dict per episode and method (the rows of ``episodes.csv``).
+        cases: the :class:`~lfd.visuomotor.eval.cases.Case` list, in episode order.
+        traces: ``{method: [EpisodeTrace per case]}``.
+        gen: the dataset's generator config (``control_dt``, ``image_size``, ...).
+        seed: the dataset seed; eval_s: wall time of the evaluation so far, s.
+        n_videos, frame_every: episodes to render per method, and every how many control steps.
+    """
+
+    def __call__(
+        self,
+        out_dir: Path,
+        rows: list[dict[str, Any]],
+        cases: list,
+        traces: dict[str, list],
+        gen: Any,
+        *,
+        seed: int | None,
+        eval_s: float,
+        n_videos: int,
+        frame_every: int,
+    ) -> Any: ...
 
 
 @runtime_checkable

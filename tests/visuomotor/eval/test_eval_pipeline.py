@@ -205,6 +205,11 @@ def test_closed_loop_evaluation_writes_every_output(checkpoints, tiny, workspace
         with Image.open(gif) as im:
             assert im.format == "GIF" and im.size == (64, 64)
 
+    # LeRobot's layout of the same episodes (configs/eval/reach.yaml's episode_reports)
+    for kind in saved:
+        assert (out_dir / kind / "eval_info.json").is_file()
+        assert len(list((out_dir / kind / "videos").glob("eval_episode_*.mp4"))) == 1
+
     # the policies saw only camera frames, joint angles and (velocity) the clock
     assert [c[0] for c in recorders["cnn_dmp"].calls] == ["plan"] * 3  # warm-up + 2 episodes
     assert len(recorders["velocity"].calls) == 1 + 2 * 12

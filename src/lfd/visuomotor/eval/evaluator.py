@@ -22,14 +22,13 @@ import io
 import math
 import time
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
-from lfd.interop.lerobot.report import write_lerobot_eval
 from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
 from lfd.sim.scene import ReachScene
@@ -47,7 +46,7 @@ from lfd.visuomotor.eval.metrics import (
 from lfd.visuomotor.eval.plots import distance_bars, paths_3d, write_gif
 from lfd.visuomotor.eval.rollout import EpisodeTrace, observe, run_episode
 from lfd.visuomotor.policies import POLICIES, load_policy
-from lfd.visuomotor.protocols import Controller, Observation
+from lfd.visuomotor.protocols import Controller, EpisodeReport, Observation
 
 #: Checkpoint config key per policy kind (``python evaluate.py ckpt_dmp=... ckpt_velocity=...``).
 CKPT_KEYS = {"cnn_dmp": "ckpt_dmp", "velocity": "ckpt_velocity"}
@@ -79,6 +78,9 @@ class ReachEvaluator:
         limit: evaluate only the first ``limit`` cases (None: all).
         torch_threads: torch intra-op threads during the closed-loop runs (a batch of one
             gains nothing from more, and loses much to thread hand-offs on a busy CPU).
+        episode_reports: writers of the episodes in other layouts, called in order after the
+            outputs above (:class:`~lfd.visuomotor.protocols.EpisodeReport`;
+            ``configs/eval/reach.yaml``: LeRobot's, :func:`lfd.interop.lerobot.report.write_lerobot_eval`).
     """
 
     #: :meth:`run` reads the policies' dataset (``evaluate.py`` instantiates ``cfg.data`` for it).
@@ -96,6 +98,7 @@ class ReachEvaluator:
         torch_threads: int = 1,
         split: str = "test",
         colour_tta: tuple[str, ...] | list[str] = (),
+        episode_reports: Sequence[EpisodeReport] = (),
     ) -> None:
         if split not in ("test", "val"):
             raise ValueError(f"ReachEvaluator.split: expected 'test' or 'val', got {split!r}")
@@ -112,6 +115,7 @@ class ReachEvaluator:
                 f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(POLICIES)}"
             )
         self.colour_tta = tuple(colour_tta)
+        self.episode_reports = tuple(episode_reports)
         self.scenario = scenario
         self.methods = tuple(methods)
         self.n_gifs, self.gif_every = int(n_gifs), max(1, int(gif_every))
@@ -263,18 +267,18 @@ class ReachEvaluator:
                 }
             )
         self._write(out_dir, metrics, rows, cases, traces)
-        # the same episodes in LeRobot's layout: <out_dir>/<method>/eval_info.json and videos/eval_episode_<i>.mp4
-        write_lerobot_eval(
-            out_dir,
-            rows,
-            cases,
-            traces,
-            gen,
-            seed=gen.seed,
-            eval_s=time.perf_counter() - t0,
-            n_videos=self.n_gifs,
-            frame_every=self.gif_every,
-        )
+        for report in self.episode_reports:  # e.g. LeRobot's layout: <method>/eval_info.json, videos/
+            report(
+                out_dir,
+                rows,
+                cases,
+                traces,
+                gen,
+                seed=gen.seed,
+                eval_s=time.perf_counter() - t0,
+                n_videos=self.n_gifs,
+                frame_every=self.gif_every,
+            )
         return metrics
 
     def _episodes(
