@@ -45,7 +45,7 @@ def test_zero_weights_follow_the_critically_damped_closed_form():
 
 
 def _reference_rollout(t, y0, goal, weights, tau, n_basis, formulation, alpha_s=ALPHA / 3, overlap=0.8):
-    """Adaptive RK45 on the continuous equations, re-derived in numpy: SPEC section 1
+    """Adaptive RK45 on the continuous equations, re-derived in numpy (the thesis formulation)
     (``"ijspeert"``) or Pastor et al. 2009, ``K (g - y) - D z - K (g - y0) s + K f(s)``."""
     centres = np.exp(-alpha_s * np.linspace(0, 1, n_basis))
     widths = -np.log(overlap) / np.diff(centres) ** 2

@@ -60,7 +60,7 @@ def test_pose_target_falls_back_to_position_only_ik(sawyer_dmp, sawyer):
 
 
 def test_unreachable_target_gives_best_effort_without_convergence(sawyer_dmp, sawyer):
-    far = np.array([1.11, -0.551, -0.04])  # SPEC goal 3: beyond the Sawyer's reach
+    far = np.array([1.11, -0.551, -0.04])  # the protocol's goal 3: beyond the Sawyer's reach
     result = adapt_to_goal(sawyer_dmp, far, robot=sawyer, space="task", max_iter=5, seed=0)
     assert not result.converged and result.error > 0.05
     assert np.all(np.isfinite(result.trajectory))

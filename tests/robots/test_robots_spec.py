@@ -1,4 +1,4 @@
-"""Robot descriptions: catalogue values against SPEC section 3, DH conversion, validation."""
+"""Robot descriptions: catalogue values against the thesis, DH conversion, validation."""
 
 from __future__ import annotations
 

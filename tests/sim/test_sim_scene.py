@@ -48,7 +48,7 @@ def test_position_control_tracks_and_holds(scene, robot):
     scene.reset()
     home = robot.home.numpy()
     target = home + np.array([0.3, 0.2, 0.0, -0.3, 0.0, -0.2, 0.0])
-    for _ in range(50):  # issue 12: URDF torque limits (30 N m on the pan joint) need ~1.6 s, not 1 s
+    for _ in range(50):  # URDF torque limits (30 N m on the pan joint) need ~1.6 s, not 1 s
         scene.step(target)
     q, qd = scene.joint_state()
     np.testing.assert_allclose(q, target, atol=2e-3)

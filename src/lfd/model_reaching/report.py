@@ -141,7 +141,7 @@ def original_table() -> str:
         + " | ".join(str(sum(ORIGINAL_EPISODES[t][s])) for t in ORIGINAL_EPISODES for s in SCENARIOS)
         + " |"
     )
-    return "## Original (SPEC 5), episodes to convergence\n\n" + "\n".join(lines)
+    return "## Original (thesis ch. 5), episodes to convergence\n\n" + "\n".join(lines)
 
 
 def public(value: Any) -> Any:

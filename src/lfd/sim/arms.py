@@ -2,7 +2,7 @@
 
 Both arms hold ``B`` independent copies of a :class:`lfd.robots.Robot` and share one
 interface (``reset(q0 (B, n)) -> q``, ``step(qd (B, n)) -> q``, ``close()``, ``dt``), so a
-controller such as :func:`lfd.visuomotor.eval.rollout.closed_loop_reach` runs on either:
+controller such as :func:`lfd.model_reaching.closed_loop.closed_loop_reach` runs on either:
 
 * :class:`KinematicArm`: ``q <- clamp(q + dt qd)``, exact and fast;
 * :class:`PyBulletArm`: one :class:`~lfd.sim.scene.ReachScene` per arm with the robot's

@@ -354,7 +354,7 @@ class ReachScene:
     def render(self, with_depth: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """RGB frame ``(H, W, 3)`` uint8 of the fixed camera; with ``with_depth`` the pair
         ``(rgb, depth)``, depth ``(H, W)`` uint16 mm along the optical axis (one render call;
-        :func:`lfd.sim.camera.rgbd_image` turns the pair into a policy's RGB-D input)."""
+        :func:`lfd.sim.depth.rgbd_image` turns the pair into a policy's RGB-D input)."""
         return self.camera.render(
             self.client,
             self.base_to_world,
