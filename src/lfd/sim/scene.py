@@ -34,7 +34,7 @@ from lfd.sim.approach import TABLE_Z
 from lfd.sim.camera import Camera
 from lfd.sim.collision import overlapping_link_pairs
 from lfd.sim.objects import ObjectSpec, Placement
-from lfd.sim.tracking import command_joints
+from lfd.sim.tracking import ArmJoints
 
 #: Table extent (m) in the torso frame: x from ``TABLE_X[0]`` to ``TABLE_X[1]``, y symmetric.
 TABLE_X = (0.35, 0.95)
@@ -61,7 +61,7 @@ def yaw_quaternion(yaw: float) -> tuple[float, float, float, float]:
     return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
 
 
-class ReachScene:
+class ReachScene(ArmJoints):
     """One PyBullet world with the arm, a table and (after :meth:`reset`) one object.
 
     Args:
@@ -83,6 +83,8 @@ class ReachScene:
         torso_height: height (m) of the torso frame above the floor.
         table_z: height of the table top in the torso frame.
     """
+
+    _arm_body = "robot_id"  # (ArmJoints) reloaded by every reset
 
     def __init__(
         self,
@@ -259,26 +261,6 @@ class ReachScene:
             p.resetJointState(self.robot_id, j, float(q[j]), 0.0, physicsClientId=self.client)
         self.command(q, np.zeros(self.n_joints))
 
-    def command(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
-        """Position control towards ``q (n_joints,)`` with velocity feed-forward ``qd``
-        (default zero), within the effort and velocity limits, from the next physics step
-        (:func:`lfd.sim.tracking.command_joints`)."""
-        command_joints(
-            self.client,
-            self.robot_id,
-            q,
-            np.zeros(self.n_joints) if qd is None else qd,
-            self.forces,
-            self.max_velocities,
-            self.position_gain,
-            self.velocity_gain,
-        )
-
-    def step_physics(self, steps: int = 1) -> None:
-        """Advance the physics ``steps`` steps (``control_dt / substeps`` s each)."""
-        for _ in range(steps):
-            p.stepSimulation(physicsClientId=self.client)
-
     def step_velocity(self, qd_target: np.ndarray) -> None:
         """One control step of velocity control: joint velocities ``qd_target (n_joints,)``
         rad/s (clipped to the velocity limits), within the effort limits, for
@@ -311,11 +293,6 @@ class ReachScene:
         self.step_physics(self.substeps)
 
     # ------------------------------------------------------------------ state
-    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Joint positions and velocities, each ``(n_joints,)`` float64."""
-        states = p.getJointStates(self.robot_id, list(range(self.n_joints)), physicsClientId=self.client)
-        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
-
     def ee_pose(self) -> np.ndarray:
         """``(4, 4)`` tool-frame pose in the torso frame."""
         state = p.getLinkState(
@@ -389,12 +366,6 @@ class ReachScene:
             p.disconnect(physicsClientId=self._backdrop_client)
             self.client = -1
         shutil.rmtree(self._tmpdir, ignore_errors=True)
-
-    def __enter__(self) -> ReachScene:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     def __del__(self) -> None:
         if getattr(self, "client", -1) >= 0:

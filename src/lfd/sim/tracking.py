@@ -113,7 +113,50 @@ def command_joints(
         )
 
 
-class ArmWorld:
+class ArmJoints:
+    """The joint motors and joint state of one arm body in a PyBullet client, shared by every world
+    that holds an arm (:class:`ArmWorld`, :class:`lfd.sim.scene.ReachScene`).
+
+    A subclass sets ``client``, ``n_joints``, ``forces`` and ``max_velocities`` ``(n_joints,)``,
+    ``position_gain`` and ``velocity_gain`` (None: PyBullet's defaults) and the attribute named by
+    ``_arm_body`` that holds the arm's body id.
+    """
+
+    _arm_body = "body"
+
+    def command(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
+        """Command the joints towards ``q (n,)`` rad (feed-forward ``qd (n,)`` rad/s) within the limits
+        (:func:`command_joints`)."""
+        command_joints(
+            self.client,
+            getattr(self, self._arm_body),
+            q,
+            qd,
+            self.forces,
+            self.max_velocities,
+            self.position_gain,
+            self.velocity_gain,
+        )
+
+    def step_physics(self, steps: int = 1) -> None:
+        """Advance the physics ``steps`` steps."""
+        for _ in range(steps):
+            p.stepSimulation(physicsClientId=self.client)
+
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Joint positions and velocities, each ``(n_joints,)`` float64."""
+        body = getattr(self, self._arm_body)
+        states = p.getJointStates(body, list(range(self.n_joints)), physicsClientId=self.client)
+        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class ArmWorld(ArmJoints):
     """The arm alone in its own PyBullet ``p.DIRECT`` client (gravity, fixed base).
 
     Args:
@@ -142,11 +185,11 @@ class ArmWorld:
         velocity_gain: float | None = None,
         image_size: tuple[int, int] = (320, 320),
     ) -> None:
-        self.robot, self.n = robot, robot.n_dof
+        self.robot, self.n_joints = robot, robot.n_dof
         efforts = robot.effort_limits.numpy().astype(float)
-        self.forces = efforts if max_force is None else np.full(self.n, float(max_force))
+        self.forces = efforts if max_force is None else np.full(self.n_joints, float(max_force))
         speeds = robot.velocity_limits.numpy().astype(float)
-        self.max_velocities = speeds if limit_velocity else np.full(self.n, np.inf)
+        self.max_velocities = speeds if limit_velocity else np.full(self.n_joints, np.inf)
         self.position_gain, self.velocity_gain = position_gain, velocity_gain
         self.size = tuple(image_size)
         orientation = [0.0, 0.0, 0.0, 1.0]
@@ -175,35 +218,14 @@ class ArmWorld:
 
     def set_joints(self, q: np.ndarray) -> None:
         """Teleport the joints to ``q (n,)`` rad at rest (no physics step, motors untouched)."""
-        for j in range(self.n):
+        for j in range(self.n_joints):
             p.resetJointState(self.body, j, float(q[j]), 0.0, physicsClientId=self.client)
-
-    def command(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
-        """Command the joints towards ``q (n,)`` (feed-forward ``qd``) within the limits."""
-        command_joints(
-            self.client,
-            self.body,
-            q,
-            qd,
-            self.forces,
-            self.max_velocities,
-            self.position_gain,
-            self.velocity_gain,
-        )
-
-    def step_physics(self, steps: int = 1) -> None:
-        """Advance the physics ``steps`` steps."""
-        for _ in range(steps):
-            p.stepSimulation(physicsClientId=self.client)
-
-    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Joint positions and velocities, each ``(n,)``."""
-        states = p.getJointStates(self.body, list(range(self.n)), physicsClientId=self.client)
-        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
     def tool_position(self) -> np.ndarray:
         """(3,) tool point (the URDF's last, fixed link) in the world, m."""
-        state = p.getLinkState(self.body, self.n, computeForwardKinematics=True, physicsClientId=self.client)
+        state = p.getLinkState(
+            self.body, self.n_joints, computeForwardKinematics=True, physicsClientId=self.client
+        )
         return np.array(state[4])
 
     def render(self) -> np.ndarray:
@@ -221,12 +243,6 @@ class ArmWorld:
             p.disconnect(physicsClientId=self.client)
             self.client = None
         shutil.rmtree(self._dir, ignore_errors=True)
-
-    def __enter__(self) -> ArmWorld:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
 
 def track_trajectory(
