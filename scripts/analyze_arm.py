@@ -17,13 +17,10 @@ with their error) and a progress bar. Configuration: ``configs/analyze_arm.yaml`
 
 from __future__ import annotations
 
-import csv
-import fnmatch
 from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
-from tqdm import tqdm
 
 CONFIGS = str(Path(__file__).resolve().parents[1] / "configs")
 
@@ -55,74 +52,37 @@ def analysis_options(cfg: DictConfig) -> dict:
     )
 
 
-def analyze_file(path: Path, cfg: DictConfig, out_dir: Path):
-    """Read, analyse and write all outputs of one file into ``out_dir``; returns the ArmAnalysis."""
-    from lfd.human import analyze_arm, read_skeleton
-
-    reader = OmegaConf.to_container(cfg.reader, resolve=True) if cfg.reader else {}
-    skeleton = read_skeleton(path, format=cfg.format, **reader)
-    result = analyze_arm(skeleton, **analysis_options(cfg))
-    result.save(
-        out_dir,
+def save_options(cfg: DictConfig) -> dict:
+    """Keyword arguments of :func:`lfd.human.batch.analyze_file` (reader, analysis, outputs)."""
+    return dict(
+        format=cfg.format,
+        reader=OmegaConf.to_container(cfg.reader, resolve=True) if cfg.reader else {},
+        analysis=analysis_options(cfg),
         plots=bool(cfg.outputs.plots),
         gif=bool(cfg.outputs.gif),
         gif_frames=int(cfg.outputs.gif_frames),
     )
-    return result
-
-
-def _files(folder: Path, pattern: str | None) -> list[Path]:
-    from lfd.human.readers import iter_skeleton_files
-
-    if pattern:
-        return sorted(
-            p
-            for p in folder.rglob("*")
-            if p.is_file() and fnmatch.fnmatch(str(p.relative_to(folder)), pattern)
-        )
-    return list(iter_skeleton_files(folder))
 
 
 def run(cfg: DictConfig, out_dir: str | Path) -> Path:
     """Run the analysis for ``cfg.file`` (a file or a folder) writing into ``out_dir``; returns it."""
+    from lfd.human.batch import SUMMARY_FILE, analyze_file, analyze_folder
+
     out = Path(out_dir)
     source = Path(str(cfg.file))
     if not source.exists():
         raise FileNotFoundError(f"file={source}: no such file or folder")
     if source.is_file():
-        result = analyze_file(source, cfg, out)
-        s = result.summary()
-        print(f"[lfd] {source}: {s['frames']} frames, {cfg.side} arm; ROM abduction {s['abduction_rom_deg']:.0f} deg, "
-              f"flexion {s['flexion_rom_deg']:.0f} deg, elbow {s['elbow_flexion_rom_deg']:.0f} deg; "
-              f"peak shoulder flexion torque {s['flexion_peak_torque_Nm']:.1f} N m")  # fmt: skip
-        print(f"[lfd] outputs in {out}")
-        return out
-    files = _files(source, cfg.pattern)
-    if not files:
-        raise FileNotFoundError(f"file={source}: no skeleton files found (pattern={cfg.pattern})")
-    rows = []
-    for path in tqdm(files, desc="analyse", unit="file"):
-        rel = path.relative_to(source)
-        name = str(rel).replace("/", "__")
-        for suffix in (".gz", ".csv", ".skeleton", ".trc", ".txt"):
-            name = name.removesuffix(suffix)
-        try:
-            result = analyze_file(path, cfg, out / name)
-            row = {"file": str(rel), "status": "ok"}
-            row.update({k: v for k, v in result.summary().items() if k not in ("source", "gaps_left")})
-            row["gaps_left"] = len(result.quality["gaps_left"])
-        except (ValueError, FileNotFoundError) as exc:  # bad file: report it, keep going
-            row = {"file": str(rel), "status": f"error: {exc}"}
-        rows.append(row)
-    keys = list(dict.fromkeys(k for row in rows for k in row))
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "summary.csv", "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=keys)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()})
-    ok = sum(r["status"] == "ok" for r in rows)
-    print(f"[lfd] {ok}/{len(rows)} files analysed; summary: {out / 'summary.csv'}")
+        s = analyze_file(source, out, **save_options(cfg)).summary()
+        print(
+            f"[lfd] {source}: {s['frames']} frames, {cfg.side} arm; ROM abduction {s['abduction_rom_deg']:.0f} deg, "
+            f"flexion {s['flexion_rom_deg']:.0f} deg, elbow {s['elbow_flexion_rom_deg']:.0f} deg; "
+            f"peak shoulder flexion torque {s['flexion_peak_torque_Nm']:.1f} N m"
+        )
+    else:
+        rows = analyze_folder(source, out, pattern=cfg.pattern, **save_options(cfg))
+        ok = sum(r["status"] == "ok" for r in rows)
+        print(f"[lfd] {ok}/{len(rows)} files analysed; summary: {out / SUMMARY_FILE}")
     print(f"[lfd] outputs in {out}")
     return out
 

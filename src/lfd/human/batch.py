@@ -1,0 +1,119 @@
+"""Arm analysis of one skeleton file or of every file in a folder, with a summary table.
+
+The stages that ``scripts/analyze_arm.py`` chains, callable from the package::
+
+    from lfd.human.batch import analyze_folder
+
+    rows = analyze_folder("recordings/", "out/", analysis={"side": "left", "body_mass": 80.0})
+    # out/<file>/arm.{csv,mot,json} and figures per file, out/summary.csv: one row per file
+
+A file that cannot be read or analysed (``ValueError``, ``FileNotFoundError``) becomes a row with
+``status = "error: <message>"``; the others have ``status = "ok"`` and their
+:meth:`~lfd.human.ArmAnalysis.summary` (ranges of motion in degrees, peak torques in N m).
+"""
+
+from __future__ import annotations
+
+import csv
+import fnmatch
+import io
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from tqdm import tqdm
+
+from lfd.io.files import write_text_atomic
+
+from .analysis import ArmAnalysis, analyze_arm
+from .readers import iter_skeleton_files, read_skeleton
+
+__all__ = ["SUMMARY_FILE", "analyze_file", "analyze_folder", "skeleton_files", "write_summary"]
+
+#: The batch summary's file name in the output folder.
+SUMMARY_FILE = "summary.csv"
+_SUFFIXES = (".gz", ".csv", ".skeleton", ".trc", ".txt")
+
+
+def analyze_file(
+    path: str | Path,
+    out_dir: str | Path,
+    *,
+    format: str | None = None,
+    reader: Mapping[str, Any] | None = None,
+    analysis: Mapping[str, Any] | None = None,
+    plots: bool = True,
+    gif: bool = True,
+    gif_frames: int = 150,
+) -> ArmAnalysis:
+    """Read ``path`` (:func:`lfd.human.read_skeleton` with ``format`` and ``reader`` options),
+    analyse it (:func:`lfd.human.analyze_arm` with ``analysis`` options) and write every output
+    into ``out_dir`` (:meth:`ArmAnalysis.save`). Raises what the reader and the analysis raise."""
+    skeleton = read_skeleton(path, format=format, **dict(reader or {}))
+    result = analyze_arm(skeleton, **dict(analysis or {}))
+    result.save(out_dir, plots=plots, gif=gif, gif_frames=gif_frames)
+    return result
+
+
+def skeleton_files(folder: str | Path, pattern: str | None = None) -> list[Path]:
+    """The files of ``folder`` to analyse, sorted: those matching the glob ``pattern`` (relative to
+    the folder), or every recognised skeleton file, recursively (``pattern=None``)."""
+    folder = Path(folder)
+    if pattern:
+        return sorted(
+            p
+            for p in folder.rglob("*")
+            if p.is_file() and fnmatch.fnmatch(str(p.relative_to(folder)), pattern)
+        )
+    return list(iter_skeleton_files(folder))
+
+
+def analyze_folder(
+    folder: str | Path,
+    out_dir: str | Path,
+    *,
+    pattern: str | None = None,
+    progress: bool = True,
+    **options: Any,
+) -> list[dict[str, Any]]:
+    """:func:`analyze_file` for each of :func:`skeleton_files` into ``out_dir/<relative name>``,
+    then :func:`write_summary` to ``out_dir/summary.csv``; returns the rows.
+
+    ``options`` are :func:`analyze_file`'s keywords (``format``, ``reader``, ``analysis``,
+    ``plots``, ``gif``, ``gif_frames``).
+
+    Raises:
+        FileNotFoundError: ``folder`` holds no file to analyse.
+    """
+    folder, out = Path(folder), Path(out_dir)
+    files = skeleton_files(folder, pattern)
+    if not files:
+        raise FileNotFoundError(f"file={folder}: no skeleton files found (pattern={pattern})")
+    rows = []
+    for path in tqdm(files, desc="analyse", unit="file", disable=not progress):
+        rel = path.relative_to(folder)
+        name = str(rel).replace("/", "__")
+        for suffix in _SUFFIXES:
+            name = name.removesuffix(suffix)
+        try:
+            result = analyze_file(path, out / name, **options)
+            row = {"file": str(rel), "status": "ok"}
+            row.update({k: v for k, v in result.summary().items() if k not in ("source", "gaps_left")})
+            row["gaps_left"] = len(result.quality["gaps_left"])
+        except (ValueError, FileNotFoundError) as exc:  # bad file: report it, keep going
+            row = {"file": str(rel), "status": f"error: {exc}"}
+        rows.append(row)
+    write_summary(rows, out / SUMMARY_FILE)
+    return rows
+
+
+def write_summary(rows: list[dict[str, Any]], path: str | Path) -> Path:
+    """One CSV row per file (the union of the rows' keys as columns, floats to 4 significant
+    digits), written atomically; returns the path."""
+    keys = list(dict.fromkeys(k for row in rows for k in row))
+    buffer = io.StringIO(newline="")
+    writer = csv.DictWriter(buffer, fieldnames=keys)
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()})
+    return write_text_atomic(Path(path), buffer.getvalue())
