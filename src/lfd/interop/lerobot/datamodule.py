@@ -77,7 +77,7 @@ def _velocity_dataset_class():
     importing this module does not import :mod:`lfd.visuomotor.data` (nor what it loads)."""
     import torch
 
-    from lfd.visuomotor.data.datasets import VelocityReachDataset, command_velocities, mode_labels
+    from lfd.visuomotor.data.datasets import VelocityReachDataset, command_tensor, mode_labels
 
     class VelocityDataset(VelocityReachDataset):
         """:class:`~lfd.visuomotor.data.datasets.VelocityReachDataset` items from episodes of any lengths."""
@@ -96,16 +96,7 @@ def _velocity_dataset_class():
             self.tensors = {
                 "joints": cat("joints"),
                 "velocity": cat("velocities"),
-                "command": torch.cat(
-                    [
-                        torch.from_numpy(
-                            command_velocities(
-                                r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32)
-                            )
-                        ).float()
-                        for r in records
-                    ]
-                ),
+                "command": command_tensor(records),
                 "t": cat("t"),
                 "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(
                     lengths
@@ -341,19 +332,9 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         return self._stats
 
     def _loader(self, split: str, shuffle: bool):
-        from torch.utils.data import DataLoader
+        from lfd.visuomotor.data.datamodule import split_loader
 
-        if split not in self.datasets:
-            raise RuntimeError(
-                f"LeRobotDataModule: split '{split}' is not set up (empty, or setup() not called for it)"
-            )
-        return DataLoader(
-            self.datasets[split],
-            batch_size=self.batch_size,
-            shuffle=shuffle,
-            num_workers=self.num_workers,
-            persistent_workers=self.num_workers > 0,
-        )
+        return split_loader(self, split, shuffle)
 
     def train_dataloader(self):
         return self._loader("train", shuffle=True)

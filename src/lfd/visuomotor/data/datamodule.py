@@ -210,17 +210,7 @@ class ReachDataModule(L.LightningDataModule):
         return self.data.stats
 
     def _loader(self, split: str, shuffle: bool) -> DataLoader:
-        if split not in self.datasets:
-            raise RuntimeError(
-                f"ReachDataModule: split '{split}' is not set up (empty, or setup() not called for it)"
-            )
-        return DataLoader(
-            self.datasets[split],
-            batch_size=self.batch_size,
-            shuffle=shuffle,
-            num_workers=self.num_workers,
-            persistent_workers=self.num_workers > 0,
-        )
+        return split_loader(self, split, shuffle)
 
     def train_dataloader(self) -> DataLoader:
         return self._loader("train", shuffle=True)
@@ -230,3 +220,23 @@ class ReachDataModule(L.LightningDataModule):
 
     def test_dataloader(self) -> DataLoader:
         return self._loader("test", shuffle=False)
+
+
+def split_loader(datamodule, split: str, shuffle: bool) -> DataLoader:
+    """The DataLoader of ``datamodule.datasets[split]`` with its ``batch_size`` and ``num_workers``
+    (workers persist between epochs), shared by every policy datamodule.
+
+    Raises:
+        RuntimeError: the split is not set up (empty, or ``setup()`` not called for it).
+    """
+    if split not in datamodule.datasets:
+        raise RuntimeError(
+            f"{type(datamodule).__name__}: split '{split}' is not set up (empty, or setup() not called for it)"
+        )
+    return DataLoader(
+        datamodule.datasets[split],
+        batch_size=datamodule.batch_size,
+        shuffle=shuffle,
+        num_workers=datamodule.num_workers,
+        persistent_workers=datamodule.num_workers > 0,
+    )

@@ -153,6 +153,19 @@ def _to_image(frame: torch.Tensor, transform: Transform | None) -> torch.Tensor:
     return transform(image) if transform is not None else image
 
 
+def command_tensor(records) -> torch.Tensor:
+    """``(sum of T_i, 7)`` float32 :func:`command_velocities` of every record (each with
+    ``arrays["joints"] (T_i, 7)`` rad and ``arrays["t"] (T_i,)`` s), one after the other."""
+    return torch.cat(
+        [
+            torch.from_numpy(
+                command_velocities(r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32))
+            ).float()
+            for r in records
+        ]
+    )
+
+
 def command_velocities(joints: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Per-step velocity commands ``(T, n)`` rad/s of one demonstration: the joints' mean
     velocity over the control period after each sample, ``(q[k+1] - q[k]) / (t[k+1] - t[k])``,
@@ -294,16 +307,7 @@ class VelocityReachDataset(Dataset):
         self.tensors = {
             "joints": _stack(records, "joints").reshape(-1, 7),
             "velocity": _stack(records, "velocities").reshape(-1, 7),
-            "command": torch.cat(
-                [
-                    torch.from_numpy(
-                        command_velocities(
-                            r.arrays["joints"].astype(np.float32), r.arrays["t"].astype(np.float32)
-                        )
-                    ).float()
-                    for r in records
-                ]
-            ),
+            "command": command_tensor(records),
             "t": _stack(records, "t").reshape(-1),
             "index": torch.tensor([r.index for r in records], dtype=torch.int64).repeat_interleave(steps),
             "step": torch.arange(steps, dtype=torch.int64).repeat(len(records)),
