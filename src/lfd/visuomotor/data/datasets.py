@@ -138,6 +138,18 @@ def _depth(data) -> bool:
     return bool(getattr(getattr(data, "config", None), "depth", False))
 
 
+def _split_records(data, split: str, depth: bool | None) -> tuple[list[EpisodeRecord], bool]:
+    """The records of ``split`` and whether the items are RGB-D (:func:`_input_depth`).
+
+    Raises:
+        DatasetError: the split is empty.
+    """
+    records = data.split(split)
+    if not records:
+        raise DatasetError(f"{data.path}: split '{split}' is empty")
+    return records, _input_depth(data, depth)
+
+
 def _input_depth(data, depth: bool | None) -> bool:
     """Whether the items carry RGB-D images: ``depth`` (``None`` = whatever ``data`` has);
     RGB-D from a dataset without depth images is an error."""
@@ -237,11 +249,8 @@ class DMPReachDataset(Dataset):
         depth: bool | None = None,
         depth_encoding: str = "range",
     ) -> None:
-        records = data.split(split)
-        if not records:
-            raise DatasetError(f"{data.path}: split '{split}' is empty")
+        records, depth = _split_records(data, split, depth)
         self.transform = transform
-        depth = _input_depth(data, depth)
         self.frames = torch.from_numpy(
             np.stack([policy_frames(r, depth, depth_encoding)[0] for r in records])
         )
@@ -295,11 +304,8 @@ class VelocityReachDataset(Dataset):
         depth: bool | None = None,
         depth_encoding: str = "range",
     ) -> None:
-        records = data.split(split)
-        if not records:
-            raise DatasetError(f"{data.path}: split '{split}' is empty")
+        records, depth = _split_records(data, split, depth)
         self.transform = transform
-        depth = _input_depth(data, depth)
         self.frames = torch.from_numpy(
             np.concatenate([policy_frames(r, depth, depth_encoding) for r in records])
         )
