@@ -7,7 +7,7 @@ Usage::
 
 Composes ``configs/imitate.yaml`` and runs :func:`lfd.imitation.run` (video -> pose -> arm
 angles -> retargeting -> time-scaled DMP -> PyBullet -> side-by-side video) in the Hydra run
-directory: ``keypoints.csv`` (+ ``.npz``), ``arm.csv``/``arm.mot``/``arm.json``, ``dmp.npz``,
+directory: ``keypoints.csv`` (+ ``.npz``), ``arm.csv``/``arm.mot``/``arm.json``, ``dmp.json``,
 ``robot_trajectory.csv``, ``summary.json``, ``side_by_side.mp4`` and ``side_by_side.gif``.
 """
 

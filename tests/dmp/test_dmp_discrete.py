@@ -301,3 +301,14 @@ def test_rollout_and_constructor_reject_bad_arguments():
             DMP(**kwargs)
     with pytest.raises(ValueError, match="method"):
         dmp.fit(np.linspace(0, 1, 5), np.zeros((5, 1)), method="ridge")
+
+
+def test_file_names_and_contents_must_say_json(tmp_path):
+    dmp = DMP(3).fit(np.linspace(0, 1, 10), np.linspace(0, 1, 10)[:, None] ** 2)
+    with pytest.raises(ValueError, match=r"give it a \.json name"):
+        dmp.save(tmp_path / "dmp.npz")
+    assert not (tmp_path / "dmp.npz").exists()
+    binary = tmp_path / "binary.json"
+    binary.write_bytes(b"\x80\x04\x95 pickle-like bytes \xff\xfe")
+    with pytest.raises(ValueError, match="not a DMP file"):
+        DMP.load(binary)

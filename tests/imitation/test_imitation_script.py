@@ -42,7 +42,7 @@ def test_imitate_wam_on_real_video(sports2d_video, mediapipe_ok, tmp_path):
         ]
     )
     summary = _script().run(cfg, tmp_path)
-    for name in ("keypoints.csv", "keypoints.npz", "arm.csv", "arm.mot", "arm.json", "dmp.npz",
+    for name in ("keypoints.csv", "keypoints.npz", "arm.csv", "arm.mot", "arm.json", "dmp.json",
                  "robot_trajectory.csv", "summary.json", "side_by_side.mp4", "side_by_side.gif"):  # fmt: skip
         assert (tmp_path / name).stat().st_size > 0, name
     assert json.loads((tmp_path / "summary.json").read_text()) == json.loads(json.dumps(summary))

@@ -49,7 +49,10 @@ class Primitive(ABC):
         """Write hyper-parameters and learned state to a JSON file (temp file + atomic rename).
 
         Args:
-            path: file path (e.g. ``"reach.dmp.json"``); its directory must exist.
+            path: file path ending in ``.json`` (e.g. ``"reach.dmp.json"``); its directory must exist.
+
+        Raises:
+            ValueError: ``path`` does not end in ``.json``.
         """
         fitted = None
         if self.is_fitted:

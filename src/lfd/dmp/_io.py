@@ -16,8 +16,13 @@ def write_json(path, kind: str, params: dict, fitted: dict | None) -> Path:
     """Write ``{"type", "version", "params", "fitted"}`` to ``path`` atomically.
 
     Arrays in ``fitted`` are stored as nested lists (floats round-trip exactly).
+
+    Raises:
+        ValueError: ``path`` does not end in ``.json`` (the file's name must say its format).
     """
     path = Path(path)
+    if path.suffix.lower() != ".json":
+        raise ValueError(f"{path}: a DMP file is JSON; give it a .json name (e.g. 'skill.dmp.json')")
     payload = {
         "type": kind,
         "version": FORMAT_VERSION,
@@ -39,7 +44,9 @@ def read_json(path, kind: str) -> tuple[dict, dict | None]:
     if not path.is_file():
         raise FileNotFoundError(f"no DMP file at {path}")
     try:
-        payload = json.loads(path.read_text())
+        payload = json.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path} is not a DMP file (not UTF-8 JSON text: {exc.reason})") from exc
     except json.JSONDecodeError as exc:
         raise ValueError(f"{path} is not valid JSON: {exc}") from exc
     found = payload.get("type") if isinstance(payload, dict) else None

@@ -10,7 +10,7 @@ access such as an OmegaConf ``DictConfig``) and of the previous stages' results:
 3. :func:`retarget`: the robot joint trajectory (:mod:`lfd.human.retarget`: WAM posture or
    7-DoF wrist path + IK), missing frames interpolated;
 4. :func:`fit_dmp`: a DMP fitted to it and time-scaled so its rollout keeps the velocity
-   limits (``dmp.npz``);
+   limits (``dmp.json``, read by ``lfd.dmp.DMP.load``);
 5. :func:`execute`: the DMP rollout run in PyBullet (the one tracker,
    :func:`lfd.sim.tracking.track_resampled`) and, with ``goal``, rolled out towards the IK
    solution of that tool position and run as well;
@@ -144,7 +144,7 @@ class DMPFit:
 
 def fit_dmp(cfg: Any, robot, t: np.ndarray, q: np.ndarray, out: Path) -> DMPFit:
     """Stage 4: fit a DMP (``cfg.dmp.n_basis``) to ``q (T, n)`` at ``t (T,)``, stretched in time
-    so its rollout keeps ``robot``'s velocity limits; saved as ``out/dmp.npz``.
+    so its rollout keeps ``robot``'s velocity limits; saved as ``out/dmp.json``.
 
     The robot executes the DMP, so its rollout (not the frame-to-frame retargeted samples,
     whose single-frame pose glitches the DMP smooths away) must respect the limits; a DMP is
@@ -159,7 +159,7 @@ def fit_dmp(cfg: Any, robot, t: np.ndarray, q: np.ndarray, out: Path) -> DMPFit:
     q_video = np.clip(np.asarray(DMP(n_basis=n_basis).fit(t, q).rollout(t)), lo, hi)
     t_robot, factor = time_scale(t, q_video, vmax)
     dmp = DMP(n_basis=n_basis).fit(t_robot, q)
-    dmp.save(out / "dmp.npz")
+    dmp.save(out / "dmp.json")
     q_dmp = np.clip(np.asarray(dmp.rollout(t_robot)), lo, hi)
     return DMPFit(dmp, t_robot, q_dmp, factor, factor_retargeted)
 

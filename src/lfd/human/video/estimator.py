@@ -80,7 +80,8 @@ def load_pose_estimator(
     """A MediaPipe Pose estimator (full model, shipped in the wheel); ``static`` = no tracking.
 
     Raises:
-        ImportError: mediapipe is not installed (``pip install "lfd[video]"``).
+        ImportError: mediapipe is not installed (``pip install -e ".[video]" && pip install --no-deps
+            mediapipe==0.10.14``: its declared dependencies would add jax and a second OpenCV).
     """
     try:
         _protobuf_compat()
@@ -90,7 +91,8 @@ def load_pose_estimator(
         from mediapipe.python.solutions import pose as mp_pose
     except ImportError as exc:
         raise ImportError(
-            'the video pose estimator needs MediaPipe: pip install "lfd[video]" (mediapipe==0.10.14)'
+            "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
+            'pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14'
         ) from exc
     return mp_pose.Pose(
         static_image_mode=static,

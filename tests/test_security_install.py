@@ -1,0 +1,115 @@
+"""Security and data safety: the `[video]` extra installs one OpenCV and no jax; output files say their format.
+
+The rows of the hostile-input table about installation and file formats (docs/security.md).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import tomllib
+
+import lfd.imitation
+from lfd.dmp import DMP
+from lfd.robots import load_robot
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Distributions the `[video]` extra must never bring in: jax (MediaPipe's model-maker dependency) and a
+#: second package providing `cv2` beside opencv-python-headless.
+FORBIDDEN = {"jax", "jaxlib", "sounddevice", "opencv-contrib-python", "opencv-python", "mediapipe"}
+
+
+def _name(requirement: str) -> str:
+    return re.split(r"[\s<>=!~;\[]", requirement.strip(), maxsplit=1)[0].lower().replace("_", "-")
+
+
+def _extra(name: str) -> list[str]:
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    return project["optional-dependencies"][name]
+
+
+def _closure(requirements: list[str]) -> set[str]:
+    """Names of the installed distributions ``requirements`` pull in (their unconditional requirements)."""
+    seen: set[str] = set()
+    todo = [_name(r) for r in requirements]
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        try:
+            requires = metadata.requires(name) or []
+        except metadata.PackageNotFoundError:
+            continue
+        todo += [_name(r) for r in requires if "extra ==" not in r]
+    return seen
+
+
+def test_video_extra_pulls_neither_jax_nor_a_second_opencv():
+    video = _extra("video")
+    assert not FORBIDDEN & {_name(r) for r in video}
+    pulled = _closure(video)
+    assert not FORBIDDEN & pulled, f"[video] pulls {sorted(FORBIDDEN & pulled)}"
+    assert {"absl-py", "attrs", "flatbuffers", "protobuf"} <= pulled
+
+
+def test_the_pose_solution_runs_on_the_video_extra_and_one_opencv():
+    """MediaPipe installed with --no-deps (README) imports and builds the pose estimator; cv2 is the headless one."""
+    from lfd.human.video.estimator import load_pose_estimator
+
+    providers = [d.metadata["Name"].lower() for d in metadata.distributions() if _provides_cv2(d)]
+    assert providers == ["opencv-python-headless"], providers
+    for name in ("jax", "jaxlib", "opencv-contrib-python"):
+        with pytest.raises(metadata.PackageNotFoundError):
+            metadata.version(name)
+    estimator = load_pose_estimator(static=True)
+    estimator.close()
+
+
+def _provides_cv2(dist) -> bool:
+    return any(str(f).startswith("cv2/__init__") for f in dist.files or [])
+
+
+def test_readme_and_ci_install_mediapipe_without_its_declared_dependencies():
+    readme = (ROOT / "README.md").read_text()
+    ci = (ROOT / ".ci" / "run").read_text()
+    step = "pip install --no-deps mediapipe==0.10.14"
+    assert f'pip install -e ".[video]" && {step}' in readme
+    assert f'pip install -e ".[test,video]" && {step}' in readme and f'".[test,video]" && {step}' in ci
+
+
+def test_imitation_writes_its_dmp_as_json_under_a_json_name(tmp_path):
+    """The imitation output `dmp.npz` was JSON: the name now says the format, and np.load is not invited."""
+    robot = load_robot("wam4")
+    t = np.linspace(0.0, 1.0, 40)
+    q = robot.home.numpy() + np.outer(0.5 - 0.5 * np.cos(np.pi * t), [0.2, 0.1, 0.0, 0.4])
+    fit = lfd.imitation.fit_dmp(SimpleNamespace(dmp=SimpleNamespace(n_basis=20)), robot, t, q, tmp_path)
+    assert not list(tmp_path.glob("*.npz"))
+    written = tmp_path / "dmp.json"
+    assert json.loads(written.read_text())["type"] == "lfd.dmp.DMP"
+    np.testing.assert_array_equal(DMP.load(written).weights_, fit.dmp.weights_)
+    with pytest.raises(ValueError, match=r"\.json name"):
+        fit.dmp.save(tmp_path / "dmp.npz")
+
+
+@pytest.mark.slow
+def test_pip_resolves_the_video_extra_to_one_opencv_and_no_jax(tmp_path):
+    """What pip would install for `pip install -e ".[video]"` on an empty environment (resolution only)."""
+    report = tmp_path / "report.json"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--dry-run", "--ignore-installed", "--quiet"]
+        + ["--report", str(report), "-e", f"{ROOT}[video]"],
+        check=True,
+        timeout=600,
+    )
+    names = {item["metadata"]["name"].lower() for item in json.loads(report.read_text())["install"]}
+    assert not FORBIDDEN & names, sorted(FORBIDDEN & names)
+    assert "opencv-python-headless" in names and "absl-py" in names
