@@ -4,6 +4,7 @@ on it), as CSV and through the .npz cache."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from lfd.human import analyze_arm
 from lfd.human.video import VideoKeypoints
@@ -23,3 +24,15 @@ def test_sports2d_skeleton_runs_analyze_arm(sports2d_keypoints, tmp_path):
     assert header[:4] == ["time_s", "frame", "detected", "other_person"] and "wrist_right_px" in header
     back = VideoKeypoints.load(sports2d_keypoints.save(tmp_path / "kp.npz"))
     np.testing.assert_array_equal(back.world, sports2d_keypoints.world)
+
+
+def test_cache_load_refuses_corrupt_and_pickled_files(sports2d_keypoints, tmp_path):
+    good = sports2d_keypoints.save(tmp_path / "kp.npz").read_bytes()
+    truncated = tmp_path / "truncated.npz"
+    truncated.write_bytes(good[: len(good) // 2])
+    pickled = tmp_path / "pickled.npz"
+    np.savez(pickled, t=np.array([{"a": 1}], dtype=object))
+    (tmp_path / "text.npz").write_text("not a cache")
+    for path in (truncated, pickled, tmp_path / "text.npz"):
+        with pytest.raises(ValueError, match="not a keypoint cache written by lfd"):
+            VideoKeypoints.load(path)

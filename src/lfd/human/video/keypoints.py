@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -148,20 +149,30 @@ class VideoKeypoints:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> VideoKeypoints:
-        """Read a cache written by :meth:`save`."""
+        """Read a cache written by :meth:`save` (no pickled objects are loaded).
+
+        Raises:
+            FileNotFoundError: no file at ``path``.
+            ValueError: the file is not such a cache (corrupt, truncated, or missing arrays).
+        """
         p = Path(path)
         if not p.exists():
             raise FileNotFoundError(f"keypoint cache not found: {p}")
-        with np.load(p) as z:
-            return cls(
-                t=z["t"],
-                frame_index=z["frame_index"],
-                pixels=z["pixels"],
-                visibility=z["visibility"],
-                world=z["world"],
-                detected=z["detected"],
-                other_person=z["other_person"],
-                image_size=tuple(int(v) for v in z["image_size"]),
-                source=str(z["source"]),
-                seconds=float(z["seconds"]),
-            )
+        try:
+            with np.load(p, allow_pickle=False) as z:
+                return cls(
+                    t=z["t"],
+                    frame_index=z["frame_index"],
+                    pixels=z["pixels"],
+                    visibility=z["visibility"],
+                    world=z["world"],
+                    detected=z["detected"],
+                    other_person=z["other_person"],
+                    image_size=tuple(int(v) for v in z["image_size"]),
+                    source=str(z["source"]),
+                    seconds=float(z["seconds"]),
+                )
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            raise ValueError(
+                f"{p}: not a keypoint cache written by lfd ({type(exc).__name__}: {exc})"
+            ) from None
