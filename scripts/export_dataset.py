@@ -6,10 +6,13 @@
 
 The dataset is generated first when it is missing (like ``train.py``), otherwise verified
 against its manifest. A progress bar shows the episodes; the time taken is printed.
+``overwrite=true`` replaces only an earlier lfd export of the same format (never the dataset
+or a folder holding it); a refused output or a bad dataset ends with one line on stderr, rc 2.
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -48,7 +51,11 @@ def export(cfg: DictConfig) -> Path:
 
 @hydra.main(version_base="1.3", config_path=CONFIGS, config_name="export_dataset")
 def main(cfg: DictConfig) -> str:
-    return str(export(cfg))
+    try:
+        return str(export(cfg))
+    except (ValueError, FileExistsError, FileNotFoundError) as e:
+        print(f"export_dataset: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 if __name__ == "__main__":

@@ -13,6 +13,8 @@ Layout (robomimic's dataset structure, ``robomimic/docs/datasets/overview``)::
                               and quaternion x, y, z, w (4): the simulator state
     mask/train, mask/valid    demo names as byte strings (lfd's train / val split)
     mask/test                 the test split (new objects; robomimic ignores unknown masks)
+    (root)                    attrs: lfd_export (JSON: {"kind": "robomimic", "lfd_version": ...}),
+                                     the marker that lets ``overwrite`` replace the file
 
 Observation keys: ``agentview_image`` (fixed camera, uint8 ``(N, H, W, 3)``),
 ``robot0_eye_in_hand_image`` (wrist camera, if recorded), ``robot0_joint_pos``,
@@ -27,16 +29,18 @@ Example::
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
 
+from lfd.io.files import export_marker, publish_output
 from lfd.robots.spatial import matrix_to_quaternion
 
 #: robomimic's EnvType.GYM_TYPE (robomimic.envs.env_base): the closest of its env kinds.
 GYM_ENV_TYPE = 2
 ENV_NAME = "LfdReach-v0"
+#: Root attribute holding lfd's export marker (:func:`lfd.io.files.export_marker`).
+MARKER_ATTR = "lfd_export"
 
 
 def _h5py():
@@ -45,6 +49,17 @@ def _h5py():
     except ImportError as e:  # pragma: no cover - h5py is a declared dependency
         raise ImportError("lfd.interop.robomimic needs h5py: pip install h5py") from e
     return h5py
+
+
+def export_kind(path: str | Path) -> str | None:
+    """The kind in the lfd export marker of HDF5 file ``path`` (``"robomimic"`` for a file
+    written by :func:`export_robomimic`), or None for any other file, readable or not."""
+    try:
+        with _h5py().File(path, "r") as f:
+            marker = json.loads(f.attrs[MARKER_ATTR])
+    except Exception:  # not HDF5, truncated, no marker, not JSON: not ours
+        return None
+    return marker.get("kind") if isinstance(marker, dict) else None
 
 
 def _obs(record, frames: np.ndarray, wrist: np.ndarray | None) -> dict[str, np.ndarray]:
@@ -79,12 +94,16 @@ def export_robomimic(
     (:func:`lfd.visuomotor.data.datasets.command_velocities`; the recorded instantaneous
     velocities stay in ``obs/robot0_joint_vel``), divided by ``action_scale``, the largest
     absolute command of each joint over the whole dataset, so they lie in ``[-1, 1]``;
-    ``data.attrs["action_scale"]`` (rad/s) turns them back. The file is written under a
-    temporary name and renamed when complete.
+    ``data.attrs["action_scale"]`` (rad/s) turns them back. The file is written in a
+    temporary sibling folder and renamed to ``out`` when complete
+    (:func:`lfd.io.files.publish_output`): an interrupted export leaves ``out`` as it was.
+    Its root attribute ``lfd_export`` marks it as lfd's (an HDF5 attribute rather than a
+    sidecar file, so that the mark travels with the file and replacing it stays one rename).
 
     Args:
         dataset: lfd dataset folder (verified against its manifest first).
-        out: ``.hdf5`` file to write (``overwrite`` replaces an existing one).
+        out: ``.hdf5`` file to write (``overwrite`` replaces an existing one, only a file
+            written by this function).
         compression: h5py filter for the image datasets (``"gzip"``, ``"lzf"`` or None).
         limit: export only the first ``limit`` episodes (index order).
 
@@ -94,30 +113,35 @@ def export_robomimic(
     Raises:
         lfd.io.files.DatasetError: ``dataset`` is missing, unfinished or corrupt.
         FileExistsError: ``out`` exists and ``overwrite`` is not set.
+        lfd.io.files.OutputRefused: ``overwrite`` is set but ``out`` is no lfd robomimic
+            export, or is (or holds) ``dataset``, the current or the home folder.
     """
     from lfd.visuomotor.data.datasets import command_velocities, load_dataset
 
     h5py = _h5py()
     data = load_dataset(dataset)
-    out = Path(out)
-    if out.exists():
-        if not overwrite:
-            raise FileExistsError(f"export_robomimic: {out} exists (pass overwrite=True to replace it)")
-        out.unlink() if out.is_file() else shutil.rmtree(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     records = data.episodes[:limit]
     cfg = data.config
     commands = {r.index: command_velocities(r.arrays["joints"], r.arrays["t"]) for r in records}
     scale = np.max([np.abs(c).max(axis=0) for c in commands.values()], axis=0)
     scale = np.where(scale > 0, scale, 1.0)
-    tmp = out.with_name(f".{out.name}.tmp")
     items = records
     if progress:
         from tqdm import tqdm
 
         items = tqdm(records, desc="robomimic", unit="ep")
     total = 0
-    with h5py.File(tmp, "w") as f:
+    out = Path(out)
+    published = publish_output(
+        out,
+        "robomimic",
+        overwrite=overwrite,
+        protect=[Path(dataset)],
+        kind_of=export_kind,
+        who="export_robomimic",
+    )
+    with published as tmp, h5py.File(tmp, "w") as f:
+        f.attrs[MARKER_ATTR] = json.dumps(export_marker("robomimic"))
         grp = f.create_group("data")
         for r in items:
             frames = r.frames()
@@ -162,8 +186,7 @@ def export_robomimic(
         for name, split in (("train", "train"), ("valid", "val"), ("test", "test")):
             demos = [f"demo_{r.index}" for r in records if r.split == split]
             f.create_dataset(f"mask/{name}", data=np.array(demos, dtype="S"))
-    tmp.replace(out)
     return out
 
 
-__all__ = ["ENV_NAME", "GYM_ENV_TYPE", "export_robomimic"]
+__all__ = ["ENV_NAME", "GYM_ENV_TYPE", "MARKER_ATTR", "export_kind", "export_robomimic"]

@@ -1,10 +1,13 @@
-"""Low-level file I/O for datasets: atomic writes, byte-deterministic npz, checksums.
+"""Low-level file I/O for datasets: atomic writes, byte-deterministic npz, checksums,
+exports published atomically.
 
 Every file is written to a temporary file in the destination folder and moved into
 place with :func:`os.replace`, so a reader (or a resumed generation) sees either the old
-file, the complete new one, or nothing. ``.npz`` files are written with fixed zip
-timestamps, so the same arrays always give the same bytes (``numpy.savez_compressed``
-stamps the current time into the archive).
+file, the complete new one, or nothing. A whole export (a folder or one file) is written
+into a temporary sibling folder and renamed into place by :func:`publish_output`, which
+replaces an existing output only when it carries lfd's marker of the same kind.
+``.npz`` files are written with fixed zip timestamps, so the same arrays always give the
+same bytes (``numpy.savez_compressed`` stamps the current time into the archive).
 """
 
 from __future__ import annotations
@@ -13,9 +16,12 @@ import hashlib
 import io
 import json
 import os
+import re
+import shutil
 import tempfile
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -100,3 +106,168 @@ def sha256_file(path: Path, chunk: int = 1 << 20) -> str:
         while block := f.read(chunk):
             h.update(block)
     return h.hexdigest()
+
+
+#: Marker file lfd writes at the top of every export folder: ``{"kind": ..., "lfd_version": ...}``.
+EXPORT_MARKER = ".lfd-export.json"
+#: Infix of the temporary sibling folders of :func:`publish_output`: ``.<name>.lfd-partial-<pid>-<random>``.
+PARTIAL_INFIX = ".lfd-partial-"
+_REPLACED = "replaced"
+
+
+class OutputRefused(ValueError):
+    """An output that lfd will not replace: it was not written by lfd as this kind of export,
+    or it is (or holds) the source, the current or the home folder."""
+
+
+def export_marker(kind: str) -> dict[str, str]:
+    """The marker of an lfd export of ``kind``: ``{"kind": kind, "lfd_version": ...}``."""
+    from lfd import __version__
+
+    return {"kind": kind, "lfd_version": __version__}
+
+
+def read_export_marker(folder: Path) -> dict[str, Any] | None:
+    """The :data:`EXPORT_MARKER` of ``folder`` (a dict with a string ``"kind"``), or None when
+    it has none or an unreadable one."""
+    try:
+        marker = json.loads((Path(folder) / EXPORT_MARKER).read_text())
+    except (OSError, ValueError):
+        return None
+    return marker if isinstance(marker, dict) and isinstance(marker.get("kind"), str) else None
+
+
+def _pid_alive(pid: int) -> bool:
+    if os.name != "posix" or pid == os.getpid():
+        return True  # cannot tell (or this very process): leave its folder alone
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def _clean_leftovers(target: Path, kind: str) -> None:
+    """Remove temporary siblings of ``target`` left by an interrupted :func:`publish_output` of
+    ``kind``: named like ours, holding our partial marker, their process gone. An output moved
+    aside for replacement is put back first when ``target`` is missing."""
+    pattern = re.compile(re.escape(f".{target.name}{PARTIAL_INFIX}") + r"(\d+)-[^/]+")
+    for folder in target.parent.iterdir():
+        m = pattern.fullmatch(folder.name)
+        if not m or folder.is_symlink() or not folder.is_dir():
+            continue
+        marker = read_export_marker(folder)
+        if not marker or marker.get("kind") != kind or not marker.get("partial"):
+            continue
+        if _pid_alive(int(m.group(1))):
+            continue
+        aside = folder / _REPLACED
+        if aside.is_dir() and not (target.exists() or target.is_symlink()):
+            os.rename(aside, target)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def check_output(
+    target: Path,
+    kind: str,
+    *,
+    overwrite: bool,
+    protect: Iterable[Path] = (),
+    kind_of: Callable[[Path], str | None] | None = None,
+    who: str = "export",
+) -> bool:
+    """Whether ``target`` exists and may be replaced by an export of ``kind``.
+
+    A folder export is recognised by its :data:`EXPORT_MARKER`, a file export by
+    ``kind_of(path)`` (the kind recorded inside the file, or None).
+
+    Returns:
+        False when nothing is at ``target``; True when an lfd export of ``kind`` is there
+        and ``overwrite`` is set.
+
+    Raises:
+        FileExistsError: ``target`` exists and ``overwrite`` is not set.
+        OutputRefused: ``target`` is a symbolic link, is or holds one of ``protect`` (the
+            source), the current folder or the home folder, or carries no marker of ``kind``.
+    """
+    target = Path(os.path.abspath(target))
+    if not (target.exists() or target.is_symlink()):
+        return False
+    if not overwrite:
+        raise FileExistsError(f"{who}: {target} exists (pass overwrite=True to replace it)")
+    refuse = f"{who}: refusing to overwrite {target}"
+    if target.is_symlink():
+        raise OutputRefused(f"{refuse}: it is a symbolic link (lfd replaces only what it wrote)")
+    resolved = target.resolve()
+    for name, p in [*(("the source", Path(p)) for p in protect), ("the current folder", Path.cwd())]:
+        if p.resolve().is_relative_to(resolved):
+            raise OutputRefused(f"{refuse}: it is or holds {name} {p}")
+    if Path.home().resolve().is_relative_to(resolved):
+        raise OutputRefused(f"{refuse}: it is or holds the home folder {Path.home()}")
+    if kind_of is None:
+        found = (read_export_marker(target) or {}).get("kind") if target.is_dir() else None
+        detail = f"no {EXPORT_MARKER} in it" if target.is_dir() else "a file, not a folder"
+    else:
+        found = kind_of(target) if target.is_file() else None
+        detail = "no lfd marker in the file" if target.is_file() else "not a file"
+    if found != kind:
+        detail = f"its marker says {found!r}" if found else detail
+        raise OutputRefused(
+            f"{refuse}: it is not an lfd {kind} export ({detail}); lfd replaces only its own exports: "
+            "remove it yourself or choose another output"
+        )
+    return True
+
+
+@contextmanager
+def publish_output(
+    target: Path,
+    kind: str,
+    *,
+    overwrite: bool = False,
+    protect: Iterable[Path] = (),
+    kind_of: Callable[[Path], str | None] | None = None,
+    who: str = "export",
+) -> Iterator[Path]:
+    """Write an export of ``kind`` (a folder, or one file when ``kind_of`` is given) and move it
+    to ``target`` only once it is complete.
+
+    Yields a path that does not exist yet, inside a new temporary sibling folder of ``target``
+    (``.<name>.lfd-partial-<pid>-<random>``, marked ``partial``); the body writes the export
+    there. On a normal exit a folder export gets its :data:`EXPORT_MARKER` and is renamed to
+    ``target`` (an old one is first renamed aside, then deleted), a file export replaces
+    ``target`` with :func:`os.replace` (the file must record ``kind`` itself, read back by
+    ``kind_of``). On an exception the temporary folder is removed and ``target`` is left as
+    it was. Leftovers of an interrupted earlier run for the same ``target`` and ``kind`` are
+    removed first (see :func:`check_output` for what may be replaced).
+
+    Raises:
+        FileExistsError, OutputRefused: from :func:`check_output`, before anything is written.
+    """
+    target = Path(os.path.abspath(target))
+    target.parent.mkdir(parents=True, exist_ok=True)
+    _clean_leftovers(target, kind)
+    replace = check_output(target, kind, overwrite=overwrite, protect=protect, kind_of=kind_of, who=who)
+    container = Path(
+        tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}{PARTIAL_INFIX}{os.getpid()}-")
+    )
+    try:
+        write_json_atomic(container / EXPORT_MARKER, {**export_marker(kind), "partial": True})
+        payload = container / target.name
+        yield payload
+        if kind_of is not None:
+            os.replace(payload, target)
+            return
+        write_json_atomic(payload / EXPORT_MARKER, export_marker(kind))
+        if replace:
+            os.rename(target, container / _REPLACED)
+        try:
+            os.rename(payload, target)
+        except BaseException:
+            if replace:
+                os.rename(container / _REPLACED, target)
+            raise
+    finally:
+        shutil.rmtree(container, ignore_errors=True)

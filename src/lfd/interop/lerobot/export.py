@@ -5,7 +5,6 @@
 from __future__ import annotations
 
 import colorsys
-import shutil
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ from lfd.interop.lerobot.paths import (
     DEFAULT_VIDEO_FILE_SIZE_IN_MB,
 )
 from lfd.interop.lerobot.writer import LeRobotEpisode, LeRobotWriter
+from lfd.io.files import publish_output
 
 _HUES = (
     (15, "red"),
@@ -125,9 +125,14 @@ def export_lerobot(
     ``observation.images.front`` is the fixed camera (``observation.images.wrist`` too
     when the dataset has wrist frames).
 
+    The folder is written as a temporary sibling and renamed to ``out`` when complete
+    (:func:`lfd.io.files.publish_output`), with the marker ``.lfd-export.json`` (kind
+    ``"lerobot"``) at its top: an interrupted export leaves ``out`` as it was.
+
     Args:
         dataset: lfd dataset folder (verified against its manifest first).
-        out: new LeRobot dataset folder (``overwrite`` replaces an existing one).
+        out: new LeRobot dataset folder (``overwrite`` replaces an existing one, only an
+            lfd LeRobot export).
         codec: ``"av1"`` (default, as lerobot) or ``"h264"``.
         limit: export only the first ``limit`` episodes of that order (for quick looks).
 
@@ -137,6 +142,8 @@ def export_lerobot(
     Raises:
         lfd.io.files.DatasetError: ``dataset`` is missing, unfinished or corrupt.
         FileExistsError: ``out`` exists and ``overwrite`` is not set.
+        lfd.io.files.OutputRefused: ``overwrite`` is set but ``out`` is no lfd LeRobot export,
+            or is (or holds) ``dataset``, the current or the home folder.
         ValueError: an unknown ``codec`` or bad rollover limits (:class:`LeRobotWriter`).
 
     Example::
@@ -148,42 +155,42 @@ def export_lerobot(
     from lfd.visuomotor.data.episodes import SPLITS
 
     data = load_dataset(dataset)
-    out = Path(out)
-    if out.exists():
-        if not overwrite:
-            raise FileExistsError(f"export_lerobot: {out} exists (pass overwrite=True to replace it)")
-        shutil.rmtree(out)
     cfg = data.config
     order = [r for split in SPLITS for r in data.split(split)][:limit]
     names = list(load_robot(cfg.robot).joint_names)
     cams = {"front": (cfg.image_size, cfg.image_size)}
     if cfg.wrist_camera:
         cams["wrist"] = (cfg.image_size, cfg.image_size)
-    writer = LeRobotWriter(
-        out,
-        fps=(cfg.n_steps - 1) / cfg.duration,
-        robot_type=cfg.robot,
-        state_names=[f"{n}.pos" for n in names] + [f"{n}.vel" for n in names],
-        action_names=[f"{n}.pos" for n in names],
-        cameras=cams,
-        codec=codec,
-        chunks_size=chunks_size,
-        data_files_size_in_mb=data_files_size_in_mb,
-        video_files_size_in_mb=video_files_size_in_mb,
-        crf=crf,
-    )
-    for record in _progress(order, progress, "LeRobot v3.0"):
-        frames = {"front": record.frames()}
-        if cfg.wrist_camera:
-            frames["wrist"] = record.frames("wrist_frames")
-        writer.add_episode(lfd_episode(record, frames))
     splits, start = {}, 0
     for split in SPLITS:
         n = sum(1 for r in order if r.split == split)
         if n:
             splits[split] = f"{start}:{start + n}"
             start += n
-    return writer.finalize(splits)
+    out = Path(out)
+    with publish_output(
+        out, "lerobot", overwrite=overwrite, protect=[Path(dataset)], who="export_lerobot"
+    ) as root:
+        writer = LeRobotWriter(
+            root,
+            fps=(cfg.n_steps - 1) / cfg.duration,
+            robot_type=cfg.robot,
+            state_names=[f"{n}.pos" for n in names] + [f"{n}.vel" for n in names],
+            action_names=[f"{n}.pos" for n in names],
+            cameras=cams,
+            codec=codec,
+            chunks_size=chunks_size,
+            data_files_size_in_mb=data_files_size_in_mb,
+            video_files_size_in_mb=video_files_size_in_mb,
+            crf=crf,
+        )
+        for record in _progress(order, progress, "LeRobot v3.0"):
+            frames = {"front": record.frames()}
+            if cfg.wrist_camera:
+                frames["wrist"] = record.frames("wrist_frames")
+            writer.add_episode(lfd_episode(record, frames))
+        writer.finalize(splits)
+    return out
 
 
 def _progress(items: Iterable, enabled: bool, desc: str):
