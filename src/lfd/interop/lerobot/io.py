@@ -75,12 +75,28 @@ def read_json(path: Path) -> Any:
 
     Raises:
         FileNotFoundError: no file at ``path``.
-        ValueError: the file is not valid JSON.
+        ValueError: the file is not valid UTF-8 JSON.
     """
     try:
-        return json.loads(Path(path).read_text())
-    except json.JSONDecodeError as e:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise ValueError(f"{path}: corrupt JSON ({e})") from e
+
+
+def read_table(path: Path):
+    """The parquet file ``path`` as a pyarrow table.
+
+    Raises:
+        FileNotFoundError: no file at ``path``.
+        ValueError: ``path`` is not a readable parquet file (the message names it).
+    """
+    pa, pq = pyarrow_modules()
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"{path} not found")
+    try:
+        return pq.read_table(path)
+    except (pa.ArrowException, OSError) as e:
+        raise ValueError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
 
 
 def write_tasks(path: Path, tasks: Sequence[str]) -> None:
@@ -133,8 +149,11 @@ def write_tasks(path: Path, tasks: Sequence[str]) -> None:
 def read_tasks(path: Path) -> list[str]:
     """Task strings of a ``tasks.parquet`` in ``task_index`` order (the strings in a ``task``
     column, or in the pandas index ``__index_level_0__`` as lerobot writes them)."""
-    _, pq = pyarrow_modules()
-    t = pq.read_table(path).to_pydict()
+    t = read_table(path).to_pydict()
+    if "task_index" not in t or not {"task", "__index_level_0__"} & set(t):
+        raise ValueError(
+            f"{path}: expected columns task_index and task (or __index_level_0__), got {sorted(t)}"
+        )
     name_col = "task" if "task" in t else "__index_level_0__"
     return [s for _, s in sorted(zip(t["task_index"], t[name_col], strict=True))]
 
@@ -142,8 +161,12 @@ def read_tasks(path: Path) -> list[str]:
 def read_parquet_columns(paths: Sequence[Path]) -> dict[str, np.ndarray]:
     """The parquet files ``paths`` concatenated, as column -> array: ``(N,)`` for scalar
     columns, ``(N, D)`` for (fixed-size) list columns."""
-    pa, pq = pyarrow_modules()
-    table = pa.concat_tables([pq.read_table(f) for f in paths])
+    pa, _ = pyarrow_modules()
+    tables = [read_table(f) for f in paths]
+    try:
+        table = pa.concat_tables(tables)
+    except pa.ArrowException as e:
+        raise ValueError(f"{', '.join(map(str, paths))}: parquet files with different columns ({e})") from e
     out = {}
     for key in table.column_names:
         col = table.column(key).combine_chunks()

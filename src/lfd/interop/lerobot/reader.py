@@ -3,6 +3,10 @@
 
 Frames are decoded with PyAV at ``from_timestamp + frame_index / fps`` in the episode's
 video file (lerobot's own rule), each within ``tolerance_s`` of a decoded frame's time.
+Every file is looked up inside the dataset folder only: ``data_path`` / ``video_path``
+templates and files (symbolic links included) that lead elsewhere are refused
+(:mod:`~lfd.interop.lerobot.paths`), as are corrupt JSON and parquet files, each with one
+line naming the field or file.
 :class:`~lfd.interop.lerobot.datamodule.LeRobotDataModule` trains lfd's policies on a folder.
 """
 
@@ -13,11 +17,19 @@ from typing import Any
 
 import numpy as np
 
-from lfd.interop.lerobot.io import pyarrow_modules, read_json, read_parquet_columns, read_tasks
-from lfd.interop.lerobot.paths import CODEBASE_VERSION
+from lfd.interop.lerobot.io import read_json, read_parquet_columns, read_table, read_tasks
+from lfd.interop.lerobot.paths import CODEBASE_VERSION, check_template, dataset_file
 from lfd.io.video import decode_video_frames
 
 REQUIRED_INFO = ("codebase_version", "fps", "total_episodes", "total_frames", "features", "data_path")
+#: Columns of ``meta/episodes`` this reader needs (video columns are looked up per camera).
+EPISODE_COLUMNS = (
+    "episode_index",
+    "data/chunk_index",
+    "data/file_index",
+    "dataset_from_index",
+    "dataset_to_index",
+)
 REQUIRED_FEATURES = (
     "observation.state",
     "action",
@@ -30,12 +42,14 @@ REQUIRED_FEATURES = (
 
 
 def read_info(root: str | Path) -> dict[str, Any]:
-    """``meta/info.json`` of a v3.0 dataset, checked: the version must be ``"v3.0"`` and
-    every required key and frame feature present.
+    """``meta/info.json`` of a v3.0 dataset, checked: the version must be ``"v3.0"``, every
+    required key and frame feature present, ``data_path`` / ``video_path`` relative
+    templates inside the folder (:func:`~lfd.interop.lerobot.paths.check_template`).
 
     Raises:
         FileNotFoundError: no folder or no ``meta/info.json``.
-        ValueError: another ``codebase_version`` or a missing key / feature.
+        ValueError: corrupt JSON, another ``codebase_version``, a missing key / feature, or a
+            path template leading outside the folder.
     """
     root = Path(root)
     path = root / "meta" / "info.json"
@@ -43,7 +57,9 @@ def read_info(root: str | Path) -> dict[str, Any]:
         raise FileNotFoundError(f"LeRobot dataset folder {root} not found")
     if not path.is_file():
         raise FileNotFoundError(f"{root} is no LeRobot dataset: {path} not found")
-    info = read_json(path)
+    info = read_json(dataset_file(root, "file", "meta/info.json"))
+    if not isinstance(info, dict):
+        raise ValueError(f"{path}: expected a JSON object, got {type(info).__name__}")
     version = info.get("codebase_version")
     if version != CODEBASE_VERSION:
         raise ValueError(
@@ -53,9 +69,16 @@ def read_info(root: str | Path) -> dict[str, Any]:
     missing = [k for k in REQUIRED_INFO if k not in info]
     if missing:
         raise ValueError(f"{path}: missing keys {missing}")
+    if not isinstance(info["features"], dict):
+        raise ValueError(f"{path} features: expected an object, got {type(info['features']).__name__}")
     missing = [k for k in REQUIRED_FEATURES if k not in info["features"]]
     if missing:
         raise ValueError(f"{path}: missing features {missing}; it has {sorted(info['features'])}")
+    check_template(path, "data_path", info["data_path"])
+    if info.get("video_path") is not None or any(
+        isinstance(f, dict) and f.get("dtype") == "video" for f in info["features"].values()
+    ):
+        check_template(path, "video_path", info.get("video_path"))
     return info
 
 
@@ -84,7 +107,6 @@ class LeRobotFolder:
     """
 
     def __init__(self, root: str | Path, tolerance_s: float = 1e-4) -> None:
-        _, pq = pyarrow_modules()
         self.root = Path(root)
         self.info = read_info(self.root)
         self.fps = float(self.info["fps"])
@@ -94,7 +116,13 @@ class LeRobotFolder:
         ep_files = sorted((self.root / "meta" / "episodes").glob("chunk-*/file-*.parquet"))
         if not ep_files:
             raise FileNotFoundError(f"{self.root}: no meta/episodes/chunk-*/file-*.parquet")
-        rows = [r for f in ep_files for r in pq.read_table(f).to_pylist()]
+        rows = []
+        for f in ep_files:
+            table = read_table(dataset_file(self.root, "file", f.relative_to(self.root)))
+            missing = [c for c in EPISODE_COLUMNS if c not in table.column_names]
+            if missing:
+                raise ValueError(f"{f}: missing columns {missing}")
+            rows += table.to_pylist()
         rows.sort(key=lambda r: r["episode_index"])
         if [r["episode_index"] for r in rows] != list(range(self.info["total_episodes"])):
             raise ValueError(
@@ -104,13 +132,10 @@ class LeRobotFolder:
         tasks_path = self.root / "meta" / "tasks.parquet"
         if not tasks_path.is_file():
             raise FileNotFoundError(f"{self.root}: meta/tasks.parquet not found")
-        self.tasks = read_tasks(tasks_path)
+        self.tasks = read_tasks(dataset_file(self.root, "file", "meta/tasks.parquet"))
         data_files = sorted(
             {
-                self.root
-                / self.info["data_path"].format(
-                    chunk_index=r["data/chunk_index"], file_index=r["data/file_index"]
-                )
+                self._file("data_path", chunk_index=r["data/chunk_index"], file_index=r["data/file_index"])
                 for r in rows
             }
         )
@@ -128,6 +153,15 @@ class LeRobotFolder:
                 f"{self.root}: {len(self.data['index'])} frames in data/, info.json says {self.info['total_frames']}"
             )
 
+    def _file(self, field: str, **values) -> Path:
+        """The file that ``info.json``'s template ``field`` names for ``values``, inside the folder."""
+        template = self.info[field]
+        try:
+            rel = template.format(**values)
+        except (ValueError, TypeError) as e:  # e.g. a string where {chunk_index:03d} wants an int
+            raise ValueError(f"{self.root}: {field} {template!r} cannot take {values} ({e})") from e
+        return dataset_file(self.root, field, rel)
+
     def __len__(self) -> int:
         return len(self.episodes)
 
@@ -139,7 +173,8 @@ class LeRobotFolder:
     def video_path(self, ep: int, key: str) -> Path:
         """The video file holding episode ``ep``'s frames of video feature ``key``."""
         r = self.episodes[ep]
-        return self.root / self.info["video_path"].format(
+        return self._file(
+            "video_path",
             video_key=key,
             chunk_index=r[f"videos/{key}/chunk_index"],
             file_index=r[f"videos/{key}/file_index"],
