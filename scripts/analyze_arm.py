@@ -6,6 +6,7 @@ Usage::
     python scripts/analyze_arm.py file=recording.csv side=left subject.body_mass=80 \
         subject.sex=female filter=median fit.method=spline subject.hand_load=2
     python scripts/analyze_arm.py file=recordings/                            # batch mode
+    python scripts/analyze_arm.py file=recording_in_mm.csv units=mm           # coordinates in mm
 
 One file: ``arm.csv`` (per-frame angles, velocities, accelerations, torques, positions),
 ``arm.mot`` (OpenSim motion), ``arm.json`` (summary, quality, settings) and the figures
@@ -13,10 +14,16 @@ One file: ``arm.csv`` (per-frame angles, velocities, accelerations, torques, pos
 Hydra run directory, whose path is printed. A folder: one subfolder per file plus
 ``summary.csv`` (range of motion and peak torques per file; files that fail are listed
 with their error) and a progress bar. Configuration: ``configs/analyze_arm.yaml``.
+
+A recording whose scale is not a person's (upper arm outside 0.15-0.6 m, frame rate outside
+1-1000 Hz) or a body mass outside 20-250 kg is refused with one line on stderr (exit status 2)
+that suggests the unit (e.g. ``units=mm``); in batch mode such a file is a failed row of the
+summary and the other files are analysed.
 """
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import hydra
@@ -56,6 +63,7 @@ def save_options(cfg: DictConfig) -> dict:
     """Keyword arguments of :func:`lfd.human.batch.analyze_file` (reader, analysis, outputs)."""
     return dict(
         format=cfg.format,
+        units=cfg.units,
         reader=OmegaConf.to_container(cfg.reader, resolve=True) if cfg.reader else {},
         analysis=analysis_options(cfg),
         plots=bool(cfg.outputs.plots),
@@ -91,7 +99,11 @@ def run(cfg: DictConfig, out_dir: str | Path) -> Path:
 def main(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
-    run(cfg, HydraConfig.get().runtime.output_dir)
+    try:
+        run(cfg, HydraConfig.get().runtime.output_dir)
+    except (ValueError, FileNotFoundError) as e:  # bad input: one line, no traceback
+        print(f"analyze_arm: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ from .cleaning import fill_gaps, repair_swaps
 from .dynamics import arm_model, arm_torques
 from .filters import FILTERS, filter_positions, hampel_filter
 from .fit import FITS, fit_derivatives
+from .plausibility import check_body_mass
 from .readers import read_skeleton
 from .skeleton import Skeleton
 from .trunk import to_trunk, trunk_frames
@@ -232,9 +233,10 @@ def analyze_arm(
     """Joint angles, velocities, accelerations and torques of one arm from a skeleton.
 
     Args:
-        skeleton: a :class:`Skeleton` or a path for :func:`read_skeleton`.
+        skeleton: a :class:`Skeleton` or a path for :func:`read_skeleton` (which refuses a file
+            whose upper arm or frame rate is implausible).
         side: ``"right"`` or ``"left"``.
-        body_mass: kg. sex: ``"male"``/``"female"`` (de Leva segment fractions).
+        body_mass: kg, 20-250. sex: ``"male"``/``"female"`` (de Leva segment fractions).
         filter: one of ``butterworth`` (zero-phase, ``cutoff`` Hz, ``filter_order`` per pass),
             ``median`` (``median_kernel`` samples) or ``none``.
         hampel: apply a Hampel outlier filter (``hampel_window`` samples, ``hampel_sigma``) first.
@@ -255,7 +257,8 @@ def analyze_arm(
         :class:`ArmAnalysis`.
 
     Raises:
-        ValueError: bad option or a skeleton without the needed joints; FileNotFoundError.
+        ValueError: bad option (a body mass outside 20-250 kg, with a hint when it reads as grams)
+        or a skeleton without the needed joints; FileNotFoundError.
     """
     if not isinstance(skeleton, Skeleton):
         skeleton = read_skeleton(skeleton)
@@ -275,6 +278,7 @@ def analyze_arm(
             raise ValueError(
                 f"{key} must be a {'positive' if key == 'body_mass' else 'non-negative'} number, got {value!r}"
             )
+    check_body_mass(body_mass)
     needed = [f"shoulder_{side}", f"elbow_{side}", f"wrist_{side}", "shoulder_left", "shoulder_right"]
     missing = [n for n in dict.fromkeys(needed) if n not in skeleton.names]
     if missing:

@@ -7,8 +7,10 @@ The stages that ``scripts/analyze_arm.py`` chains, callable from the package::
     rows = analyze_folder("recordings/", "out/", analysis={"side": "left", "body_mass": 80.0})
     # out/<file>/arm.{csv,mot,json} and figures per file, out/summary.csv: one row per file
 
-A file that cannot be read or analysed (``ValueError``, ``FileNotFoundError``) becomes a row with
-``status = "error: <message>"``; the others have ``status = "ok"`` and their
+A file that cannot be read or analysed (``ValueError``, ``FileNotFoundError``: malformed content,
+missing joints, or a scale that is not a person's: an upper arm outside 0.15-0.6 m, a frame rate
+outside 1-1000 Hz, see :mod:`lfd.human.plausibility`) becomes a row with
+``status = "error: <one-line message>"`` and the batch goes on; the others have ``status = "ok"`` and their
 :meth:`~lfd.human.ArmAnalysis.summary` (ranges of motion in degrees, peak torques in N m).
 """
 
@@ -26,7 +28,9 @@ from tqdm import tqdm
 from lfd.io.files import write_text_atomic
 
 from .analysis import ArmAnalysis, analyze_arm
+from .plausibility import check_body_mass
 from .readers import iter_skeleton_files, read_skeleton
+from .readers.common import check_units
 
 __all__ = ["SUMMARY_FILE", "analyze_file", "analyze_folder", "skeleton_files", "write_summary"]
 
@@ -40,16 +44,25 @@ def analyze_file(
     out_dir: str | Path,
     *,
     format: str | None = None,
+    units: str | None = None,
     reader: Mapping[str, Any] | None = None,
     analysis: Mapping[str, Any] | None = None,
     plots: bool = True,
     gif: bool = True,
     gif_frames: int = 150,
 ) -> ArmAnalysis:
-    """Read ``path`` (:func:`lfd.human.read_skeleton` with ``format`` and ``reader`` options),
-    analyse it (:func:`lfd.human.analyze_arm` with ``analysis`` options) and write every output
-    into ``out_dir`` (:meth:`ArmAnalysis.save`). Raises what the reader and the analysis raise."""
-    skeleton = read_skeleton(path, format=format, **dict(reader or {}))
+    """Read ``path`` (:func:`lfd.human.read_skeleton` with ``format``, ``units`` (m, cm, mm;
+    ``None``: the format's own) and ``reader`` options), analyse it (:func:`lfd.human.analyze_arm`
+    with ``analysis`` options) and write every output into ``out_dir`` (:meth:`ArmAnalysis.save`).
+
+    Raises what the reader and the analysis raise, before anything is written: ``ValueError``
+    for an implausible scale (upper arm, frame rate, body mass) as for malformed content."""
+    options = dict(reader or {})
+    if units is not None:
+        if options.get("units", units) != units:
+            raise ValueError(f"units={units!r} and reader.units={options['units']!r} disagree; give one")
+        options["units"] = units
+    skeleton = read_skeleton(path, format=format, **options)
     result = analyze_arm(skeleton, **dict(analysis or {}))
     result.save(out_dir, plots=plots, gif=gif, gif_frames=gif_frames)
     return result
@@ -79,13 +92,18 @@ def analyze_folder(
     """:func:`analyze_file` for each of :func:`skeleton_files` into ``out_dir/<relative name>``,
     then :func:`write_summary` to ``out_dir/summary.csv``; returns the rows.
 
-    ``options`` are :func:`analyze_file`'s keywords (``format``, ``reader``, ``analysis``,
+    ``options`` are :func:`analyze_file`'s keywords (``format``, ``units``, ``reader``, ``analysis``,
     ``plots``, ``gif``, ``gif_frames``).
 
     Raises:
-        FileNotFoundError: ``folder`` holds no file to analyse.
+        FileNotFoundError: ``folder`` holds no file to analyse. ValueError: an option wrong for
+        every file (``units``, ``analysis["body_mass"]`` outside 20-250 kg), before any file is read.
     """
     folder, out = Path(folder), Path(out_dir)
+    check_units(options.get("units"))
+    check_units((options.get("reader") or {}).get("units"))
+    if "body_mass" in (options.get("analysis") or {}):
+        check_body_mass(options["analysis"]["body_mass"])
     files = skeleton_files(folder, pattern)
     if not files:
         raise FileNotFoundError(f"file={folder}: no skeleton files found (pattern={pattern})")
@@ -101,7 +119,7 @@ def analyze_folder(
             row.update({k: v for k, v in result.summary().items() if k not in ("source", "gaps_left")})
             row["gaps_left"] = len(result.quality["gaps_left"])
         except (ValueError, FileNotFoundError) as exc:  # bad file: report it, keep going
-            row = {"file": str(rel), "status": f"error: {exc}"}
+            row = {"file": str(rel), "status": "error: " + str(exc).replace("\n", " ")}
         rows.append(row)
     write_summary(rows, out / SUMMARY_FILE)
     return rows

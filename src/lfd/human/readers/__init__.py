@@ -8,6 +8,11 @@ unambiguous; ``.gz`` files are read transparently. Every reader returns a
 :class:`SkeletonFormatError` (a ``ValueError``) naming the file, the 1-based line and the
 field when the content is malformed; a missing file raises ``FileNotFoundError``.
 
+``units=`` (``"m"``, ``"cm"``, ``"mm"``; ``None``/``"auto"``: the format's own unit, listed below)
+is the length unit of the file's coordinates. :func:`read_skeleton` then refuses a recording
+whose scale is not a person's (:mod:`lfd.human.plausibility`): an upper arm outside 0.15-0.6 m
+(the message suggests the ``units=`` that fits) or a frame rate outside 1-1000 Hz.
+
 ==============  ===========================================================================
 format          layout
 ==============  ===========================================================================
@@ -20,7 +25,7 @@ format          layout
                 angles (``euler_order``, default ``"ZXY"``), 30 Hz
 ``trc``         OpenSim marker file (tab-separated, ``Units`` mm/cm/m, y up unless ``up=``)
 ``csv``         generic CSV with a header: long (``t, joint, x, y, z[, tracked]``) or wide
-                (``t, <joint>_x, <joint>_y, <joint>_z, ...``); ``units`` and ``up`` options
+                (``t, <joint>_x, <joint>_y, <joint>_z, ...``), metres; ``up`` option
 ==============  ===========================================================================
 
 Example::
@@ -32,11 +37,12 @@ Example::
 """
 
 from .common import SkeletonFormatError
-from .dispatch import FORMATS, iter_skeleton_files, read_skeleton
+from .dispatch import FORMATS, NATIVE_UNITS, iter_skeleton_files, read_skeleton
 from .uiprmd import UIPRMD_JOINTS, UIPRMD_PARENTS, uiprmd_global_positions
 
 __all__ = [
     "FORMATS",
+    "NATIVE_UNITS",
     "UIPRMD_JOINTS",
     "UIPRMD_PARENTS",
     "SkeletonFormatError",

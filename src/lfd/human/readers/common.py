@@ -18,6 +18,8 @@ from ..skeleton import canonical_joint_name
 
 #: Length units accepted by the readers -> metres.
 UNITS = {"m": 1.0, "meters": 1.0, "metres": 1.0, "cm": 0.01, "mm": 0.001}
+#: What ``units=`` accepts, as named in its error message (None = ``"auto"``).
+UNITS_OPTION = ("m", "cm", "mm", "auto")
 #: Kinect tracking state meaning "tracked" (0 = not tracked, 1 = inferred).
 KINECT_STATE_TRACKED = 2
 
@@ -86,6 +88,30 @@ def base_name(path: Path) -> str:
     """The file name without a ``.gz`` suffix."""
     name = path.name
     return name[:-3] if name.endswith(".gz") else name
+
+
+def check_units(units: object) -> str | None:
+    """``units`` lower-cased (``None`` for ``None``/``"auto"``: the format's own unit); ``ValueError``
+    naming ``units`` and the accepted values otherwise."""
+    if units is None or (isinstance(units, str) and units.lower() == "auto"):
+        return None
+    if not (isinstance(units, str) and units.lower() in UNITS):
+        raise ValueError(
+            f"units must be one of {', '.join(UNITS_OPTION)} (auto: the format's own unit), got {units!r}"
+        )
+    return units.lower()
+
+
+def length_scale(units: str | None, native: str, path: Path) -> float:
+    """Metres per file unit: ``units`` (m, cm, mm), or the format's ``native`` unit for ``None``/``"auto"``.
+
+    Raises:
+        ValueError: an unknown ``units``, naming it and the accepted values.
+    """
+    try:
+        return UNITS[check_units(units) or native]
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
 
 
 def check_rate(rate: float, path: Path) -> float:

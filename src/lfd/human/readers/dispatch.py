@@ -11,18 +11,23 @@ import re
 from collections.abc import Iterator
 from pathlib import Path
 
+from ..plausibility import check_frame_rate, check_upper_arm
 from ..skeleton import KINECT_V2_JOINTS, Skeleton
-from .common import SkeletonFormatError, base_name, read_lines
+from .common import UNITS, SkeletonFormatError, base_name, check_units, read_lines
 from .generic_csv import read_csv
 from .kinect_csv import read_kinect_csv
 from .ntu import read_ntu
-from .trc import read_trc
+from .trc import read_trc, trc_units
 from .uiprmd import read_uiprmd
 
 __all__ = ["FORMATS", "SkeletonFormatError", "iter_skeleton_files", "read_skeleton"]
 
 #: Format names accepted by :func:`read_skeleton`.
 FORMATS = ("kinect_csv", "ntu", "uiprmd", "trc", "csv")
+#: Each format's own length unit (``units=None`` or ``"auto"``); ``trc``: its header's ``Units``.
+NATIVE_UNITS = {"kinect_csv": "m", "ntu": "m", "uiprmd": "cm", "trc": "header", "csv": "m"}
+#: Formats whose times come from ``rate=`` rather than a time column.
+_RATE_FORMATS = ("kinect_csv", "ntu", "uiprmd")
 
 
 def _infer_format(path: Path) -> str:
@@ -50,17 +55,22 @@ def _infer_format(path: Path) -> str:
     )
 
 
-def read_skeleton(path: str | os.PathLike, format: str | None = None, **options) -> Skeleton:
-    """Read a skeleton recording.
+def read_skeleton(
+    path: str | os.PathLike, format: str | None = None, units: str | None = None, **options
+) -> Skeleton:
+    """Read a skeleton recording and check that its scale is a person's.
 
     Args:
         path: the file (``.gz`` accepted). For ``uiprmd`` the positions file; its angles file
             is found in the sibling ``Angles`` folder (or pass ``angles_path=``).
         format: one of :data:`FORMATS`; inferred from the name (and first line for ``.csv``)
             when omitted.
+        units: the length unit of the file's coordinates, ``"m"``, ``"cm"`` or ``"mm"``; ``None``
+            or ``"auto"``: the format's own unit (:data:`NATIVE_UNITS`: metres, UI-PRMD
+            centimetres, a ``.trc`` file's ``Units`` header).
         **options: per format: ``rate`` (Hz, files without a time column: kinect_csv, ntu,
             uiprmd; default 30), ``body`` (ntu: body index in order of appearance or body id),
-            ``euler_order`` and ``angles_path`` (uiprmd), ``units`` and ``up`` (csv), ``up`` (trc;
+            ``euler_order`` and ``angles_path`` (uiprmd), ``up`` (csv and trc;
             OpenSim's y-up by default, e.g. ``(0, 0, 1)`` for a z-up lab).
 
     Returns:
@@ -68,9 +78,13 @@ def read_skeleton(path: str | os.PathLike, format: str | None = None, **options)
 
     Raises:
         FileNotFoundError: missing file. SkeletonFormatError (ValueError): malformed content,
-        naming file, line and field. ValueError: unknown format or option.
+        naming file, line and field. ValueError: unknown format, option or ``units``; an
+        implausible scale: an upper arm (median shoulder-elbow length) outside 0.15-0.6 m (the
+        message suggests the ``units=`` that fits) or a frame rate outside 1-1000 Hz
+        (:mod:`lfd.human.plausibility`).
     """
     path = Path(path)
+    units = check_units(units)
     if not path.exists():
         raise FileNotFoundError(f"skeleton file not found: {path}")
     fmt = format or _infer_format(path)
@@ -88,7 +102,20 @@ def read_skeleton(path: str | os.PathLike, format: str | None = None, **options)
     unknown = sorted(set(options) - accepted)
     if unknown:
         raise ValueError(f"format {fmt!r} has no option(s) {unknown}; accepted: {sorted(accepted)}")
-    return reader(path, **options)
+    skeleton = reader(path, units=units, **options)
+    where = str(path) + (f" (read with units={units})" if units else "")
+    if fmt in _RATE_FORMATS:
+        time_source = f"rate={options.get('rate', 30.0)!r}"
+    else:
+        time_source = "Time column" if fmt == "trc" else "time column"
+    check_frame_rate(skeleton, str(path), time_source)
+    check_upper_arm(skeleton, where, lambda: _applied_scale(path, fmt, units))
+    return skeleton
+
+
+def _applied_scale(path: Path, fmt: str, units: str | None) -> float:
+    """Metres per file unit that the reader applied (``units`` or the format's own unit)."""
+    return UNITS[units or (trc_units(path) if fmt == "trc" else NATIVE_UNITS[fmt])]
 
 
 def iter_skeleton_files(folder: Path) -> Iterator[Path]:

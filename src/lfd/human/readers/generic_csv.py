@@ -14,19 +14,21 @@ from pathlib import Path
 import numpy as np
 
 from ..skeleton import Skeleton
-from .common import UNITS, SkeletonFormatError, canonical_names, check_time, parse_float, read_lines
+from .common import SkeletonFormatError, canonical_names, check_time, length_scale, parse_float, read_lines
 
 
-def read_csv(path: Path, *, units: str = "m", up: tuple[float, float, float] = (0.0, 1.0, 0.0)) -> Skeleton:
+def read_csv(
+    path: Path, *, units: str | None = None, up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+) -> Skeleton:
     """A generic CSV (long or wide, chosen by a ``joint`` column) in ``units`` -> :class:`Skeleton` (m).
+
+    ``units``: m, cm or mm; ``None``/``"auto"``: metres. The time column is in seconds.
 
     Raises:
         ValueError: unknown ``units``. SkeletonFormatError: no time column, rows of the wrong width,
         a non-number, time decreasing, a missing coordinate column, two names meaning the same joint.
     """
-    if units not in UNITS:
-        raise ValueError(f"{path}: units must be one of {sorted(UNITS)}, got {units!r}")
-    scale = UNITS[units]
+    scale = length_scale(units, "m", path)
     numbered = [(n, line) for n, line in enumerate(read_lines(path), start=1) if line.strip()]
     if not numbered:
         raise SkeletonFormatError(path, None, "content", "file is empty")

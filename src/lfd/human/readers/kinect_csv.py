@@ -11,16 +11,20 @@ from pathlib import Path
 import numpy as np
 
 from ..skeleton import KINECT_V2_JOINTS, Skeleton
-from .common import KINECT_STATE_TRACKED, SkeletonFormatError, check_rate, parse_row, read_lines
+from .common import KINECT_STATE_TRACKED, SkeletonFormatError, check_rate, length_scale, parse_row, read_lines
 
 
-def read_kinect_csv(path: Path, *, rate: float = 30.0) -> Skeleton:
+def read_kinect_csv(path: Path, *, rate: float = 30.0, units: str | None = None) -> Skeleton:
     """A Kinect v2 CSV at ``rate`` Hz -> :class:`Skeleton` (m, Kinect joint names, only state 2 tracked).
+
+    ``units`` is the unit of the file's coordinates (m, cm, mm; ``None``/``"auto"``: metres).
 
     Raises:
         SkeletonFormatError: a row without 100 values, a non-number, a state outside {0, 1, 2}, an empty file.
+        ValueError: a bad ``rate`` or ``units``.
     """
     rate = check_rate(rate, path)
+    scale = length_scale(units, "m", path)
     n_joints = len(KINECT_V2_JOINTS)
     width = 4 * n_joints
     field_names = [f"{j}.{c}" for j in KINECT_V2_JOINTS for c in ("x", "y", "z", "tracking_state")]
@@ -56,7 +60,7 @@ def read_kinect_csv(path: Path, *, rate: float = 30.0) -> Skeleton:
     return Skeleton(
         t=np.arange(len(rows)) / rate,
         names=KINECT_V2_JOINTS,
-        positions=data[..., :3],
+        positions=data[..., :3] * scale,
         tracked=state == KINECT_STATE_TRACKED,
         source=f"{path} (kinect_csv)",
         up=np.array([0.0, 1.0, 0.0]),

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..skeleton import KINECT_V2_JOINTS, Skeleton
-from .common import KINECT_STATE_TRACKED, SkeletonFormatError, check_rate, parse_row, read_lines
+from .common import KINECT_STATE_TRACKED, SkeletonFormatError, check_rate, length_scale, parse_row, read_lines
 
 
 class _Tokens:
@@ -60,16 +60,21 @@ _NTU_JOINT_FIELDS = [
 ]
 
 
-def read_ntu(path: Path, *, rate: float = 30.0, body: int | str | None = None) -> Skeleton:
+def read_ntu(
+    path: Path, *, rate: float = 30.0, body: int | str | None = None, units: str | None = None
+) -> Skeleton:
     """One body of an NTU file at ``rate`` Hz -> :class:`Skeleton` (m, Kinect joint names).
 
     ``body`` is an index in order of appearance or a body id; by default the body present in
-    the most frames. Frames without that body are NaN.
+    the most frames. Frames without that body are NaN. ``units`` is the unit of the file's
+    x, y, z (m, cm, mm; ``None``/``"auto"``: metres).
 
     Raises:
-        SkeletonFormatError: malformed counts or joint lines, no body at all. ValueError: unknown ``body``.
+        SkeletonFormatError: malformed counts or joint lines, no body at all. ValueError: unknown
+        ``body``, a bad ``rate`` or ``units``.
     """
     rate = check_rate(rate, path)
+    scale = length_scale(units, "m", path)
     tok = _Tokens(path)
     n_frames = tok.integer("frame_count", 1)
     bodies: dict[str, np.ndarray] = {}  # body id -> (T, 25, 4)
@@ -104,7 +109,7 @@ def read_ntu(path: Path, *, rate: float = 30.0, body: int | str | None = None) -
     return Skeleton(
         t=np.arange(n_frames) / rate,
         names=KINECT_V2_JOINTS,
-        positions=data[..., :3],
+        positions=data[..., :3] * scale,
         tracked=data[..., 3] == KINECT_STATE_TRACKED,
         source=f"{path} (ntu, body {chosen})",
         up=np.array([0.0, 1.0, 0.0]),

@@ -9,19 +9,19 @@ from pathlib import Path
 import numpy as np
 
 from ..skeleton import Skeleton
-from .common import UNITS, SkeletonFormatError, canonical_names, check_time, parse_float, read_lines
+from .common import (
+    UNITS,
+    SkeletonFormatError,
+    canonical_names,
+    check_time,
+    check_units,
+    parse_float,
+    read_lines,
+)
 
 
-def read_trc(path: Path, *, up: tuple[float, float, float] = (0.0, 1.0, 0.0)) -> Skeleton:
-    """A ``.trc`` file -> :class:`Skeleton` (m, canonical marker names, the file's Time column, s).
-
-    ``up`` is the lab's up axis (OpenSim's y by default).
-
-    Raises:
-        SkeletonFormatError: a missing header key, unknown units, a row of the wrong width, a non-number,
-        time not increasing, two markers meaning the same joint.
-    """
-    lines = read_lines(path)
+def _header(lines: list[str], path: Path) -> dict[str, str]:
+    """The header keys (line 2) and values (line 3) of a ``.trc`` file's ``lines``."""
     if len(lines) < 5 or not lines[0].startswith("PathFileType"):
         raise SkeletonFormatError(
             path, 1, "PathFileType", "not an OpenSim .trc file (first line must start with PathFileType)"
@@ -31,7 +31,34 @@ def read_trc(path: Path, *, up: tuple[float, float, float] = (0.0, 1.0, 0.0)) ->
     for key in ("DataRate", "NumFrames", "NumMarkers", "Units"):
         if key not in header:
             raise SkeletonFormatError(path, 2, key, "missing from the header")
-    units = header["Units"].lower()
+    return header
+
+
+def trc_units(path: Path) -> str:
+    """The ``Units`` of a ``.trc`` file's header, lower case (e.g. ``"mm"``)."""
+    return _header(read_lines(path), path)["Units"].lower()
+
+
+def read_trc(
+    path: Path, *, up: tuple[float, float, float] = (0.0, 1.0, 0.0), units: str | None = None
+) -> Skeleton:
+    """A ``.trc`` file -> :class:`Skeleton` (m, canonical marker names, the file's Time column, s).
+
+    ``up`` is the lab's up axis (OpenSim's y by default). ``units`` (m, cm, mm) overrides the
+    header's ``Units``; ``None``/``"auto"`` uses the header.
+
+    Raises:
+        SkeletonFormatError: a missing header key, unknown header units (without ``units=``), a row of
+        the wrong width, a non-number, time not increasing, two markers meaning the same joint.
+        ValueError: a bad ``units``.
+    """
+    try:
+        override = check_units(units)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+    lines = read_lines(path)
+    header = _header(lines, path)
+    units = override or header["Units"].lower()
     if units not in UNITS:
         raise SkeletonFormatError(
             path, 3, "Units", f"expected one of {sorted(UNITS)}, got {header['Units']!r}"

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..skeleton import Skeleton
-from .common import UNITS, SkeletonFormatError, base_name, check_rate, parse_row, read_lines
+from .common import SkeletonFormatError, base_name, check_rate, length_scale, parse_row, read_lines
 
 __all__ = ["UIPRMD_JOINTS", "UIPRMD_PARENTS", "read_uiprmd", "uiprmd_global_positions"]
 
@@ -96,9 +96,24 @@ def uiprmd_global_positions(
 
 
 def read_uiprmd(
-    path: Path, *, rate: float = 30.0, euler_order: str = "ZXY", angles_path: str | os.PathLike | None = None
+    path: Path,
+    *,
+    rate: float = 30.0,
+    euler_order: str = "ZXY",
+    angles_path: str | os.PathLike | None = None,
+    units: str | None = None,
 ) -> Skeleton:
+    """A UI-PRMD Kinect recording at ``rate`` Hz -> :class:`Skeleton` (m, 22 canonical joints, y up).
+
+    ``units`` is the unit of the positions file (m, cm, mm; ``None``/``"auto"``: centimetres, as
+    UI-PRMD publishes it). ``angles_path`` overrides the sibling angles file.
+
+    Raises:
+        FileNotFoundError: no angles file. SkeletonFormatError: rows of the wrong width, a non-number,
+        the two files' frame counts differ. ValueError: a bad ``rate``, ``euler_order`` or ``units``.
+    """
     rate = check_rate(rate, path)
+    scale = length_scale(units, "cm", path)
     if not (
         isinstance(euler_order, str)
         and len(euler_order) == 3
@@ -120,7 +135,7 @@ def read_uiprmd(
             "rows",
             f"has {len(angles)} frames but the positions file {path} has {len(offsets)}",
         )
-    positions = uiprmd_global_positions(offsets, angles, euler_order) * UNITS["cm"]
+    positions = uiprmd_global_positions(offsets, angles, euler_order) * scale
     return Skeleton(
         t=np.arange(len(offsets)) / rate,
         names=UIPRMD_JOINTS,

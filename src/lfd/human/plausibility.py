@@ -1,0 +1,116 @@
+"""Plausible ranges of a person's recording, and the checks that refuse a file outside them.
+
+A file in the wrong unit is well-formed and analyses without a complaint into nonsense (a file
+in millimetres read as metres gives a 300 m upper arm and mega-newton-metre torques), so the
+entry points check the physical scale once: :func:`lfd.human.read_skeleton` checks the upper
+arm and the frame rate of every file it reads, :func:`lfd.human.analyze_arm` checks the body
+mass. Each check raises ``ValueError`` with one line naming the file or option, the measured
+value, the range, and the unit that would bring it into range when one does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .skeleton import Skeleton
+
+__all__ = [
+    "BODY_MASS_RANGE_KG",
+    "FRAME_RATE_RANGE_HZ",
+    "UPPER_ARM_RANGE_M",
+    "check_body_mass",
+    "check_frame_rate",
+    "check_upper_arm",
+]
+
+#: Shoulder-elbow median length (m) accepted for an adult or a child.
+UPPER_ARM_RANGE_M = (0.15, 0.6)
+#: Frame rates (Hz) accepted: from a slow tracker to a high-speed marker system.
+FRAME_RATE_RANGE_HZ = (1.0, 1000.0)
+#: Body masses (kg) accepted by the torque model.
+BODY_MASS_RANGE_KG = (20.0, 250.0)
+
+_LENGTH_UNITS = (("m", "metres", 1.0), ("cm", "centimetres", 0.01), ("mm", "millimetres", 0.001))
+_TIME_UNITS = (("milliseconds", 1e-3), ("microseconds", 1e-6), ("100 ns ticks", 1e-7))
+
+
+def _inside(value: float, bounds: tuple[float, float]) -> bool:
+    return bounds[0] <= value <= bounds[1]
+
+
+def upper_arm_length(skeleton: Skeleton) -> float | None:
+    """Median shoulder-elbow distance (m) over the frames and both sides where both joints were
+    tracked (else where both are finite); ``None`` when the skeleton has no such pair."""
+    lengths = []
+    for side in ("left", "right"):
+        a, b = f"shoulder_{side}", f"elbow_{side}"
+        if not skeleton.has(a, b):
+            continue
+        ia, ib = skeleton.index(a), skeleton.index(b)
+        d = np.linalg.norm(skeleton.positions[:, ib] - skeleton.positions[:, ia], axis=1)
+        tracked = skeleton.tracked[:, ia] & skeleton.tracked[:, ib]
+        lengths.append(d[tracked] if tracked.any() else d[np.isfinite(d)])
+    pooled = np.concatenate(lengths) if lengths else np.empty(0)
+    return float(np.median(pooled)) if pooled.size else None
+
+
+def check_upper_arm(skeleton: Skeleton, where: str, scale: float | Callable[[], float]) -> None:
+    """``ValueError`` when the upper arm (:func:`upper_arm_length`) is outside :data:`UPPER_ARM_RANGE_M`.
+
+    ``scale`` is the metres per file unit the reader applied (or a function returning it, called
+    only for an implausible arm); the message suggests the ``units=`` value under which the
+    file's numbers would give a plausible arm. A skeleton without a shoulder-elbow pair passes
+    (the analysis names the missing joints).
+    """
+    length = upper_arm_length(skeleton)
+    if length is None or _inside(length, UPPER_ARM_RANGE_M):
+        return
+    scale = scale() if callable(scale) else scale
+    low, high = UPPER_ARM_RANGE_M
+    problem = f"{where}: upper arm {length:.4g} m: outside {low:g}-{high:g} m"
+    raw = length / scale  # the file's own numbers
+    fits = [(u, name) for u, name, s in _LENGTH_UNITS if s != scale and _inside(raw * s, UPPER_ARM_RANGE_M)]
+    if fits:
+        unit, name = fits[0]
+        raise ValueError(f"{problem}; is the file in {name}? pass units={unit}")
+    raise ValueError(f"{problem}; check the file's length unit (units= m, cm or mm) and its joint labels")
+
+
+def check_frame_rate(skeleton: Skeleton, where: str, time_source: str) -> None:
+    """``ValueError`` when the median frame rate of ``skeleton`` is outside :data:`FRAME_RATE_RANGE_HZ`.
+
+    ``time_source`` names where the times came from, e.g. ``"time column"`` or ``"rate=30"``;
+    a time column whose steps read in milliseconds (or microseconds, 100 ns ticks) would give
+    a plausible rate is named as such. One frame has no rate and passes.
+    """
+    if skeleton.n_frames < 2:
+        return
+    step = float(np.median(np.diff(skeleton.t)))
+    rate = 1.0 / step
+    if _inside(rate, FRAME_RATE_RANGE_HZ):
+        return
+    low, high = FRAME_RATE_RANGE_HZ
+    problem = f"{where}: {time_source} gives {rate:.4g} frames/s (median step {step:.4g} s)"
+    problem += f": outside {low:g}-{high:g} Hz"
+    if time_source.startswith("rate"):
+        raise ValueError(f"{problem}; pass rate= in Hz (frames per second)")
+    rates = {name: 1.0 / (step * s) for name, s in _TIME_UNITS}
+    fits = [f"{name} ({r:.3g} Hz)" for name, r in rates.items() if _inside(r, FRAME_RATE_RANGE_HZ)]
+    hint = f"is it in {' or '.join(fits)}? " if fits else ""
+    raise ValueError(f"{problem}; {hint}the {time_source} must be in seconds")
+
+
+def check_body_mass(body_mass: float) -> None:
+    """``ValueError`` when ``body_mass`` (kg) is outside :data:`BODY_MASS_RANGE_KG`; a mass that
+    fits when read as grams is suggested."""
+    if isinstance(body_mass, bool) or not isinstance(body_mass, (int, float)) or not np.isfinite(body_mass):
+        raise ValueError(f"body_mass must be a number of kg, got {body_mass!r}")
+    if _inside(body_mass, BODY_MASS_RANGE_KG):
+        return
+    low, high = BODY_MASS_RANGE_KG
+    hint = ""
+    if _inside(body_mass / 1000.0, BODY_MASS_RANGE_KG):
+        hint = f" (is it in grams? {body_mass / 1000.0:g} kg)"
+    raise ValueError(f"body_mass {body_mass:g} is outside {low:g}-{high:g} kg; give body_mass in kg{hint}")
