@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 
 from lfd.io.files import (
+    EXPORT_MARKER,
     DatasetError,
+    OutputRefused,
+    export_marker,
     json_bytes,
     npz_bytes,
+    publish_output,
+    read_export_marker,
     read_json,
     sha256_file,
     write_bytes_atomic,
@@ -58,3 +63,63 @@ def test_json_round_trip_and_errors_name_the_file(tmp_path):
     (tmp_path / "bad.json").write_bytes(b"\xff{")
     with pytest.raises(DatasetError, match="corrupt JSON file .*bad.json"):
         read_json(tmp_path / "bad.json")
+
+
+def _publish_folder(target, text, **kw):
+    with publish_output(target, "demo", **kw) as tmp:
+        tmp.mkdir()
+        (tmp / "a.txt").write_text(text)
+
+
+def test_publish_output_marks_replaces_only_its_own_kind_and_leaves_no_temporary(tmp_path):
+    target = tmp_path / "out"
+    _publish_folder(target, "one")
+    assert read_export_marker(target) == export_marker("demo") and (target / "a.txt").read_text() == "one"
+    with pytest.raises(FileExistsError, match="overwrite=True"):
+        _publish_folder(target, "two")
+    _publish_folder(target, "two", overwrite=True)
+    assert (target / "a.txt").read_text() == "two" and sorted(os.listdir(tmp_path)) == ["out"]
+    (target / EXPORT_MARKER).write_text("{not json")
+    with pytest.raises(OutputRefused, match=f"no {EXPORT_MARKER} in it"):
+        _publish_folder(target, "three", overwrite=True)
+    with pytest.raises(OutputRefused, match="is or holds the source"):
+        _publish_folder(tmp_path, "three", overwrite=True, protect=[target / "a.txt"])
+    assert (target / "a.txt").read_text() == "two"
+
+
+def test_publish_output_of_a_file_uses_the_kind_recorded_in_it(tmp_path):
+    target = tmp_path / "f.bin"
+    kind_of = lambda p: "demo" if p.read_bytes().startswith(b"DEMO") else None  # noqa: E731
+    for data in (b"DEMO1", b"DEMO2"):
+        with publish_output(target, "demo", overwrite=True, kind_of=kind_of) as tmp:
+            tmp.write_bytes(data)
+    assert target.read_bytes() == b"DEMO2" and sorted(os.listdir(tmp_path)) == ["f.bin"]
+    target.write_bytes(b"user data")
+    refused = pytest.raises(OutputRefused, match="no lfd marker in the file")
+    with refused, publish_output(target, "demo", overwrite=True, kind_of=kind_of) as tmp:
+        tmp.write_bytes(b"DEMO3")
+    assert target.read_bytes() == b"user data"
+
+
+def test_publish_output_leftovers(tmp_path):
+    """A killed run's temporary sibling is removed by the next run, an output it had moved
+    aside is put back first; one of a live process, or unmarked, is left alone."""
+    target = tmp_path / "out"
+
+    def leftover(pid, name, marker=True):
+        folder = tmp_path / f".out.lfd-partial-{pid}-{name}"
+        (folder / "replaced").mkdir(parents=True)
+        (folder / "replaced" / "a.txt").write_text(name)
+        if marker:
+            (folder / EXPORT_MARKER).write_text(json.dumps({**export_marker("demo"), "partial": True}))
+        return folder
+
+    dead = leftover(4_194_305, "moved-aside")
+    live = leftover(os.getppid(), "live")
+    unmarked = leftover(4_194_305, "unmarked", marker=False)
+    other_kind = leftover(4_194_305, "other")
+    (other_kind / EXPORT_MARKER).write_text(json.dumps({**export_marker("other"), "partial": True}))
+    with pytest.raises(FileExistsError):  # the moved-aside output is back at the target
+        _publish_folder(target, "new")
+    assert (target / "a.txt").read_text() == "moved-aside" and not dead.exists()
+    assert live.exists() and unmarked.exists() and other_kind.exists()
