@@ -42,18 +42,22 @@ def _inside(value: float, bounds: tuple[float, float]) -> bool:
 
 def upper_arm_length(skeleton: Skeleton) -> float | None:
     """Median shoulder-elbow distance (m) over the frames and both sides where both joints were
-    tracked (else where both are finite); ``None`` when the skeleton has no such pair."""
-    lengths = []
+    tracked (else, when no side ever was, where both are finite); ``None`` when the skeleton has
+    no such pair."""
+    tracked, finite = [], []
     for side in ("left", "right"):
         a, b = f"shoulder_{side}", f"elbow_{side}"
         if not skeleton.has(a, b):
             continue
         ia, ib = skeleton.index(a), skeleton.index(b)
         d = np.linalg.norm(skeleton.positions[:, ib] - skeleton.positions[:, ia], axis=1)
-        tracked = skeleton.tracked[:, ia] & skeleton.tracked[:, ib]
-        lengths.append(d[tracked] if tracked.any() else d[np.isfinite(d)])
-    pooled = np.concatenate(lengths) if lengths else np.empty(0)
-    return float(np.median(pooled)) if pooled.size else None
+        tracked.append(d[skeleton.tracked[:, ia] & skeleton.tracked[:, ib]])
+        finite.append(d[np.isfinite(d)])
+    for lengths in (tracked, finite):
+        pooled = np.concatenate(lengths) if lengths else np.empty(0)
+        if pooled.size:
+            return float(np.median(pooled))
+    return None
 
 
 def check_upper_arm(skeleton: Skeleton, where: str, scale: float | Callable[[], float]) -> None:
