@@ -125,11 +125,6 @@ def export_robomimic(
     commands = {r.index: command_velocities(r.arrays["joints"], r.arrays["t"]) for r in records}
     scale = np.max([np.abs(c).max(axis=0) for c in commands.values()], axis=0)
     scale = np.where(scale > 0, scale, 1.0)
-    items = records
-    if progress:
-        from tqdm import tqdm
-
-        items = tqdm(records, desc="robomimic", unit="ep")
     total = 0
     out = Path(out)
     published = publish_output(
@@ -142,6 +137,11 @@ def export_robomimic(
     )
     with published as tmp, h5py.File(tmp, "w") as f:
         f.attrs[MARKER_ATTR] = json.dumps(export_marker("robomimic"))
+        items = records
+        if progress:  # after the output is accepted: a refusal prints no bar
+            from tqdm import tqdm
+
+            items = tqdm(records, desc="robomimic", unit="ep")
         grp = f.create_group("data")
         for r in items:
             frames = r.frames()
