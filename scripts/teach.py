@@ -5,7 +5,8 @@ Usage::
     python scripts/teach.py robot=wam4 scene=configs/teach/boxes.yaml
     python scripts/teach.py robot=sawyer scene=null port=0     # empty scene, free port
 
-Prints the URL (``http://127.0.0.1:8080`` by default); open it in any browser, drag the
+Prints the URL (``http://127.0.0.1:8080`` by default; with ``?token=<secret>`` whenever
+``host`` is not loopback, or with ``token=true``); open it in any browser, drag the
 gizmo on the tool (3-D mode) or use the 2-D panel, then Export / Send. Configuration:
 ``configs/teach/teach.yaml``; the scene format is described in ``docs/teach.md``.
 """
@@ -36,18 +37,37 @@ def build(cfg: DictConfig) -> TeachServer:
         margin=float(cfg.margin),
     )
     return TeachServer(
-        session, host=str(cfg.host), port=int(cfg.port), export_dir=to_absolute_path(str(cfg.export_dir))
+        session,
+        host=str(cfg.host),
+        port=int(cfg.port),
+        export_dir=to_absolute_path(str(cfg.export_dir)),
+        token=token_option(cfg.get("token", "auto")),
     )
+
+
+def token_option(value) -> bool | None:
+    """The ``token`` config value as ``TeachServer``'s ``token``: auto/null -> None (a token
+    exactly when host is not loopback), true -> True, false -> False."""
+    if value is None or (isinstance(value, str) and value.lower() == "auto"):
+        return None
+    if isinstance(value, bool):
+        return value
+    raise ValueError(f"token must be auto, true or false, got {value!r}")
 
 
 @hydra.main(version_base="1.3", config_path="../configs/teach", config_name="teach")
 def main(cfg: DictConfig) -> None:
     try:
         server = build(cfg)
-    except (ValueError, FileNotFoundError) as e:
+    except (ValueError, FileNotFoundError, RuntimeError) as e:
         print(f"teach: {e}", file=sys.stderr)
         raise SystemExit(2) from None
-    print(f"teach: {cfg.robot} ready at {server.url}  (Ctrl-C to stop)", flush=True)
+    access = (
+        "the token in this URL is required: share it only with whoever may drive the arm"
+        if server.token
+        else "this machine only, no token"
+    )
+    print(f"teach: {cfg.robot} ready at {server.url}  ({access}; Ctrl-C to stop)", flush=True)
     try:
         end = None if cfg.duration_s is None else time.monotonic() + float(cfg.duration_s)
         while end is None or time.monotonic() < end:

@@ -29,6 +29,7 @@ import csv
 import io
 import json
 import math
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -36,7 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from lfd.dmp import DMP
-from lfd.io.files import write_bytes_atomic, write_npz_atomic
+from lfd.io.files import publish_output, write_bytes_atomic, write_npz_atomic
 
 if TYPE_CHECKING:
     from lfd.sim.tracking import TrackedPath
@@ -46,6 +47,7 @@ __all__ = [
     "RETURNING_FORMULATION",
     "SendResult",
     "dmp_options",
+    "export_new_folder",
     "export_session",
     "fit_recording_dmp",
     "send_session",
@@ -137,6 +139,43 @@ def export_session(session, out_dir) -> dict:
     write_bytes_atomic(paths["json"], json.dumps(info, indent=1).encode())
     write_npz_atomic(paths["episode"], _episode_arrays(session, rec, dmp))
     return paths
+
+
+#: Kind recorded in the export marker of a teach export folder (:func:`lfd.io.files.publish_output`).
+EXPORT_KIND = "teach-demonstration"
+
+
+def export_new_folder(session, export_dir, now: float | None = None) -> dict:
+    """Export ``session`` (:func:`export_session`) into a new folder of ``export_dir`` named
+    ``demo-YYYYmmdd-HHMMSS`` (local time ``now``, default the current time), with ``-2``,
+    ``-3``, ... appended when that name is taken: nothing already there is overwritten. The
+    folder is written beside its final place and renamed into it when complete
+    (:func:`lfd.io.files.publish_output`).
+
+    Returns:
+        the paths of :func:`export_session`, in the new folder.
+
+    Raises:
+        ValueError: fewer than 3 recorded samples (nothing is created).
+        OSError: ``export_dir`` cannot be created or written (e.g. it is a file).
+    """
+    fit_recording_dmp(session.recorded)  # refuse a too-short recording before creating anything
+    root = Path(export_dir)
+    if root.exists() and not root.is_dir():
+        raise NotADirectoryError(f"teach export: export_dir {root} is a file, not a folder")
+    root.mkdir(parents=True, exist_ok=True)
+    stamp = time.strftime("demo-%Y%m%d-%H%M%S", time.localtime(now))
+    for k in range(1, 10_000):
+        target = root / (stamp if k == 1 else f"{stamp}-{k}")
+        if target.exists() or target.is_symlink():
+            continue
+        try:
+            with publish_output(target, EXPORT_KIND, who="teach export") as folder:
+                paths = export_session(session, folder)
+        except FileExistsError:  # taken between the check and the publication
+            continue
+        return {key: target / p.name for key, p in paths.items()}
+    raise FileExistsError(f"teach export: no free folder name for {root / stamp}")
 
 
 def _episode_arrays(session, rec, dmp: DMP) -> dict:

@@ -12,35 +12,40 @@ obstacles (red), the goal region (green sphere) and a drag gizmo on the tool:
   On release the gizmo snaps back to the tool.
 * **2-D panel**: one slider per joint, an x/y/z entry with "Move (IK)", Store, Playback,
   Go Home, Send.
-* Both: Stop, Playback, Export (CSV/JSON/DMP/episode into ``export_dir``), Send (PyBullet
+* Both: Stop, Playback, Export (CSV/JSON/DMP/episode into a new ``demo-<date>-<time>``
+  folder of ``export_dir`` each time, never over an earlier one), Send (PyBullet
   execution; the executed tool path is drawn in orange next to the recorded one in
   blue, with its final error in the status text), Clear, and "Add box" for obstacles.
 
 Everything the interface does goes through the session under one lock, so tests can
-read ``server.session`` while a browser drives the page.
+read ``server.session`` while a browser drives the page. Every handler catches every
+exception and shows it as one line in the status text; a malformed drag position (NaN,
+inf, wrong shape) is refused there and the drag worker keeps serving later drags.
+
+**Access** (:mod:`lfd.teach.access`): the server binds to loopback by default, refuses
+websockets from pages of other origins, and needs the per-launch token of :attr:`TeachServer.url`
+whenever ``host`` is not loopback (or ``token=True``). **One controller**
+(:mod:`lfd.teach.control`): the first tab drives the session; later tabs are read-only
+viewers until one presses "Take control" (the previous tab is told it lost control).
 """
 
 from __future__ import annotations
 
-import math
+import contextlib
 import socket
 import threading
 import time
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import viser
 
-from lfd.robots.spatial import matrix_to_quaternion
-from lfd.robots.spec import rpy_to_matrix
-
+from .access import AccessGuard, new_token, start_guarded_viser, token_required
+from .control import ControlMixin, error_line, escape_markdown
+from .export import export_new_folder
 from .session import TeachSession
+from .visuals import _GREEN, _RED, SceneMixin
 
 __all__ = ["TeachServer", "free_port"]
-
-_GREEN, _RED, _GREY = (40, 180, 60), (220, 40, 40), (150, 150, 165)
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -50,52 +55,19 @@ def free_port(host: str = "127.0.0.1") -> int:
         return int(s.getsockname()[1])
 
 
-@dataclass(frozen=True)
-class _Visual:
-    link: int  # -1 base_link, i: link i
-    origin: np.ndarray  # (4, 4) in the link frame
-    kind: str  # "sphere" | "cylinder"
-    radius: float
-    length: float
-
-
-def urdf_visuals(urdf: str, link_names: tuple[str, ...]) -> list[_Visual]:
-    """The sphere and cylinder visuals of a URDF written by :mod:`lfd.robots.urdf`."""
-    index = {"base_link": -1, **{name: i for i, name in enumerate(link_names)}}
-    out = []
-    for link in ET.fromstring(urdf).findall("link"):
-        name = link.get("name")
-        if name not in index:
-            continue
-        for vis in link.findall("visual"):
-            o = vis.find("origin")
-            xyz = [float(v) for v in o.get("xyz").split()] if o is not None else [0.0, 0.0, 0.0]
-            rpy = [float(v) for v in o.get("rpy").split()] if o is not None else [0.0, 0.0, 0.0]
-            frame = np.eye(4)
-            frame[:3, :3] = rpy_to_matrix(rpy)
-            frame[:3, 3] = xyz
-            geom = vis.find("geometry")
-            sphere, cyl = geom.find("sphere"), geom.find("cylinder")
-            if sphere is not None:
-                out.append(_Visual(index[name], frame, "sphere", float(sphere.get("radius")), 0.0))
-            elif cyl is not None:
-                out.append(
-                    _Visual(
-                        index[name], frame, "cylinder", float(cyl.get("radius")), float(cyl.get("length"))
-                    )
-                )
-    return out
-
-
-class TeachServer:
+class TeachServer(ControlMixin, SceneMixin):
     """Serve ``session`` on ``http://host:port`` (see the module docstring).
 
     Args:
         session: the session to drive.
         host: interface to bind (default ``127.0.0.1``: this machine only).
         port: TCP port; 0 picks a free one.
-        export_dir: where Export writes its files.
+        export_dir: where Export creates its ``demo-<date>-<time>`` folders.
         verbose: let viser print its banner.
+        token: the launch token (:mod:`lfd.teach.access`): None (default) a fresh secret
+            exactly when ``host`` is not loopback; True a fresh secret on any host; a
+            string, that secret; False none (refused with ``ValueError`` when ``host`` is not
+            loopback). :attr:`url` carries it.
     """
 
     def __init__(
@@ -105,13 +77,23 @@ class TeachServer:
         port: int = 8080,
         export_dir: str | Path = "outputs/teach/export",
         verbose: bool = False,
+        token: bool | str | None = None,
     ) -> None:
         self.session = session
         self.export_dir = Path(export_dir)
         self.lock = threading.RLock()
+        if isinstance(token, str):
+            if not token:
+                raise ValueError("token must be a non-empty string, True, False or None")
+            self.token: str | None = token
+        else:
+            self.token = new_token() if token_required(host, token) else None
         port = free_port(host) if port == 0 else int(port)
-        self.server = viser.ViserServer(host=host, port=port, verbose=verbose)
+        self.guard = AccessGuard(host, self.token, port)
+        self.server = start_guarded_viser(host, port, self.guard, verbose=verbose)
         self.host, self.port = host, self.server.get_port()
+        self._init_control()
+        self.drag_errors = 0
         self.status_text = ""
         self.last_export: dict | None = None
         self.playbacks = 0
@@ -124,98 +106,23 @@ class TeachServer:
         self._build_gui()
         self._worker = threading.Thread(target=self._drag_worker, name="teach-drag", daemon=True)
         self._worker.start()
+        self.server.on_client_connect(self._on_connect)
+        self.server.on_client_disconnect(self._on_disconnect)
         self._refresh()
 
     @property
     def url(self) -> str:
-        return f"http://{self.host}:{self.port}"
-
-    # ------------------------------------------------------------------ scene
-    def _build_scene(self) -> None:
-        s, sc = self.session, self.server.scene
-        self.server.initial_camera.position = (1.3, -1.3, 1.0)
-        self.server.initial_camera.look_at = (0.35, 0.0, 0.2)
-        sc.set_up_direction("+z")
-        sc.configure_default_lights(cast_shadow=False)  # shadows cost a lot in software WebGL
-        if s.scene.table_z is not None:
-            sc.add_box(
-                "/table",
-                color=(200, 180, 150),
-                dimensions=(2.0, 2.0, 0.02),
-                position=(0.3, 0.0, s.scene.table_z - 0.01),
-            )
-        for i, box in enumerate(s.scene.obstacles):
-            self._add_box_node(i, box)
-        if s.scene.goal is not None:
-            g = s.scene.goal
-            sc.add_icosphere("/goal", radius=g.radius, color=_GREEN, opacity=0.35, position=tuple(g.center))
-        # one scene frame per link (moved on every update), its URDF shapes as fixed children
-        self.visuals = urdf_visuals(s.robot.to_urdf(), s.robot.spec.link_names)
-        self.link_nodes = [sc.add_frame(f"/robot/link{i}", show_axes=False) for i in range(s.n_dof)]
-        for k, v in enumerate(self.visuals):
-            parent = "/robot/base" if v.link < 0 else f"/robot/link{v.link}"
-            pose = {
-                "position": tuple(v.origin[:3, 3]),
-                "wxyz": tuple(matrix_to_quaternion(v.origin[:3, :3])),
-                "cast_shadow": False,
-                "receive_shadow": False,
-            }
-            if v.kind == "sphere":
-                sc.add_icosphere(f"{parent}/v{k}", radius=v.radius, color=_GREY, subdivisions=2, **pose)
-            else:
-                sc.add_cylinder(
-                    f"{parent}/v{k}",
-                    radius=v.radius,
-                    height=v.length,
-                    color=_GREY,
-                    radial_segments=16,
-                    **pose,
-                )
-        tool = s.tool_position
-        self.gizmo_scale = 0.25  # m: length of the gizmo's arrows
-        self.gizmo = sc.add_transform_controls(
-            "/gizmo",
-            scale=self.gizmo_scale,
-            position=tuple(tool),
-            disable_rotations=True,
-            depth_test=False,
-            line_width=4.0,
-        )
-        self.marker = sc.add_icosphere("/gizmo/marker", radius=0.025, color=_GREEN)
-        self.ghost = sc.add_icosphere("/ghost", radius=0.03, color=_RED, opacity=0.3, visible=False)
-        self.gizmo.on_update(self._on_gizmo)
-        self.recorded_line = None
-        self.executed_line = None
-
-    def _add_box_node(self, i: int, box) -> None:
-        rot = np.array(
-            [[math.cos(box.yaw), -math.sin(box.yaw), 0], [math.sin(box.yaw), math.cos(box.yaw), 0], [0, 0, 1]]
-        )
-        self.server.scene.add_box(
-            f"/obstacles/{i}",
-            color=(200, 60, 60),
-            dimensions=tuple(box.size),
-            position=tuple(box.center),
-            wxyz=tuple(matrix_to_quaternion(rot)),
-            opacity=0.8,
-        )
-
-    def _draw_arm(self, q: np.ndarray) -> None:
-        frames = self.session.kin.frames(q)
-        for node, frame in zip(self.link_nodes, frames[:-1], strict=True):
-            node.position = tuple(frame[:3, 3])
-            node.wxyz = tuple(matrix_to_quaternion(frame[:3, :3]))
-
-    def _draw_path(self, name: str, points: np.ndarray, color) -> object | None:
-        if len(points) < 2:
-            return None
-        segs = np.stack([points[:-1], points[1:]], axis=1)
-        return self.server.scene.add_line_segments(name, segs, color, thickness=0.006)
+        """The page's address, with ``?token=`` when a token is in force."""
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        base = f"http://{host}:{self.port}"
+        return base if self.token is None else f"{base}/?token={self.token}"
 
     # ------------------------------------------------------------------ GUI
     def _build_gui(self) -> None:
         gui, s = self.server.gui, self.session
         self.status = gui.add_markdown("")
+        self.buttons = {"Take control": gui.add_button("Take control")}  # label -> handle
+        self.buttons["Take control"].on_click(self._on_take)
         self.mode_buttons = gui.add_button_group("Mode", ("3-D drag", "2-D panel"))
         self.mode_buttons.on_click(self._on_mode)
         with gui.add_folder("Demonstration"):
@@ -226,7 +133,8 @@ class TeachServer:
                 ("Send", self._send),
                 ("Clear", self._clear),
             ):
-                gui.add_button(label).on_click(lambda _e, fn=fn: self._run(fn))
+                self.buttons[label] = gui.add_button(label)
+                self.buttons[label].on_click(lambda e, fn=fn: self._run(fn, e))
         with gui.add_folder("2-D panel"):
             self.sliders = []
             spec = s.robot.spec
@@ -244,29 +152,43 @@ class TeachServer:
                 "x/y/z (m)", initial_value=tuple(np.round(s.tool_position, 3)), step=0.001
             )
             self.xyz_uuid = self.xyz._impl.uuid  # the id of its first input in the page
-            gui.add_button("Move (IK)").on_click(lambda _e: self._run(self._move_ik))
+            gui.add_button("Move (IK)").on_click(lambda e: self._run(self._move_ik, e))
             for label, fn in (
                 ("Store", self._store),
                 ("Playback ", self._playback),
                 ("Go Home", self._home),
                 ("Send ", self._send),
             ):
-                gui.add_button(label).on_click(lambda _e, fn=fn: self._run(fn))
+                gui.add_button(label).on_click(lambda e, fn=fn: self._run(fn, e))
         with gui.add_folder("Obstacles", expand_by_default=False):
             self.box_center = gui.add_vector3("centre (m)", initial_value=(0.5, 0.3, 0.1), step=0.01)
             self.box_size = gui.add_vector3("size (m)", initial_value=(0.1, 0.1, 0.1), step=0.01)
-            gui.add_button("Add box").on_click(lambda _e: self._run(self._add_box))
+            gui.add_button("Add box").on_click(lambda e: self._run(self._add_box, e))
 
-    def _run(self, fn) -> None:
+    def _run(self, fn, event=None) -> None:
+        """Run one button's action for the client of ``event`` (None: the server itself);
+        any exception becomes the status line."""
+        if not self._may_act(event):
+            return
         with self.lock:
             try:
                 fn()
-            except ValueError as e:
-                self.status_text = f"**{e}**"
-            self._refresh()
+            except Exception as e:
+                self.status_text = error_line(e)
+            self._refresh_safely()
+
+    def _refresh_safely(self, sliders: bool = True) -> None:
+        try:
+            self._refresh(sliders=sliders)
+        except Exception as e:  # shown with the next refresh that works
+            self.status_text = error_line(e)
 
     # ------------------------------------------------------------------ drag path
     def _on_gizmo(self, event) -> None:
+        if not self._may_act(event):
+            with self.lock:
+                self.gizmo.position = tuple(self.session.tool_position)
+            return
         pos = np.array(event.target.position, dtype=float)
         if event.phase == "end":
             with self._cond:
@@ -288,12 +210,24 @@ class TeachServer:
                 if self._closed:
                     return
                 target, self._pending = self._pending, None
-            self.handle_drag(target)
+            try:
+                self.handle_drag(target)
+            except Exception as e:  # a bad target (NaN, inf, wrong shape) or a failed redraw
+                with self.lock:
+                    self.drag_errors += 1
+                    self.status_text = f"refused drag: {error_line(e)}"
+                    with contextlib.suppress(Exception):
+                        self.gizmo.position = tuple(self.session.tool_position)
+                    self._refresh_safely()
 
     def handle_drag(self, target: np.ndarray):
         """One drag update as the worker runs it: IK + collision check (the session),
         then the scene update (arm, gizmo colour, ghost, sliders, status). Returns the
-        :class:`~lfd.teach.session.DragResult` (None outside the 3-D mode)."""
+        :class:`~lfd.teach.session.DragResult` (None outside the 3-D mode).
+
+        Raises:
+            ValueError: ``target`` is not 3 finite numbers (the session's check).
+        """
         with self.lock:
             if self.session.mode != "3d":
                 return None
@@ -315,30 +249,45 @@ class TeachServer:
 
     # ------------------------------------------------------------------ panel actions
     def _on_mode(self, event) -> None:
-        mode = "3d" if event.target.value.startswith("3") else "2d"
+        if not self._may_act(event):
+            with self.lock:
+                self.mode_buttons.value = "3-D drag" if self.session.mode == "3d" else "2-D panel"
+            return
         with self.lock:
             try:
+                mode = "3d" if str(event.target.value).startswith("3") else "2d"
                 self.session.mode = mode
                 self.gizmo.visible = mode == "3d"
                 self.status_text = ""
-            except ValueError as e:
-                self.status_text = f"**{e}**"
-            self._refresh()
+            except Exception as e:
+                self.status_text = error_line(e)
+            self._refresh_safely()
 
     def _on_slider(self, event) -> None:
         if event.client is None:  # set by the server itself
             return
+        if not self._may_act(event):
+            with self.lock:
+                self._refresh_safely(sliders=True)
+            return
         with self.lock:
-            if self.session.mode != "2d":
-                self.session.mode = "2d" if self.session.recording_state == "idle" else self.session.mode
-            if self.session.mode != "2d":
-                self.status_text = "**switch to the 2-D panel (Clear first) to use the sliders**"
-                self._refresh(sliders=True)
-                return
-            q = np.array([sl.value for sl in self.sliders], dtype=float)
-            r = self.session.set_joints(q)
-            self.status_text = "" if r.accepted else f"refused: {r.reason} {r.detail}"
-            self._refresh(sliders=not r.accepted)
+            try:
+                self._slider_moved()
+            except Exception as e:
+                self.status_text = error_line(e)
+                self._refresh_safely(sliders=True)
+
+    def _slider_moved(self) -> None:
+        if self.session.mode != "2d":
+            self.session.mode = "2d" if self.session.recording_state == "idle" else self.session.mode
+        if self.session.mode != "2d":
+            self.status_text = "**switch to the 2-D panel (Clear first) to use the sliders**"
+            self._refresh(sliders=True)
+            return
+        q = np.array([sl.value for sl in self.sliders], dtype=float)
+        r = self.session.set_joints(q)
+        self.status_text = "" if r.accepted else f"refused: {r.reason} {r.detail}"
+        self._refresh(sliders=not r.accepted)
 
     def _move_ik(self) -> None:
         if self.session.mode != "2d":
@@ -389,8 +338,8 @@ class TeachServer:
         self.status_text = f"played back {len(frames)} frames"
 
     def _export(self) -> None:
-        self.last_export = self.session.export(self.export_dir)
-        self.status_text = f"exported to {self.export_dir}"
+        self.last_export = export_new_folder(self.session, self.export_dir)
+        self.status_text = "exported to " + escape_markdown(str(self.last_export["csv"].parent))
 
     def _send(self) -> None:
         res = self.session.send()

@@ -1,0 +1,157 @@
+"""Which browser tab drives the teach session.
+
+One session has one arm and one recording, so one client (a viser connection, a browser
+tab) controls it at a time: the first to connect. Every later client is a read-only
+viewer (it sees the scene; its drags and buttons are ignored with a message) until it
+takes over explicitly (the "Take control" button) or the controller leaves, when the
+longest-connected viewer is promoted. Whenever control changes hands, a recording in
+progress is stopped, so one recording never holds two clients' drags.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+
+__all__ = ["READ_ONLY", "Control", "ControlMixin", "error_line", "escape_markdown"]
+
+#: What a viewer is told when its action is ignored.
+READ_ONLY = "read-only: another tab controls this teach session (press Take control to take it over)"
+
+
+class Control:
+    """The controlling client id and the waiting viewers, in connection order."""
+
+    def __init__(self) -> None:
+        self.owner: int | None = None
+        self.viewers: list[int] = []
+
+    def connect(self, client_id: int) -> bool:
+        """Register a client; True when it gets control (nobody had it)."""
+        if self.owner is None:
+            self.owner = client_id
+            return True
+        if client_id != self.owner and client_id not in self.viewers:
+            self.viewers.append(client_id)
+        return False
+
+    def disconnect(self, client_id: int) -> int | None:
+        """Forget a client; when it was the controller, the promoted viewer (or None)."""
+        if client_id in self.viewers:
+            self.viewers.remove(client_id)
+            return None
+        if client_id != self.owner:
+            return None
+        self.owner = self.viewers.pop(0) if self.viewers else None
+        return self.owner
+
+    def take(self, client_id: int) -> int | None:
+        """Give control to ``client_id``; the previous controller (now a viewer), or None."""
+        previous = self.owner
+        if previous == client_id:
+            return None
+        if client_id in self.viewers:
+            self.viewers.remove(client_id)
+        if previous is not None:
+            self.viewers.append(previous)
+        self.owner = client_id
+        return previous
+
+    def allows(self, client_id: int | None) -> bool:
+        """Whether an action of ``client_id`` may change the session (None: the server itself)."""
+        return client_id is None or client_id == self.owner
+
+
+_MARKDOWN = str.maketrans({c: "\\" + c for c in "\\`*_[]<>#|"})
+
+
+def error_line(e: BaseException) -> str:
+    """``e`` as one bold status line: its message (a ``ValueError``'s alone, other types
+    prefixed with their name), newlines folded, at most 300 characters, Markdown escaped."""
+    text = " ".join(str(e).split()) or "(no message)"
+    if not isinstance(e, ValueError):
+        text = f"{type(e).__name__}: {text}"
+    if len(text) > 300:
+        text = text[:297] + "..."
+    return f"**{escape_markdown(text)}**"
+
+
+def escape_markdown(text: str) -> str:
+    """``text`` with Markdown's special characters backslash-escaped (shown literally)."""
+    return text.translate(_MARKDOWN)
+
+
+class ControlMixin:
+    """The client side of :class:`~lfd.teach.server.TeachServer`: registers tabs with its
+    :class:`Control`, tells each one its role, and lets only the controller act. Uses the
+    server's ``lock``, ``server`` (viser), ``session``, ``status_text`` and ``_refresh_safely``;
+    the server calls :meth:`_init_control` before it serves events."""
+
+    def _init_control(self) -> None:
+        self.control = Control()
+        self.notices: dict[int, str] = {}  # the last message shown to each client
+        self._noticed_at: dict[int, float] = {}
+
+    def _notify(self, client, text: str, persistent: bool = False) -> None:
+        """Tell one client ``text`` (a notification in its page, the same one at most every
+        5 s: a read-only tab's drag sends dozens of updates; kept in ``notices``)."""
+        if client is None:
+            return
+        cid, now = client.client_id, time.monotonic()
+        if self.notices.get(cid) == text and now - self._noticed_at.get(cid, -1e9) < 5.0:
+            return
+        self.notices[cid], self._noticed_at[cid] = text, now
+        with contextlib.suppress(Exception):  # a client that just left
+            client.add_notification(
+                "lfd teach", text, auto_close_seconds=None if persistent else 6.0, color="red"
+            )
+
+    def _client(self, client_id: int | None):
+        return None if client_id is None else self.server.get_clients().get(client_id)
+
+    def _may_act(self, event) -> bool:
+        """Whether ``event``'s client controls the session; tells it otherwise."""
+        client_id = None if event is None else getattr(event, "client_id", None)
+        with self.lock:
+            if self.control.owner is None and client_id in self.server.get_clients():
+                self.control.connect(client_id)  # its connect callback has not run yet
+            if self.control.allows(client_id):
+                return True
+        self._notify(getattr(event, "client", None), READ_ONLY)
+        return False
+
+    def _on_connect(self, client) -> None:
+        with self.lock:
+            if client.client_id not in self.server.get_clients():
+                return  # it left before this callback ran (they run on a thread pool)
+            if not self.control.connect(client.client_id):
+                self._notify(client, "this teach session is in use by another tab: " + READ_ONLY, True)
+
+    def _on_disconnect(self, client) -> None:
+        with self.lock:
+            promoted = self.control.disconnect(client.client_id)
+            self.notices.pop(client.client_id, None)
+            self._noticed_at.pop(client.client_id, None)
+            if promoted is not None:
+                self._handover()
+                self._notify(self._client(promoted), "the controlling tab left: you now control this session")
+
+    def _on_take(self, event) -> None:
+        client_id = getattr(event, "client_id", None)
+        if client_id is None:
+            return
+        with self.lock:
+            previous = self.control.take(client_id)
+            if previous is None:
+                self._notify(event.client, "you control this session")
+                return
+            self._handover()
+            self._notify(event.client, "you took control of this session")
+            self._notify(self._client(previous), "another tab took control: this view is now read-only")
+            self._refresh_safely()
+
+    def _handover(self) -> None:
+        """Control changed hands: end a recording in progress (recordings are never merged)."""
+        if self.session.recording_state == "recording":
+            self.session.stop()
+            self.status_text = "recording stopped: another tab took control"

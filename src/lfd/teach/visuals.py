@@ -1,0 +1,139 @@
+"""The shapes of a generated URDF that the teach page draws."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+
+import numpy as np
+
+from lfd.robots.spatial import matrix_to_quaternion
+from lfd.robots.spec import rpy_to_matrix
+
+__all__ = ["SceneMixin", "urdf_visuals"]
+
+_GREEN, _RED, _GREY = (40, 180, 60), (220, 40, 40), (150, 150, 165)
+
+
+@dataclass(frozen=True)
+class _Visual:
+    link: int  # -1 base_link, i: link i
+    origin: np.ndarray  # (4, 4) in the link frame
+    kind: str  # "sphere" | "cylinder"
+    radius: float
+    length: float
+
+
+def urdf_visuals(urdf: str, link_names: tuple[str, ...]) -> list[_Visual]:
+    """The sphere and cylinder visuals of a URDF written by :mod:`lfd.robots.urdf`."""
+    index = {"base_link": -1, **{name: i for i, name in enumerate(link_names)}}
+    out = []
+    for link in ET.fromstring(urdf).findall("link"):
+        name = link.get("name")
+        if name not in index:
+            continue
+        for vis in link.findall("visual"):
+            o = vis.find("origin")
+            xyz = [float(v) for v in o.get("xyz").split()] if o is not None else [0.0, 0.0, 0.0]
+            rpy = [float(v) for v in o.get("rpy").split()] if o is not None else [0.0, 0.0, 0.0]
+            frame = np.eye(4)
+            frame[:3, :3] = rpy_to_matrix(rpy)
+            frame[:3, 3] = xyz
+            geom = vis.find("geometry")
+            sphere, cyl = geom.find("sphere"), geom.find("cylinder")
+            if sphere is not None:
+                out.append(_Visual(index[name], frame, "sphere", float(sphere.get("radius")), 0.0))
+            elif cyl is not None:
+                out.append(
+                    _Visual(
+                        index[name], frame, "cylinder", float(cyl.get("radius")), float(cyl.get("length"))
+                    )
+                )
+    return out
+
+
+class SceneMixin:
+    """The 3-D scene of :class:`~lfd.teach.server.TeachServer`: table, obstacles, goal, the arm's
+    URDF shapes (one frame per link), the drag gizmo with its marker and the ghost target."""
+
+    def _build_scene(self) -> None:
+        s, sc = self.session, self.server.scene
+        self.server.initial_camera.position = (1.3, -1.3, 1.0)
+        self.server.initial_camera.look_at = (0.35, 0.0, 0.2)
+        sc.set_up_direction("+z")
+        sc.configure_default_lights(cast_shadow=False)  # shadows cost a lot in software WebGL
+        if s.scene.table_z is not None:
+            sc.add_box(
+                "/table",
+                color=(200, 180, 150),
+                dimensions=(2.0, 2.0, 0.02),
+                position=(0.3, 0.0, s.scene.table_z - 0.01),
+            )
+        for i, box in enumerate(s.scene.obstacles):
+            self._add_box_node(i, box)
+        if s.scene.goal is not None:
+            g = s.scene.goal
+            sc.add_icosphere("/goal", radius=g.radius, color=_GREEN, opacity=0.35, position=tuple(g.center))
+        # one scene frame per link (moved on every update), its URDF shapes as fixed children
+        self.visuals = urdf_visuals(s.robot.to_urdf(), s.robot.spec.link_names)
+        self.link_nodes = [sc.add_frame(f"/robot/link{i}", show_axes=False) for i in range(s.n_dof)]
+        for k, v in enumerate(self.visuals):
+            parent = "/robot/base" if v.link < 0 else f"/robot/link{v.link}"
+            pose = {
+                "position": tuple(v.origin[:3, 3]),
+                "wxyz": tuple(matrix_to_quaternion(v.origin[:3, :3])),
+                "cast_shadow": False,
+                "receive_shadow": False,
+            }
+            if v.kind == "sphere":
+                sc.add_icosphere(f"{parent}/v{k}", radius=v.radius, color=_GREY, subdivisions=2, **pose)
+            else:
+                sc.add_cylinder(
+                    f"{parent}/v{k}",
+                    radius=v.radius,
+                    height=v.length,
+                    color=_GREY,
+                    radial_segments=16,
+                    **pose,
+                )
+        tool = s.tool_position
+        self.gizmo_scale = 0.25  # m: length of the gizmo's arrows
+        self.gizmo = sc.add_transform_controls(
+            "/gizmo",
+            scale=self.gizmo_scale,
+            position=tuple(tool),
+            disable_rotations=True,
+            depth_test=False,
+            line_width=4.0,
+        )
+        self.marker = sc.add_icosphere("/gizmo/marker", radius=0.025, color=_GREEN)
+        self.ghost = sc.add_icosphere("/ghost", radius=0.03, color=_RED, opacity=0.3, visible=False)
+        self.gizmo.on_update(self._on_gizmo)
+        self.recorded_line = None
+        self.executed_line = None
+
+    def _add_box_node(self, i: int, box) -> None:
+        rot = np.array(
+            [[math.cos(box.yaw), -math.sin(box.yaw), 0], [math.sin(box.yaw), math.cos(box.yaw), 0], [0, 0, 1]]
+        )
+        self.server.scene.add_box(
+            f"/obstacles/{i}",
+            color=(200, 60, 60),
+            dimensions=tuple(box.size),
+            position=tuple(box.center),
+            wxyz=tuple(matrix_to_quaternion(rot)),
+            opacity=0.8,
+        )
+
+    def _draw_arm(self, q: np.ndarray) -> None:
+        frames = self.session.kin.frames(q)
+        for node, frame in zip(self.link_nodes, frames[:-1], strict=True):
+            node.position = tuple(frame[:3, 3])
+            node.wxyz = tuple(matrix_to_quaternion(frame[:3, :3]))
+
+    def _draw_path(self, name: str, points: np.ndarray, color) -> object | None:
+        if len(points) < 2:
+            return None
+        segs = np.stack([points[:-1], points[1:]], axis=1)
+        return self.server.scene.add_line_segments(name, segs, color, thickness=0.006)
