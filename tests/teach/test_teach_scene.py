@@ -88,6 +88,7 @@ def test_entry_point_prints_the_url():
     out = _script("robot=wam4", "scene=configs/teach/boxes.yaml", "port=0", "duration_s=0")
     assert out.returncode == 0, out.stderr
     assert "teach: wam4 ready at http://127.0.0.1:" in out.stdout
+    assert "this machine only, no token" in out.stdout and "token=" not in out.stdout
 
 
 @pytest.mark.slow
