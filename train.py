@@ -16,10 +16,15 @@ Examples::
 
 from __future__ import annotations
 
+import sys
+
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from lfd.training import Adaptable, AdaptationSource
+from lfd.training import Adaptable, AdaptationSource, CheckpointError, read_checkpoint
+
+#: ``ckpt_path`` values Lightning resolves itself (no file of that name is read here).
+LIGHTNING_CKPT_NAMES = ("last", "best", "hpc")
 
 
 def _instantiate_group(group: DictConfig | None) -> list:
@@ -29,10 +34,24 @@ def _instantiate_group(group: DictConfig | None) -> list:
     return [hydra.utils.instantiate(c) for c in group.values() if c is not None and "_target_" in c]
 
 
+def check_resume(ckpt_path: str | None) -> None:
+    """Refuse a ``ckpt_path`` to resume from that is not a checkpoint of train.py with one line
+    on stderr (exit status 2), before any data is touched; no code from the file runs
+    (:func:`lfd.training.read_checkpoint`)."""
+    if ckpt_path is None or str(ckpt_path) in LIGHTNING_CKPT_NAMES:
+        return
+    try:
+        read_checkpoint(ckpt_path, keys=("state_dict",))
+    except (CheckpointError, FileNotFoundError) as e:
+        print(f"train: ckpt_path={ckpt_path}: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
+
+
 @hydra.main(version_base="1.3", config_path="configs", config_name="train")
 def main(cfg: DictConfig) -> str | None:
     import lightning as L
 
+    check_resume(cfg.get("ckpt_path"))
     L.seed_everything(cfg.seed, workers=True)
     datamodule = hydra.utils.instantiate(cfg.data)
     model = hydra.utils.instantiate(cfg.model)
@@ -45,12 +64,13 @@ def main(cfg: DictConfig) -> str | None:
 
     if trainer.is_global_zero:
         print(OmegaConf.to_yaml(cfg, resolve=False))
-    trainer.fit(model=model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"))
+    trainer.fit(model=model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"), weights_only=True)
     if cfg.get("test"):
         trainer.test(
             model=model,
             datamodule=datamodule,
             ckpt_path="best" if not cfg.trainer.get("fast_dev_run") else None,
+            weights_only=True,
         )
 
     callback = trainer.checkpoint_callback
@@ -61,11 +81,7 @@ def main(cfg: DictConfig) -> str | None:
             print(f"[lfd] checkpoint: {ckpt}")
             if callback.monitor and callback.best_model_score is not None:
                 # Lightning >= 2.6 writes last.ckpt only beside a new best monitored checkpoint
-                import torch
-
-                step = torch.load(ckpt, map_location="cpu", weights_only=False, mmap=True).get(
-                    "global_step"
-                )  # no tensor is read
+                step = read_checkpoint(ckpt).get("global_step")  # no tensor is read
                 best = float(callback.best_model_score)
                 print(
                     f"[lfd]   the best {callback.monitor} on validation ({best:.4g}), "

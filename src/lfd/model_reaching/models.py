@@ -31,7 +31,7 @@ from torch import Tensor, nn
 from lfd.model_reaching.demonstrations import InverseData
 from lfd.model_reaching.forward import ForwardModel, error_summary, format_error_table, report_test_errors
 from lfd.model_reaching.inverse import DEMOS_KEY, InverseModel
-from lfd.training import make_optimizer
+from lfd.training import CheckpointError, make_optimizer, read_checkpoint
 
 __all__ = ["SawyerModels", "load_sawyer_models"]
 
@@ -163,15 +163,25 @@ class SawyerModels(L.LightningModule):
 
 def load_sawyer_models(path, map_location: str | torch.device = "cpu") -> SawyerModels:
     """Load a :class:`SawyerModels` checkpoint in eval mode; every task must carry its demonstration.
+    The file is checked by :func:`lfd.training.read_checkpoint` and loaded with
+    ``weights_only=True``: no code from it runs.
 
     Raises:
         FileNotFoundError: no file at ``path``.
+        lfd.training.CheckpointError: not a Lightning checkpoint (empty, truncated, foreign,
+            a pickled payload) or not a Sawyer models one (one line naming the file).
         ValueError: the checkpoint holds no demonstration for some task (it was saved
             before training started).
     """
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"Sawyer models checkpoint not found: {path}")
+    kind = read_checkpoint(path, keys=("state_dict", "hyper_parameters"))["hyper_parameters"].get("kind")
+    if kind != SawyerModels.kind:
+        raise CheckpointError(
+            f"{path}: checkpoint kind {kind!r} is not {SawyerModels.kind!r}; "
+            "expected a checkpoint of `python train.py experiment=sawyer_models`"
+        )
     models = SawyerModels.load_from_checkpoint(path, map_location=map_location, weights_only=True).eval()
     missing = [t for t, m in models.inverse_models.items() if m.demo is None]
     if missing:

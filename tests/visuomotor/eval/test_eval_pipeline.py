@@ -114,10 +114,10 @@ def test_checkpoint_runs_alone(checkpoints, workspace):
         torch.testing.assert_close(policy.joints_mean, stats["joints"]["mean"])
         out = policy.plan(frame, np.zeros(7)) if kind == "cnn_dmp" else policy.act(frame, np.zeros(7), 0.0)
         assert out.shape == ((30, 7) if kind == "cnn_dmp" else (7,)) and np.all(np.isfinite(out))
-        again = POLICIES[kind].load_from_checkpoint(path, weights_only=False)
+        again = POLICIES[kind].load_from_checkpoint(path, weights_only=True)
         torch.testing.assert_close(again.state_dict(), policy.state_dict())
     with pytest.raises(ValueError, match="holds 'velocity' policies"):
-        POLICIES["velocity"].load_from_checkpoint(checkpoints["cnn_dmp"], weights_only=False)
+        POLICIES["velocity"].load_from_checkpoint(checkpoints["cnn_dmp"], weights_only=True)
 
 
 class RecordingPolicy:

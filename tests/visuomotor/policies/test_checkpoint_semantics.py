@@ -34,6 +34,6 @@ def test_last_ckpt_is_the_best_monitored_checkpoint_not_the_final_weights(compos
     )
     trainer.fit(RisingValLoss())
     assert trainer.global_step == 6
-    last = torch.load(tmp_path / "last.ckpt", map_location="cpu", weights_only=False)
+    last = torch.load(tmp_path / "last.ckpt", map_location="cpu", weights_only=True)
     assert last["global_step"] == 2  # the first validation, the best val/loss
     assert float(callback.best_model_score) == 2.0  # the val/loss logged at that check

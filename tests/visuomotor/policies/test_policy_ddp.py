@@ -39,5 +39,5 @@ def test_ddp_two_cpu_processes_train_and_save(tmp_path, tiny_reaching):
     assert "distributed_backend=gloo" in log, log[-4000:]
     ckpts = list((tmp_path / "outputs" / "train").glob("*/checkpoints/last.ckpt"))
     assert len(ckpts) == 1, log[-4000:]
-    ckpt = torch.load(ckpts[0], map_location="cpu", weights_only=False)
+    ckpt = torch.load(ckpts[0], map_location="cpu", weights_only=True)  # what evaluation loads
     assert ckpt["global_step"] >= 1 and ckpt["hyper_parameters"]["kind"] == "cnn_dmp"

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import torch
 
-from lfd.training import checkpoint_kind
+from lfd.training import CheckpointError, checkpoint_kind, read_checkpoint
 from lfd.visuomotor.policies.base import VisuomotorPolicy
 from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
 from lfd.visuomotor.policies.velocity import VelocityPolicy
@@ -29,18 +29,21 @@ POLICIES: dict[str, type[VisuomotorPolicy]] = {cls.kind: cls for cls in (CNNDMPP
 
 
 def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> VisuomotorPolicy:
-    """Load a policy checkpoint of any kind, in eval mode.
+    """Load a policy checkpoint of any kind, in eval mode. The file is checked by
+    :func:`lfd.training.read_checkpoint` and loaded with ``weights_only=True``: no code
+    from it runs.
 
     Raises:
         FileNotFoundError: no file at ``path``.
-        ValueError: the checkpoint holds no known policy kind.
+        lfd.training.CheckpointError: not a Lightning checkpoint (empty, truncated, foreign,
+            a pickled payload), or its kind is no known policy (one line naming the file).
     """
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"policy checkpoint not found: {path}")
-    kind = checkpoint_kind(path)
-    if kind not in POLICIES:
-        raise ValueError(
+    kind = read_checkpoint(path, keys=("state_dict", "hyper_parameters"))["hyper_parameters"].get("kind")
+    if not isinstance(kind, str) or kind not in POLICIES:
+        raise CheckpointError(
             f"{path}: checkpoint kind {kind!r} is not a policy; expected one of {sorted(POLICIES)}"
         )
-    return POLICIES[kind].load_from_checkpoint(path, map_location=map_location, weights_only=False).eval()
+    return POLICIES[kind].load_from_checkpoint(path, map_location=map_location, weights_only=True).eval()

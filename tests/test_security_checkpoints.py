@@ -1,0 +1,302 @@
+"""Hostile and careless checkpoint and scenario files, through the public entry points.
+
+A checkpoint carrying a pickle payload (given on the command line, or planted where
+discovery looks) never runs: the payload would create a marker file, and the marker must not
+exist afterwards. Truncated, empty and foreign checkpoints, and binary or bad scenario files,
+end in one line naming the file; a scenario file is refused before any checkpoint is loaded or
+any dataset is touched. Checkpoints written by ``train.py`` still load, and resume, under
+``weights_only=True``.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import pickle
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+import torch
+
+import evaluate  # the repository's entry points (pytest's pythonpath holds the root)
+import train
+from lfd.model_reaching import load_sawyer_models
+from lfd.training import CheckpointError, checkpoint_kind, find_checkpoints, read_checkpoint
+from lfd.visuomotor.eval import ReachEvaluator
+from lfd.visuomotor.eval.scenario import ScenarioError
+from lfd.visuomotor.policies import load_policy
+
+ROOT = Path(__file__).resolve().parent.parent
+GOOD_SCENARIO = (ROOT / "configs" / "scenarios" / "mixed.yaml").read_text()
+
+
+class Payload:
+    """Unpickling this creates ``marker``: what an attacker's checkpoint would run."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (pathlib.Path.touch, (pathlib.Path(self.marker),))
+
+
+def evil_checkpoint(path: Path, marker: Path, kind: str = "cnn_dmp") -> Path:
+    """A torch.save'd Lightning-looking checkpoint whose unpickling would create ``marker``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    torch.save({"state_dict": {}, "hyper_parameters": {"kind": kind}, "x": Payload(marker)}, path)
+    assert not marker.exists()
+    return path
+
+
+def run_entry_point(script: str, *overrides: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run(
+        [sys.executable, str(ROOT / script), *overrides],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def assert_one_line_error(proc: subprocess.CompletedProcess, prefix: str, *fragments: str) -> str:
+    """Exit status 2, no traceback, and a last stderr line ``<prefix>: ...`` holding ``fragments``."""
+    assert proc.returncode == 2, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr, proc.stderr[-3000:]
+    line = proc.stderr.strip().splitlines()[-1]
+    assert line.startswith(f"{prefix}: "), proc.stderr[-2000:]
+    for fragment in fragments:
+        assert fragment in line, line
+    return line
+
+
+def reaching_overrides(root: Path) -> list[str]:
+    """Everything under ``root``: outputs, data, Hydra's run directory."""
+    return [f"paths.root_dir={root}", f"hydra.run.dir={root}/run"]
+
+
+# ---------------------------------------------------------------------------- pickle payloads
+def test_evaluate_ckpt_dmp_with_a_payload_runs_nothing(tmp_path):
+    """``evaluate.py ckpt_dmp=evil.ckpt`` beside a planted ``last.ckpt`` for the velocity policy:
+    the planted one is named and skipped, the given one gets one line naming it; neither
+    payload runs, and no dataset is generated for them."""
+    marker = tmp_path / "pwned"
+    evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
+    planted = evil_checkpoint(
+        tmp_path / "outputs" / "train" / "planted" / "checkpoints" / "last.ckpt", marker, "velocity"
+    )
+    proc = run_entry_point("evaluate.py", f"ckpt_dmp={evil}", *reaching_overrides(tmp_path), cwd=tmp_path)
+    assert_one_line_error(
+        proc, "evaluate", str(evil), "not a PyTorch Lightning checkpoint", "nothing in it was run"
+    )
+    assert f"skipped: {planted}: not a PyTorch Lightning checkpoint" in proc.stdout
+    assert not marker.exists()
+    assert not (tmp_path / "data").exists()
+
+
+def test_evaluate_sawyer_discovery_skips_a_planted_payload(tmp_path):
+    """``evaluate.py eval=sawyer`` searches ``outputs/train/**/last.ckpt``: a planted payload is
+    named and skipped, never unpickled; with nothing else there, the usual one line says so."""
+    marker = tmp_path / "pwned"
+    planted = evil_checkpoint(
+        tmp_path / "outputs" / "train" / "planted" / "checkpoints" / "last.ckpt", marker, "sawyer_models"
+    )
+    proc = run_entry_point("evaluate.py", "eval=sawyer", *reaching_overrides(tmp_path), cwd=tmp_path)
+    assert_one_line_error(proc, "evaluate", "no Sawyer models checkpoint")
+    assert f"skipped: {planted}: not a PyTorch Lightning checkpoint" in proc.stdout
+    assert not marker.exists()
+
+
+def test_discovery_and_loaders_never_run_a_payload(tmp_path):
+    """Every loader of a user's or a discovered checkpoint refuses the payload with one line."""
+    marker = tmp_path / "pwned"
+    evil = evil_checkpoint(tmp_path / "train" / "a" / "checkpoints" / "last.ckpt", marker)
+    for load in (read_checkpoint, checkpoint_kind, load_policy, load_sawyer_models):
+        with pytest.raises(CheckpointError) as info:
+            load(evil)
+        message = str(info.value)
+        assert (
+            "\n" not in message and str(evil) in message and "expected a .ckpt written by train.py" in message
+        )
+    with pytest.warns(RuntimeWarning, match="skipped: .*last.ckpt: not a PyTorch Lightning checkpoint"):
+        assert find_checkpoints(tmp_path, ("cnn_dmp",)) == {}
+    # a raw pickle (no zip): refused unread
+    raw = tmp_path / "raw.ckpt"
+    raw.write_bytes(pickle.dumps({"hyper_parameters": Payload(marker)}))
+    with pytest.raises(CheckpointError, match="not a zip archive"):
+        read_checkpoint(raw)
+    assert not marker.exists()
+
+
+# ---------------------------------------------------------------------------- broken files
+def broken_files(tmp_path: Path, good: Path) -> dict[str, tuple[Path, str]]:
+    """``{name: (file, expected fragment of the message)}``."""
+    files = {}
+
+    def put(name: str, data: bytes, why: str) -> None:
+        path = tmp_path / f"{name}.ckpt"
+        path.write_bytes(data)
+        files[name] = (path, why)
+
+    put("empty", b"", "empty file")
+    put("truncated", good.read_bytes()[: good.stat().st_size // 2], "not a zip archive")
+    put("text", b"hello, I am a text file\n", "not a zip archive")
+    with zipfile.ZipFile(tmp_path / "foreign.ckpt", "w") as archive:
+        archive.writestr("foreign/readme.txt", "no data.pkl here")
+    files["foreign"] = (tmp_path / "foreign.ckpt", "a zip archive without data.pkl")
+    torch.save([1, 2, 3], tmp_path / "list.ckpt")
+    files["list"] = (tmp_path / "list.ckpt", "it holds a list, not a dictionary")
+    torch.save({"hyper_parameters": {"kind": "cnn_dmp"}}, tmp_path / "noweights.ckpt")
+    files["noweights"] = (tmp_path / "noweights.ckpt", "no ['state_dict'] in it")
+    return files
+
+
+def test_broken_checkpoints_give_one_line_naming_the_file(tmp_path):
+    good = tmp_path / "good.ckpt"
+    torch.save({"state_dict": {"w": torch.zeros(1000)}, "hyper_parameters": {"kind": "cnn_dmp"}}, good)
+    assert checkpoint_kind(good) == "cnn_dmp"
+    for name, (path, why) in broken_files(tmp_path, good).items():
+        with pytest.raises(CheckpointError) as info:
+            load_policy(path)
+        message = str(info.value)
+        assert message.startswith(f"{path}: not a PyTorch Lightning checkpoint ("), (name, message)
+        assert why in message and "\n" not in message, (name, message)
+    with pytest.raises(FileNotFoundError, match="missing.ckpt"):
+        read_checkpoint(tmp_path / "missing.ckpt")
+    with pytest.raises(CheckpointError, match="not a regular file"):
+        read_checkpoint(tmp_path)
+
+
+def entry_point_error(main, cfg, capsys) -> str:
+    """The one stderr line of an entry point's ``main(cfg)`` that exits with status 2."""
+    with pytest.raises(SystemExit) as info:
+        main(cfg)
+    assert info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    return err[0]
+
+
+def test_evaluate_truncated_checkpoint_is_one_line(tmp_path, compose, capsys):
+    """Through ``evaluate.py``'s main: torch's reader errors never reach the user as a traceback."""
+    good = tmp_path / "good.ckpt"
+    torch.save({"state_dict": {"w": torch.zeros(1000)}, "hyper_parameters": {"kind": "velocity"}}, good)
+    truncated = tmp_path / "truncated.ckpt"
+    truncated.write_bytes(good.read_bytes()[:300])
+    cfg = compose(
+        "evaluate", f"ckpt_velocity={truncated}", "eval.methods=[velocity]", f"paths.root_dir={tmp_path}"
+    )
+    line = entry_point_error(evaluate.main, cfg, capsys)
+    assert line.startswith(
+        f"evaluate: {truncated}: not a PyTorch Lightning checkpoint (not a zip archive: truncated"
+    )
+    assert line.endswith("expected a .ckpt written by train.py")
+    assert not (tmp_path / "data").exists()
+
+
+def test_train_refuses_a_bad_resume_checkpoint_before_any_data(tmp_path, compose, capsys):
+    marker = tmp_path / "pwned"
+    evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
+    empty = tmp_path / "empty.ckpt"
+    empty.write_bytes(b"")
+    for path, why in ((evil, "nothing in it was run"), (empty, "empty file")):
+        cfg = compose("train", f"ckpt_path={path}", f"paths.root_dir={tmp_path}")
+        line = entry_point_error(train.main, cfg, capsys)
+        assert line.startswith(f"train: ckpt_path={path}: {path}: not a PyTorch Lightning") and why in line
+    assert not marker.exists() and not (tmp_path / "data").exists()
+
+
+# ---------------------------------------------------------------------------- what train.py writes
+def test_train_checkpoints_load_and_resume_weights_only(compose, tiny_reaching, tmp_path, monkeypatch):
+    """A tiny ``train.py`` run's ``last.ckpt`` loads with ``weights_only=True`` (policy and
+    discovery), and training resumes from it (Lightning's restore, ``weights_only=True`` too)."""
+    from lightning.pytorch.trainer.connectors.checkpoint_connector import _CheckpointConnector
+
+    restored = []
+    resume_start = _CheckpointConnector.resume_start
+
+    def spy(self, checkpoint_path=None, weights_only=None):
+        restored.append((checkpoint_path, weights_only))
+        return resume_start(self, checkpoint_path, weights_only=weights_only)
+
+    monkeypatch.setattr(_CheckpointConnector, "resume_start", spy)
+    common = ("model=velocity", "data.name=tiny-resume", *tiny_reaching, "++trainer.limit_val_batches=1")
+    first = tmp_path / "outputs" / "train" / "first"
+    cfg = compose(
+        "train", *common, "++trainer.max_steps=2", f"paths.root_dir={tmp_path}", f"paths.output_dir={first}"
+    )
+    last = Path(train.main(cfg))
+    assert torch.load(last, map_location="cpu", weights_only=True)["global_step"] >= 1
+    assert load_policy(last).kind == "velocity"
+    assert find_checkpoints(tmp_path / "outputs", ("velocity",)) == {"velocity": last}
+    second = tmp_path / "outputs" / "train" / "second"
+    cfg = compose(
+        "train",
+        *common,
+        "++trainer.max_steps=4",
+        "++trainer.val_check_interval=1",
+        f"ckpt_path={last}",
+        f"paths.root_dir={tmp_path}",
+        f"paths.output_dir={second}",
+    )
+    restored.clear()
+    resumed = Path(train.main(cfg))
+    assert (str(last), True) in [(str(p), w) for p, w in restored]  # resumed, weights only
+    assert resumed == second / "checkpoints" / "last.ckpt"
+    assert read_checkpoint(last)["global_step"] == 2 and read_checkpoint(resumed)["global_step"] > 2
+
+
+# ---------------------------------------------------------------------------- scenario files
+def test_binary_scenario_is_one_line_before_any_checkpoint(tmp_path, compose, capsys):
+    """A binary scenario file with an evil checkpoint beside it: the scenario is what
+    ``evaluate.py`` reports (one line naming it), the checkpoint is never opened, no dataset
+    appears."""
+    marker = tmp_path / "pwned"
+    evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
+    binary = tmp_path / "scenario.yaml"
+    binary.write_bytes(bytes(range(256)) * 4)
+    cfg = compose("evaluate", f"eval.scenario={binary}", f"ckpt_dmp={evil}", f"paths.root_dir={tmp_path}")
+    line = entry_point_error(evaluate.main, cfg, capsys)
+    assert line.startswith(f"evaluate: {binary}: not UTF-8 or UTF-16 text"), line
+    assert not marker.exists() and not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize(
+    ("content", "expected"),
+    [
+        ("placements:", "unknown top-level key(s) ['placement']"),  # a typo of a key
+        ("radius: 0.035", "field 'radius' must be a length in metres"),  # a bad value
+    ],
+)
+def test_bad_scenario_is_refused_before_checkpoints_and_data(compose, tmp_path, content, expected):
+    replacement = {"placements:": "placement:", "radius: 0.035": "radius: thin"}[content]
+    assert content in GOOD_SCENARIO
+    path = tmp_path / "bad.yaml"
+    path.write_text(GOOD_SCENARIO.replace(content, replacement, 1))
+    marker = tmp_path / "pwned"
+    evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
+    cfg = compose("evaluate", f"eval.scenario={path}", f"ckpt_dmp={evil}", f"paths.root_dir={tmp_path}")
+    with pytest.raises(ScenarioError) as info:
+        evaluate.evaluate(cfg, tmp_path / "run")
+    assert str(path) in str(info.value) and expected in str(info.value) and "\n" not in str(info.value)
+    assert not marker.exists() and not (tmp_path / "data").exists() and not (tmp_path / "run").exists()
+
+
+def test_out_of_reach_scenario_is_refused_before_checkpoints_and_data(compose, tmp_path):
+    """The checks that need the robot (reach) also come before any checkpoint or dataset."""
+    path = tmp_path / "far.yaml"
+    path.write_text(
+        "objects:\n  - {name: block, shape: box, size: [0.05, 0.07, 0.06], rgba: [0.5, 0.0, 0.5, 1.0]}\n"
+        "placements:\n  - [0.90, 0.0, 0.0]\n"
+    )
+    ReachEvaluator(scenario=str(path))  # fields, table and camera are fine
+    marker = tmp_path / "pwned"
+    evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
+    cfg = compose("evaluate", f"eval.scenario={path}", f"ckpt_dmp={evil}", f"paths.root_dir={tmp_path}")
+    with pytest.raises(ScenarioError, match=r"far.yaml: objects\[0\] \(block\) .* is out of reach"):
+        evaluate.evaluate(cfg, tmp_path / "run")
+    assert not marker.exists() and not (tmp_path / "data").exists() and not (tmp_path / "run").exists()
