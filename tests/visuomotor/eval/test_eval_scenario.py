@@ -87,3 +87,65 @@ def test_missing_and_unparsable_files(tmp_path):
     with pytest.raises(ScenarioError, match="'objects' must be a non-empty list"):
         load_scenario(write(tmp_path, "objects: []\nplacements: [[0.5, 0, 0]]\n"))
     assert math.isfinite(load_scenario(write(tmp_path, GOOD)).placements[0].x)
+
+
+@pytest.mark.parametrize(
+    ("data", "expected"),
+    [
+        (bytes(range(256)), r"not UTF-8 or UTF-16 text \(position \d+: #x[0-9a-f]{4}, "),
+        (GOOD.replace("can", "caf\u00e9").encode("latin-1"), r"not UTF-8 or UTF-16 text .*save it as UTF-8"),
+        (
+            GOOD.encode("utf-16-le"),
+            r"not UTF-8 or UTF-16 text \(position \d+: #x0000, ",
+        ),  # no byte-order mark
+        (b"", r"expected a mapping with keys 'objects' and 'placements', got an empty file"),
+        (b"- 1\n- 2\n", r"expected a mapping .*got list"),
+        (b"objects: [1, 2\nplacements: {", r"not valid YAML at line 2, column \d+: expected ','"),
+        (b"? [1, 2]\n: 3\n", r"not valid YAML at line 1, column \d+: found unhashable key"),
+        (
+            b"!!python/object/apply:os.system ['true']\n",
+            r"not valid YAML .*could not determine a constructor",
+        ),
+        (GOOD.encode() + b"1: 2\nextra: 3\n", r"unknown top-level key\(s\) \['extra', 1\]"),
+        (
+            GOOD.replace("shape: cylinder", "shape: [cylinder]").encode(),
+            r"objects\[0\]: field 'shape' must be one",
+        ),
+        (
+            GOOD.replace("0.035", "1" + "0" * 400).encode(),
+            r"field 'radius' must be a length in metres, got 1000+\.\.\.$",
+        ),
+    ],
+    ids=[
+        "binary",
+        "latin-1",
+        "utf-16-no-bom",
+        "empty",
+        "list",
+        "unclosed",
+        "unhashable-key",
+        "python-tag",
+        "unknown-keys",
+        "shape-list",
+        "huge-int",
+    ],
+)
+def test_any_bytes_give_one_line_naming_the_file(tmp_path, data, expected):
+    path = tmp_path / "scenario.yaml"
+    path.write_bytes(data)
+    with pytest.raises(ScenarioError, match=expected) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: ") and "\n" not in message
+
+
+def test_utf16_with_a_byte_order_mark_loads_and_odd_paths_are_refused(tmp_path):
+    path = tmp_path / "utf16.yaml"
+    path.write_bytes(GOOD.encode("utf-16"))  # YAML's other encoding, with its BOM
+    assert [o.name for o in load_scenario(path).objects] == ["can", "block"]
+    with pytest.raises(ScenarioError, match="not a regular file"):
+        load_scenario(tmp_path)
+    big = tmp_path / "big.yaml"
+    big.write_bytes(b"#" * (2 << 20))
+    with pytest.raises(ScenarioError, match="a scenario YAML file has at most"):
+        load_scenario(big)

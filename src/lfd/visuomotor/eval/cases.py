@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from lfd.sim.approach import TABLE_Z, ApproachPlan, plan_approach
 from lfd.sim.expert import DemoDiscarded, ScriptedExpert
 from lfd.sim.objects import ObjectSpec, Placement
-from lfd.visuomotor.eval.scenario import load_scenario
+from lfd.visuomotor.eval.scenario import Scenario, load_scenario
 
 __all__ = ["Case", "evaluation_cases"]
 
@@ -59,12 +60,13 @@ def _expert_path(expert: ScriptedExpert, scene, obj: ObjectSpec, placement: Plac
 
 
 def evaluation_cases(
-    data, scene, scenario_file: str | None, split: str = "test", limit: int | None = None
+    data, scene, scenario_file: Scenario | str | Path | None, split: str = "test", limit: int | None = None
 ) -> tuple[list[Case], str]:
     """The evaluation cases and a description of their source: every object x placement of
-    ``scenario_file`` (its cases get the scripted expert's demonstration, the jerk reference,
-    run in ``scene``), else the ``split`` (``"test"``, or ``"val"``: its held-out validation
-    objects) of the loaded dataset ``data``; the first ``limit`` (None: all).
+    ``scenario_file`` (a loaded :class:`~lfd.visuomotor.eval.scenario.Scenario`, or a file
+    loaded here against ``scene``; its cases get the scripted expert's demonstration, the
+    jerk reference, run in ``scene``), else the ``split`` (``"test"``, or ``"val"``: its
+    held-out validation objects) of the loaded dataset ``data``; the first ``limit`` (None: all).
 
     Raises:
         ValueError: the dataset has no such split.
@@ -73,8 +75,12 @@ def evaluation_cases(
     table_z = scene.table_z
     if scenario_file is not None:
         gen = data.config
-        scenario = load_scenario(
-            scenario_file, camera=scene.camera, robot=scene.robot, training=gen, table_z=table_z
+        scenario = (
+            scenario_file
+            if isinstance(scenario_file, Scenario)
+            else load_scenario(
+                scenario_file, camera=scene.camera, robot=scene.robot, training=gen, table_z=table_z
+            )
         )
         expert = ScriptedExpert(
             scene.robot,

@@ -31,6 +31,7 @@ import torch
 
 from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
+from lfd.sim.camera import Camera
 from lfd.sim.scene import ReachScene
 from lfd.training import CHECKPOINT_GLOB, find_checkpoints
 from lfd.visuomotor.data.datasets import load_dataset
@@ -45,6 +46,7 @@ from lfd.visuomotor.eval.metrics import (
 )
 from lfd.visuomotor.eval.plots import distance_bars, paths_3d, write_gif
 from lfd.visuomotor.eval.rollout import EpisodeTrace, observe, run_episode
+from lfd.visuomotor.eval.scenario import Scenario, load_scenario
 from lfd.visuomotor.policies import POLICIES, load_policy
 from lfd.visuomotor.protocols import Controller, EpisodeReport, Observation
 
@@ -114,6 +116,8 @@ class ReachEvaluator:
             raise ValueError(
                 f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(POLICIES)}"
             )
+        if scenario is not None:  # fields, values, table and camera: before any checkpoint or data
+            load_scenario(scenario)
         self.colour_tta = tuple(colour_tta)
         self.episode_reports = tuple(episode_reports)
         self.scenario = scenario
@@ -154,10 +158,24 @@ class ReachEvaluator:
             print(f"[lfd] {hints}")
         return {k: p for k, p in out.items() if p is not None}
 
-    def cases(self, data, scene) -> tuple[list[Case], str]:
+    def load_scenario(self, gen, robot, camera: Camera) -> Scenario | None:
+        """This evaluator's scenario file fully checked for the data config ``gen``: fields,
+        the ``camera`` image, the ``robot``'s reach, the training ranges (None: no scenario).
+
+        Raises:
+            lfd.visuomotor.eval.scenario.ScenarioError: a bad scenario file (one line).
+        """
+        if self.scenario is None:
+            return None
+        return load_scenario(self.scenario, camera=camera, robot=robot, training=gen)
+
+    def cases(self, data, scene, scenario: Scenario | None = None) -> tuple[list[Case], str]:
         """The evaluation cases and a description of their source
-        (:func:`~lfd.visuomotor.eval.cases.evaluation_cases` of this evaluator's settings)."""
-        return evaluation_cases(data, scene, self.scenario, self.split, self.limit)
+        (:func:`~lfd.visuomotor.eval.cases.evaluation_cases` of this evaluator's settings;
+        ``scenario``: this evaluator's scenario already loaded by :meth:`load_scenario`)."""
+        return evaluation_cases(
+            data, scene, scenario if scenario is not None else self.scenario, self.split, self.limit
+        )
 
     # ------------------------------------------------------------------ run
     def run(self, datamodule, checkpoints: Mapping[str, str | Path], out_dir: str | Path) -> dict[str, Any]:
@@ -176,6 +194,10 @@ class ReachEvaluator:
                 f"{sorted(checkpoints)}"
             )
         t0 = time.perf_counter()
+        gen = datamodule.config
+        robot = load_robot(gen.robot)
+        camera = Camera(width=gen.image_size, height=gen.image_size)  # the scene's fixed camera
+        scenario = self.load_scenario(gen, robot, camera)  # before any checkpoint or dataset file
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         checkpoints = {kind: Path(path) for kind, path in checkpoints.items()}
@@ -188,7 +210,6 @@ class ReachEvaluator:
                     f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: "
                     "eval.colour_tta=[]"
                 ) from e
-        gen = datamodule.config
         for kind, policy in policies.items():
             try:
                 # the dataset gives the cases, and each policy gets its own input rendered
@@ -205,12 +226,13 @@ class ReachEvaluator:
         torch.set_num_threads(self.torch_threads)
         try:
             with ReachScene(
-                load_robot(gen.robot),
+                robot,
                 image_size=gen.image_size,
                 control_dt=gen.control_dt,
                 substeps=gen.substeps,
+                camera=camera,
             ) as scene:
-                cases, source = self.cases(data, scene)
+                cases, source = self.cases(data, scene, scenario)
                 for kind, policy in policies.items():
                     labels = [
                         (f"{c.obj.name} at placement {c.placement_index}", c.obj, c.placement) for c in cases

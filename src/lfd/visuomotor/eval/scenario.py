@@ -59,6 +59,8 @@ SIZE_FIELDS: dict[str, tuple[str, ...]] = {
     s: ("size",) if s == "box" else dims for s, dims in SHAPE_DIMS.items()
 }
 COMMON_FIELDS = ("name", "shape", "rgba", "mass")
+#: Largest scenario file read (bytes).
+MAX_SCENARIO_BYTES = 1 << 20
 
 
 class ScenarioError(ValueError):
@@ -90,11 +92,26 @@ class Scenario:
         return [(i, o, j, p) for i, o in enumerate(self.objects) for j, p in enumerate(self.placements)]
 
 
+def _sorted(keys) -> list:
+    """Mapping keys sorted for a message (YAML keys need not be strings, nor of one type)."""
+    return sorted(keys, key=repr)
+
+
+def _show(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters, for messages."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _number(value: Any) -> float | None:
     """``value`` as a finite float, or None if it is not a finite real number."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         return None
-    return float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an int beyond float range
+        return None
+    return value if math.isfinite(value) else None
 
 
 def _numbers(value: Any, n: int) -> list[float] | None:
@@ -109,18 +126,18 @@ def _parse_object(entry: Any, where: str) -> ObjectSpec:
     """Structural checks here (fields present, known, numeric); value ranges by :class:`ObjectSpec`."""
     if not isinstance(entry, dict):
         raise ScenarioError(
-            f"{where}: expected a mapping with fields {COMMON_FIELDS} + size fields, got {entry!r}"
+            f"{where}: expected a mapping with fields {COMMON_FIELDS} + size fields, got {_show(entry)}"
         )
     shape = entry.get("shape")
-    if shape not in SIZE_FIELDS:
-        raise ScenarioError(f"{where}: field 'shape' must be one of {tuple(SIZE_FIELDS)}, got {shape!r}")
+    if not isinstance(shape, str) or shape not in SIZE_FIELDS:
+        raise ScenarioError(f"{where}: field 'shape' must be one of {tuple(SIZE_FIELDS)}, got {_show(shape)}")
     allowed = set(COMMON_FIELDS) | set(SIZE_FIELDS[shape])
-    unknown = sorted(set(entry) - allowed)
+    unknown = _sorted(set(entry) - allowed)
     if unknown:
         raise ScenarioError(f"{where}: unknown field(s) {unknown} for a {shape}; allowed: {sorted(allowed)}")
     name = entry.get("name")
     if not isinstance(name, str) or not name:
-        raise ScenarioError(f"{where}: field 'name' must be a non-empty string, got {name!r}")
+        raise ScenarioError(f"{where}: field 'name' must be a non-empty string, got {_show(name)}")
     where = f"{where} ({name})"
     fields = {
         f: (3, "3 lengths [x, y, z] in metres") if f == "size" else (1, "a length in metres")
@@ -133,7 +150,7 @@ def _parse_object(entry: Any, where: str) -> ObjectSpec:
         raw = entry.get(key, DEFAULT_MASS if key == "mass" else None)
         parsed = _numbers(raw, n) if n > 1 else [_number(raw)]
         if parsed is None or None in parsed:
-            raise ScenarioError(f"{where}: field '{key}' must be {expected}, got {raw!r}")
+            raise ScenarioError(f"{where}: field '{key}' must be {expected}, got {_show(raw)}")
         values[key] = parsed
     dims = tuple(v for f in SIZE_FIELDS[shape] for v in values[f])
     try:
@@ -150,35 +167,38 @@ PLACEMENT_FIELDS = ("x", "y", "yaw", "yaw_deg")
 def _parse_placement(entry: Any, where: str) -> Placement:
     """``[x, y, yaw]`` (yaw in rad) or ``{x, y, yaw | yaw_deg}``; yaw in rad within [-pi, pi]."""
     if isinstance(entry, dict):
-        unknown = sorted(set(entry) - set(PLACEMENT_FIELDS))
+        unknown = _sorted(set(entry) - set(PLACEMENT_FIELDS))
         if unknown:
             raise ScenarioError(
                 f"{where}: unknown field(s) {unknown}; allowed: x, y (m) and one of yaw (rad), yaw_deg (deg)"
             )
         if ("yaw" in entry) == ("yaw_deg" in entry):
             raise ScenarioError(
-                f"{where}: give exactly one of 'yaw' (radians) or 'yaw_deg' (degrees), got {entry!r}"
+                f"{where}: give exactly one of 'yaw' (radians) or 'yaw_deg' (degrees), got {_show(entry)}"
             )
         values = [_number(entry.get(k)) for k in ("x", "y")]
         if None in values:
-            raise ScenarioError(f"{where}: fields 'x' and 'y' must be numbers (metres), got {entry!r}")
+            raise ScenarioError(f"{where}: fields 'x' and 'y' must be numbers (metres), got {_show(entry)}")
         x, y = values
         if "yaw_deg" in entry:
             deg = _number(entry["yaw_deg"])
             if deg is None or abs(deg) > 180:
                 raise ScenarioError(
-                    f"{where}: field 'yaw_deg' must be a number of degrees in [-180, 180], got {entry['yaw_deg']!r}"
+                    f"{where}: field 'yaw_deg' must be a number of degrees in [-180, 180], "
+                    f"got {_show(entry['yaw_deg'])}"
                 )
             yaw = math.radians(deg)
         else:
             yaw = _number(entry["yaw"])
             if yaw is None:
-                raise ScenarioError(f"{where}: field 'yaw' must be a number of radians, got {entry['yaw']!r}")
+                raise ScenarioError(
+                    f"{where}: field 'yaw' must be a number of radians, got {_show(entry['yaw'])}"
+                )
     else:
         values = _numbers(entry, 3)
         if values is None:
             raise ScenarioError(
-                f"{where}: expected [x, y, yaw] (metres, metres, radians) or {{x, y, yaw_deg}}, got {entry!r}"
+                f"{where}: expected [x, y, yaw] (metres, metres, radians) or {{x, y, yaw_deg}}, got {_show(entry)}"
             )
         x, y, yaw = values
     if abs(yaw) > math.pi + 1e-9:
@@ -267,6 +287,54 @@ def _check_reach(objects, placements, robot, table_z: float, path) -> None:
                 ) from e
 
 
+def _yaml_problem(e: yaml.YAMLError) -> str:
+    """One line saying where and why PyYAML gave up."""
+    if isinstance(e, yaml.reader.ReaderError):
+        char = f"#x{e.character:04x}, " if isinstance(e.character, int) else ""
+        if isinstance(e.character, str):
+            char = f"#x{ord(e.character):04x}, "
+        return f"not UTF-8 or UTF-16 text (position {e.position}: {char}{e.reason}); save it as UTF-8 YAML"
+    mark = getattr(e, "problem_mark", None)
+    problem = getattr(e, "problem", None) or getattr(e, "context", None) or type(e).__name__
+    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    return f"not valid YAML{where}: {' '.join(str(problem).split())}"
+
+
+def read_scenario_yaml(path: str | Path) -> dict:
+    """The top-level mapping of the scenario file ``path``, parsed by ``yaml.safe_load`` from its
+    bytes (UTF-8, or UTF-16 with a byte-order mark; no Python object is built from a tag).
+
+    Raises:
+        ScenarioError: one line naming the file: missing, not a regular file, over
+            :data:`MAX_SCENARIO_BYTES`, unreadable, not text, not YAML, or not a mapping.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ScenarioError(f"scenario file not found: {path}")
+    if not path.is_file():
+        raise ScenarioError(f"{path}: not a regular file; expected a scenario YAML file")
+    try:
+        if path.stat().st_size > MAX_SCENARIO_BYTES:
+            raise ScenarioError(
+                f"{path}: {path.stat().st_size} bytes; a scenario YAML file has at most {MAX_SCENARIO_BYTES}"
+            )
+        raw = path.read_bytes()
+    except OSError as e:
+        raise ScenarioError(f"{path}: cannot be read ({e.strerror or e})") from e
+    try:
+        data = yaml.safe_load(raw)
+    except yaml.YAMLError as e:
+        raise ScenarioError(f"{path}: {_yaml_problem(e)}") from e
+    except (ValueError, RecursionError) as e:  # e.g. an unhashable mapping key
+        raise ScenarioError(f"{path}: not valid YAML: {type(e).__name__}") from e
+    if not isinstance(data, dict):
+        raise ScenarioError(
+            f"{path}: expected a mapping with keys 'objects' and 'placements', got "
+            f"{'an empty file' if data is None else type(data).__name__}"
+        )
+    return data
+
+
 def load_scenario(
     path: str | Path,
     *,
@@ -286,20 +354,12 @@ def load_scenario(
         table_z: table top height in the torso frame.
 
     Raises:
-        ScenarioError: missing or unparsable file, or a bad field (file, entry and field named).
+        ScenarioError: missing, unreadable or unparsable file (:func:`read_scenario_yaml`), or
+            a bad field (file, entry and field named).
     """
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except FileNotFoundError as e:
-        raise ScenarioError(f"scenario file not found: {path}") from e
-    except yaml.YAMLError as e:
-        raise ScenarioError(f"{path}: not valid YAML: {e}") from e
-    if not isinstance(data, dict):
-        raise ScenarioError(
-            f"{path}: expected a mapping with keys 'objects' and 'placements', got {type(data).__name__}"
-        )
-    unknown = sorted(set(data) - {"objects", "placements"})
+    data = read_scenario_yaml(path)
+    unknown = _sorted(set(data) - {"objects", "placements"})
     if unknown:
         raise ScenarioError(
             f"{path}: unknown top-level key(s) {unknown}; expected 'objects' and 'placements'"
@@ -308,7 +368,7 @@ def load_scenario(
     for key in ("objects", "placements"):
         value = data.get(key)
         if not isinstance(value, list) or not value:
-            raise ScenarioError(f"{path}: '{key}' must be a non-empty list, got {value!r}")
+            raise ScenarioError(f"{path}: '{key}' must be a non-empty list, got {_show(value)}")
         lists[key] = value
     objects = tuple(_parse_object(o, f"{path}: objects[{i}]") for i, o in enumerate(lists["objects"]))
     names = [o.name for o in objects]
