@@ -123,3 +123,15 @@ def test_publish_output_leftovers(tmp_path):
         _publish_folder(target, "new")
     assert (target / "a.txt").read_text() == "moved-aside" and not dead.exists()
     assert live.exists() and unmarked.exists() and other_kind.exists()
+
+
+def test_read_text_decodes_utf8_and_refuses_other_bytes(tmp_path):
+    from lfd.io.files import read_text
+
+    (tmp_path / "bom.txt").write_bytes("\ufeffa: 1\n".encode())
+    assert read_text(tmp_path / "bom.txt") == "a: 1\n"
+    (tmp_path / "latin1.txt").write_bytes("caf\xe9".encode("latin-1"))
+    with pytest.raises(ValueError, match=r"latin1.txt: not UTF-8 text \(byte 3"):
+        read_text(tmp_path / "latin1.txt")
+    with pytest.raises(FileNotFoundError):
+        read_text(tmp_path / "missing.txt")

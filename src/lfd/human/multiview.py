@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.io.files import read_text
+
 __all__ = ["Calibration", "Triangulation", "read_calibration", "triangulate"]
 
 _FLIP = np.diag([1.0, -1.0, -1.0])
@@ -192,13 +194,13 @@ def read_calibration(path: str | os.PathLike, n_cameras: int | None = None) -> C
         import tomllib
 
         try:
-            doc = tomllib.loads(p.read_text())
+            doc = tomllib.loads(read_text(p))
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"calibration {p}: invalid TOML ({exc})") from exc
         calib = _from_entries([(k, v) for k, v in doc.items() if isinstance(v, dict) and "matrix" in v], p)
     elif name.endswith(".json"):
         try:
-            doc = json.loads(p.read_text())
+            doc = json.loads(read_text(p))
         except json.JSONDecodeError as exc:
             raise ValueError(f"calibration {p}: invalid JSON ({exc})") from exc
         cams = doc.get("cameras") if isinstance(doc, dict) else None

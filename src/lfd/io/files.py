@@ -66,6 +66,24 @@ def write_json_atomic(path: Path, obj: Any) -> None:
     write_bytes_atomic(path, json_bytes(obj))
 
 
+def read_text(path: Path) -> str:
+    """The text of a user's file, decoded as UTF-8 (a byte-order mark is dropped).
+
+    Raises:
+        FileNotFoundError: no file at ``path``.
+        ValueError: the bytes are not UTF-8 text (one line naming the file).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no file at {path}")
+    try:
+        return path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise ValueError(
+            f"{path}: not UTF-8 text (byte {e.start}: {e.reason}); expected a text file"
+        ) from None
+
+
 def read_json(path: Path) -> Any:
     """Parse a JSON file; a missing or unparsable file raises :class:`DatasetError`
     naming it."""

@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from lfd.io.files import read_text
+
 __all__ = ["Box", "Goal", "TeachScene", "load_scene"]
 
 _TOP_KEYS = {"start", "obstacles", "goal", "table_z", "name"}
@@ -148,7 +150,7 @@ def load_scene(scene: str | os.PathLike | Mapping | TeachScene | None) -> TeachS
         import yaml  # PyYAML comes with hydra-core
 
         try:
-            loaded = yaml.safe_load(path.read_text())
+            loaded = yaml.safe_load(read_text(path))
         except yaml.YAMLError as e:
             raise ValueError(f"scene file {path} is not valid YAML: {e}") from None
         source = str(path)

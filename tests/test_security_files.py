@@ -1,6 +1,5 @@
-"""Security and data safety: the `[video]` extra installs one OpenCV and no jax; output files say their format.
-
-The rows of the hostile-input table about installation and file formats (docs/security.md).
+"""Security and data safety: the `[video]` extra installs one OpenCV and no jax; output files say their
+format; user text files of any bytes get one line naming them (docs/security.md).
 """
 
 from __future__ import annotations
@@ -113,3 +112,17 @@ def test_pip_resolves_the_video_extra_to_one_opencv_and_no_jax(tmp_path):
     names = {item["metadata"]["name"].lower() for item in json.loads(report.read_text())["install"]}
     assert not FORBIDDEN & names, sorted(FORBIDDEN & names)
     assert "opencv-python-headless" in names and "absl-py" in names
+
+
+@pytest.mark.parametrize("name", ["calibration.json", "calibration.toml", "scene.yaml", "recording.csv"])
+def test_binary_user_files_get_one_line_naming_them(tmp_path, name):
+    from lfd.human.multiview import read_calibration
+    from lfd.human.readers import read_skeleton
+    from lfd.teach.scene import load_scene
+
+    path = tmp_path / name
+    path.write_bytes(bytes(range(256)) * 4)
+    reader = {"calibration": read_calibration, "scene": load_scene, "recording": read_skeleton}[path.stem]
+    with pytest.raises(ValueError, match="not UTF-8 text") as info:
+        reader(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
