@@ -155,3 +155,15 @@ def test_two_d_export_and_sawyer_csv(tmp_path):
     info = json.loads(paths["json"].read_text())
     assert info["mode"] == "2d" and len(info["waypoints"]) == 4
     s.close()
+
+
+def test_export_into_a_folder_that_holds_a_demo_overwrites_nothing(mirror, tmp_path):
+    s, paths = mirror
+    before = {p.name: p.read_bytes() for p in paths["csv"].parent.iterdir()}
+    with pytest.raises(FileExistsError, match="lfd does not overwrite files"):
+        s.export(paths["csv"].parent)
+    assert {p.name: p.read_bytes() for p in paths["csv"].parent.iterdir()} == before
+    (tmp_path / "demo.json").write_text("the user's own notes")
+    with pytest.raises(FileExistsError, match="demo.json"):
+        s.export(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.json"]

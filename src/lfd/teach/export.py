@@ -96,6 +96,8 @@ def export_session(session, out_dir) -> dict:
 
     Raises:
         ValueError: fewer than 3 recorded samples.
+        FileExistsError: ``out_dir`` already holds one of the four files (nothing is overwritten;
+            :func:`export_new_folder` makes a new folder per export).
     """
     rec = session.recorded
     dmp = fit_recording_dmp(rec)
@@ -110,6 +112,12 @@ def export_session(session, out_dir) -> dict:
             ("episode", "episode.npz"),
         )
     }
+    taken = [p.name for p in paths.values() if p.exists() or p.is_symlink()]
+    if taken:
+        raise FileExistsError(
+            f"teach export: {out} already holds {', '.join(taken)}; lfd does not overwrite files: "
+            "choose a new folder"
+        )
     write_bytes_atomic(paths["csv"], _csv_text(rec.t, rec.q).encode())
     dmp.save(paths["dmp"])
     info = session.summary()

@@ -296,7 +296,12 @@ class TeachSession(RecordingMixin, PanelMixin):
 
     def export(self, out_dir) -> dict:
         """Write ``demo.csv``, ``demo.json``, ``demo.dmp.json`` and ``episode.npz`` to
-        ``out_dir``; returns ``{"csv", "json", "dmp", "episode"}`` paths."""
+        ``out_dir``; returns ``{"csv", "json", "dmp", "episode"}`` paths.
+
+        Raises:
+            ValueError: fewer than 3 recorded samples.
+            FileExistsError: one of the four files already exists there (nothing is overwritten).
+        """
         from .export import export_session
 
         return export_session(self, out_dir)
