@@ -24,14 +24,17 @@ SUFFIX = {"lerobot": ".lerobot", "robomimic": ".hdf5"}
 
 
 def export(cfg: DictConfig) -> Path:
-    """Generate or verify ``cfg.data``'s dataset, then export it as ``cfg.format``."""
+    """Check the output, generate or verify ``cfg.data``'s dataset, then export it as ``cfg.format``."""
     from lfd.interop.export import FORMATS, export_dataset
 
     if cfg.format not in FORMATS:
         raise ValueError(f"format: expected one of {FORMATS}, got {cfg.format!r}")
+    from lfd.interop.export import check_export_target
+
     datamodule = hydra.utils.instantiate(cfg.data)
-    datamodule.prepare_data()
     out = Path(cfg.out) if cfg.out else Path(f"{datamodule.path}{SUFFIX[cfg.format]}")
+    check_export_target(datamodule.path, out, cfg.format, overwrite=cfg.overwrite)  # before any data
+    datamodule.prepare_data()
     options = OmegaConf.to_container(cfg[cfg.format], resolve=True)
     t0 = time.perf_counter()
     export_dataset(

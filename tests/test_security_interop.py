@@ -269,3 +269,17 @@ def test_lerobot_reader_names_a_corrupt_file(reference):
     info.write_text("[1, 2]")
     with pytest.raises(ValueError, match=f"{info}: expected a JSON object"):
         read_info(reference)
+
+
+def test_the_entry_point_refuses_the_output_before_generating_any_data(compose, tmp_path):
+    """A refused output costs nothing: the missing dataset is not generated first."""
+    spec = importlib.util.spec_from_file_location("export_dataset", ROOT / "scripts" / "export_dataset.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    victim = tmp_path / "my_documents"
+    before = _victim(victim)
+    missing = tmp_path / "data" / "tiny"
+    cfg = compose("export_dataset", *_overrides(missing, "format=lerobot", f"out={victim}", "overwrite=true"))
+    with pytest.raises(OutputRefused, match="not an lfd lerobot export"):
+        script.export(cfg)
+    assert not missing.exists() and _snapshot(victim) == before

@@ -18,6 +18,32 @@ from pathlib import Path
 FORMATS = ("lerobot", "robomimic")
 
 
+def check_export_target(src: str | Path, out: str | Path, format: str, overwrite: bool = False) -> bool:
+    """Check, before any data is read or generated, that ``out`` may receive a ``format`` export of
+    ``src`` (the same rules the exporter applies when it publishes: :func:`lfd.io.files.check_output`).
+
+    Returns:
+        whether ``out`` exists and would be replaced.
+
+    Raises:
+        ValueError: unknown ``format``.
+        FileExistsError: ``out`` exists and ``overwrite`` is not set.
+        lfd.io.files.OutputRefused: ``out`` is not an lfd export of ``format``, or it is ``src`` or
+            holds it (and the other refusals of :func:`lfd.io.files.check_output`).
+    """
+    from lfd.io.files import check_output
+
+    if format not in FORMATS:
+        raise ValueError(f"export_dataset.format: expected one of {FORMATS}, got {format!r}")
+    kind_of = None
+    if format == "robomimic":
+        from lfd.interop.robomimic import export_kind as kind_of
+    out = Path(out).absolute()
+    return check_output(
+        out, format, overwrite=overwrite, protect=[Path(src)], kind_of=kind_of, who=f"export_{format}"
+    )
+
+
 def export_dataset(src: str | Path, out: str | Path, format: str = "lerobot", **options) -> Path:
     """Write dataset folder ``src`` to ``out`` in ``format``; returns ``out``.
 
