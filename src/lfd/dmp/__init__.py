@@ -29,6 +29,14 @@ Public API (numpy + torch only)::
                   coupling=None, return_derivatives=False)
     FORMULATIONS, DEFAULT_FORMULATION, DEFAULT_RIDGE, FIT_METHODS
     clear_caches()   # drop the per-time-grid operators cached by fits and rollouts
+    ProMP(n_basis=10, overlap=0.7, ridge=1e-12, cov_reg=0.0)          # probabilistic MP
+        .fit(t (T,) | (N, T) | [t_i], Y (N, T, D) | [(T_i, D)]) -> self   # mean_, cov_ of weights
+        .mean_trajectory(t) (T, D), .var_trajectory(t) (T, D), .cov_trajectory(t) (T, D, T, D)
+        .sample_trajectories(t, n, rng) (n, T, D), .condition(t_star, y_star, y_cov=0) -> ProMP
+        .log_likelihood(t, y (T, D) | (B, T, D), noise=None) -> float | (B,)
+    DMPDistribution(cov_reg=0.0, **DMP params).fit(t, Y (N, T, D) | [(T_i, D)])
+        .propagate(t=None, tau=None, y0=None, goal=None) -> mean (T, D), cov (T, D, T, D)  # closed form
+        .sample_trajectories(n, t=None, tau=None, rng=None) (n, T, D)
 
 Formulation (``formulation=``, :mod:`lfd.dmp.formulation`): ``"pastor"`` (default, Pastor et
 al. 2009) ``tau dz = K (g - y) - D z - K (g - y0) s + K f(s)`` reproduces DoFs that end
@@ -77,10 +85,12 @@ Example::
 from .cartesian import CartesianDMP
 from .coupling import JointLimits, ObstacleAvoidance
 from .discrete import DMP, FIT_METHODS
+from .distribution import DMPDistribution
 from .fitting import DEFAULT_RIDGE
 from .formulation import DEFAULT_FORMULATION, FORMULATIONS
 from .functional import DiscreteGains, Gains, clear_caches, rollout_batch
 from .layer import DMPLayer
+from .promp import ProMP
 from .rhythmic import RhythmicDMP
 from .stepping import DMPRunner, DMPState
 from .transform import RolloutOperator
@@ -92,6 +102,7 @@ __all__ = [
     "FIT_METHODS",
     "FORMULATIONS",
     "CartesianDMP",
+    "DMPDistribution",
     "DMPLayer",
     "DMPRunner",
     "DMPState",
@@ -99,6 +110,7 @@ __all__ = [
     "Gains",
     "JointLimits",
     "ObstacleAvoidance",
+    "ProMP",
     "RhythmicDMP",
     "RolloutOperator",
     "clear_caches",
