@@ -203,6 +203,7 @@ class ProMP:
 
     def _blocks(self) -> tuple[torch.Tensor, torch.Tensor]:
         """Mean ``(D, K)`` and covariance ``(D, K, D, K)`` as tensors."""
+        self._check_fitted()
         d, k = self.n_dims_, self.n_basis
         return torch.from_numpy(self.mean_).reshape(d, k), torch.from_numpy(self.cov_).reshape(d, k, d, k)
 
