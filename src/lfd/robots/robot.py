@@ -33,6 +33,7 @@ from lfd.io.files import write_text_atomic
 
 from ._checks import as_batch
 from .ik import IKResult, solve_ik
+from .kernel import ChainProgram
 from .spec import RobotSpec, frame_with_z_axis
 from .urdf import spec_to_urdf
 
@@ -91,6 +92,12 @@ def _compile(spec: RobotSpec) -> dict[str, np.ndarray]:
     }
 
 
+def _origins(constants: dict[str, np.ndarray]) -> np.ndarray:
+    """``(n, 4, 4)`` joint origins ``O'_i`` in the internal frames (base folded into the first)."""
+    first = np.vstack([constants["first_cols"][:, :, 0].T, [0.0, 0.0, 0.0, 1.0]])
+    return np.concatenate([first[None], np.swapaxes(constants["next_origins_t"], 1, 2)])
+
+
 def _mix(matrix: Tensor, x: Tensor) -> Tensor:
     """Linear combination over joints: ``(k, n) @ (n, ..., B) -> (k, ..., B)`` as one GEMM.
 
@@ -111,17 +118,6 @@ def _world_inertia_times(rot: Tensor, inertias: Tensor, v: Tensor) -> Tensor:
     local = (rot[:, :, :, None] * v[:, None]).sum(2)  # R^T v: (n, 3, k, B)
     local = torch.bmm(inertias, local.reshape(inertias.shape[0], 3, -1)).view(local.shape)
     return (rot[:, :, :, None] * local[:, :, None]).sum(1)
-
-
-def _rotate_z(frame: Tensor, cos: Tensor, sin: Tensor) -> Tensor:
-    """Right-multiply frames ``(4, 3, B)`` (column layout) by ``Rz(q)``; ``cos``/``sin`` of shape (B,)."""
-    x, y, rest = frame.split((1, 1, 2))
-    return torch.cat((torch.addcmul(cos * x, sin, y), torch.addcmul(cos * y, sin, x, value=-1), rest))
-
-
-def _transform(transform_t: Tensor, frame: Tensor) -> Tensor:
-    """Right-multiply frames ``(4, 3, B)`` by a constant transform given transposed: one GEMM."""
-    return (transform_t @ frame.view(4, -1)).view(frame.shape)
 
 
 def _blockwise(fn, *batches: Tensor):
@@ -165,6 +161,7 @@ class Robot:
             raise TypeError(f"Robot needs a RobotSpec, got {type(spec).__name__}")
         self.spec = spec
         self._numpy_constants = _compile(spec)
+        self._program = ChainProgram(_origins(self._numpy_constants), self._numpy_constants["tool_t"].T)
         self._cache: dict[tuple[torch.device, torch.dtype], _Constants] = {}
 
     def __repr__(self) -> str:
@@ -233,22 +230,10 @@ class Robot:
         return as_batch(x, name, self.n_dof, like=like, robot=self.name)
 
     def _chain(self, q: Tensor, keep_frames: bool) -> tuple[Tensor | None, Tensor]:
-        """Internal joint frames ``(n, 4, 3, B)`` (None unless ``keep_frames``) and tool frame ``(4, 3, B)``.
-
-        A right-multiplication by a constant transform is one GEMM ``transform^T @ frame``
-        on the frame viewed as ``(4, 3B)``.
-        """
-        c = self._constants(q)
-        batch = q.shape[0]
-        q_t = q.T.contiguous()
-        cos, sin = torch.cos(q_t).unbind(0), torch.sin(q_t).unbind(0)
-        frame = _rotate_z(c.first_cols.expand(4, 3, batch), cos[0], sin[0])
-        frames = [frame]
-        for i, origin_t in enumerate(c.next_origins_t, start=1):
-            frame = _rotate_z(_transform(origin_t, frame), cos[i], sin[i])
-            if keep_frames:
-                frames.append(frame)
-        return (torch.stack(frames) if keep_frames else None), _transform(c.tool_t, frame)
+        """Internal joint frames ``(n, 4, 3, B)`` (None unless ``keep_frames``) and tool frame ``(4, 3, B)``,
+        from the compiled sparse program (:mod:`lfd.robots.kernel`)."""
+        frames, tool = self._program.run(q, keep_frames)
+        return (torch.stack(frames) if keep_frames else None), tool
 
     @staticmethod
     def _jacobian_from(frames: Tensor, tool: Tensor) -> Tensor:
@@ -282,7 +267,15 @@ class Robot:
         Returns:
             Homogeneous transforms (m), differentiable with respect to ``q``.
         """
-        return _blockwise(self._fk_all_links if all_links else self._fk_tool, self._batch(q))
+        q = self._batch(q)
+        if all_links:
+            return _blockwise(self._fk_all_links, q)
+        if q.requires_grad and torch.is_grad_enabled():
+            return _blockwise(self._fk_tool, q)
+        out = q.new_empty(q.shape[0], 4, 4)
+        with torch.no_grad():
+            self._program.tool_into(q, out)
+        return out
 
     def fk_positions(self, q) -> Tensor:
         """Tool positions ``(..., 3)`` (m, world frame) of joint vectors ``q (..., n)`` (rad).
