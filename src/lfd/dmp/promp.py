@@ -277,18 +277,17 @@ class ProMP:
         noise = self._observation_cov(y_cov, m)
         basis = self._phase_basis(times, "t_star")  # (M, K)
         # observation matrix (M D, D K): row (j, d) reads DoF d at time j
-        observe = torch.einsum("jk,de->jdek", basis, torch.eye(d, dtype=_DTYPE)).reshape(
-            m * d, d * self.n_basis
-        )
-        mean, cov = torch.from_numpy(self.mean_), torch.from_numpy(self.cov_)
-        cross = cov @ observe.T  # (P, M D)
-        innovation = torch.block_diag(*torch.from_numpy(noise)) + observe @ cross
-        gain = cross @ torch.linalg.pinv(innovation, hermitian=True)
-        new_mean = mean + gain @ (torch.from_numpy(targets).reshape(-1) - observe @ mean)
-        new_cov = cov - gain @ cross.T
+        observe = np.einsum("jk,de->jdek", basis.numpy(), np.eye(d)).reshape(m * d, d * self.n_basis)
+        cross = self.cov_ @ observe.T  # (P, M D); small dense algebra: numpy beats torch's overhead here
+        innovation = observe @ cross
+        for j in range(m):
+            innovation[j * d : (j + 1) * d, j * d : (j + 1) * d] += noise[j]
+        gain = cross @ np.linalg.pinv(innovation, hermitian=True)
+        new_mean = self.mean_ + gain @ (targets.reshape(-1) - observe @ self.mean_)
+        new_cov = self.cov_ - gain @ cross.T
         conditioned = copy.copy(self)
-        conditioned.mean_ = new_mean.numpy()
-        conditioned.cov_ = (0.5 * (new_cov + new_cov.T)).numpy()
+        conditioned.mean_ = new_mean
+        conditioned.cov_ = 0.5 * (new_cov + new_cov.T)
         return conditioned
 
     def _observation_cov(self, y_cov, m: int) -> np.ndarray:
