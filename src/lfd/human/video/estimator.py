@@ -1,5 +1,12 @@
-"""Loading MediaPipe Pose 0.10.14 (BlazePose GHUM, the *full* landmark model; the model files
-ship inside the wheel, nothing is downloaded) and reading its results as arrays.
+"""Loading MediaPipe Pose 0.10.14 (BlazePose GHUM landmark model ``full`` or ``heavy``) and reading
+its results as arrays.
+
+``full`` ships inside the wheel. ``heavy`` does not (MediaPipe would download it from Google on
+first use); lfd never downloads at run time: it uses ``pose_landmark_heavy.tflite`` from MediaPipe's
+module folder (``mediapipe/modules/pose_landmark/``) or a file you pass, checked against
+:data:`HEAVY_MODEL_SHA256`, and copies a passed file into the module folder (where MediaPipe's graph
+looks for it). ``python scripts/get_pose_model.py`` provisions it from the official npm package
+:data:`HEAVY_MODEL_NPM` (``npm pack``, checksum verified).
 
 MediaPipe 0.10.14's Python layer predates protobuf 5; every :func:`load_pose_estimator` call
 patches it process-wide (idempotent): the removed ``GetPrototype`` calls are restored on
@@ -9,9 +16,102 @@ is replaced by a version that works on protobuf 4 to 7. Install with ``pip insta
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
-__all__ = ["landmarks_of", "load_pose_estimator"]
+from lfd.io.files import sha256_file, write_bytes_atomic
+
+__all__ = [
+    "HEAVY_MODEL_NPM",
+    "HEAVY_MODEL_SHA256",
+    "MODELS",
+    "heavy_model_path",
+    "install_heavy_model",
+    "landmarks_of",
+    "load_pose_estimator",
+]
+
+#: Landmark models: name -> MediaPipe's ``model_complexity``.
+MODELS = {"full": 1, "heavy": 2}
+#: The official npm package that ships ``pose_landmark_heavy.tflite`` (its ``full`` model is
+#: byte-identical to the wheel's).
+HEAVY_MODEL_NPM = "@mediapipe/pose@0.5.1675469404"
+HEAVY_MODEL_BYTES = 27_709_200
+HEAVY_MODEL_SHA256 = "59e42d71bcd44cbdbabc419f0ff76686595fd265419566bd4009ef703ea8e1fe"
+_HOW_TO_GET = (
+    f"get it with `python scripts/get_pose_model.py` (npm pack {HEAVY_MODEL_NPM}, checksum verified) "
+    "or pass pose.heavy_model=PATH / heavy_model=PATH of a verified copy"
+)
+_verified: dict[tuple[str, int, int], bool] = {}
+
+
+def _mediapipe_root() -> Path:
+    """The installed ``mediapipe`` package folder (found without importing it)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("mediapipe")
+    if spec is None or not spec.submodule_search_locations:
+        raise ImportError(
+            "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
+            'pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14'
+        )
+    return Path(next(iter(spec.submodule_search_locations)))
+
+
+def heavy_model_path() -> Path:
+    """Where MediaPipe's pose graph loads the heavy model from (``modules/pose_landmark/`` of the install)."""
+    return _mediapipe_root() / "modules" / "pose_landmark" / "pose_landmark_heavy.tflite"
+
+
+def _is_heavy_model(path: Path) -> bool:
+    """``path`` has the size and SHA-256 of the published heavy model (hashed once per file version)."""
+    st = path.stat()
+    key = (str(path.resolve()), st.st_size, st.st_mtime_ns)
+    if key not in _verified:
+        _verified[key] = st.st_size == HEAVY_MODEL_BYTES and sha256_file(path) == HEAVY_MODEL_SHA256
+    return _verified[key]
+
+
+def install_heavy_model(source: str | os.PathLike | None = None) -> Path:
+    """The verified heavy model in MediaPipe's module folder, copied there from ``source`` if needed.
+
+    Args:
+        source: a ``pose_landmark_heavy.tflite`` (27,709,200 bytes, SHA-256 :data:`HEAVY_MODEL_SHA256`);
+            None = it must already be in the module folder.
+
+    Returns:
+        :func:`heavy_model_path`.
+
+    Raises:
+        FileNotFoundError: no model at ``source``, or none installed and no ``source`` (the
+            message says how to get it). ValueError: a file with the wrong size or checksum.
+        PermissionError: the module folder is not writable (copy the file there by hand).
+    """
+    target = heavy_model_path()
+    if source is not None:
+        src = Path(source).expanduser()
+        if not src.is_file():
+            raise FileNotFoundError(f"heavy_model: no file at {src}; {_HOW_TO_GET}")
+        if not _is_heavy_model(src):
+            raise ValueError(
+                f"heavy_model: {src} is not pose_landmark_heavy.tflite of {HEAVY_MODEL_NPM} "
+                f"(expected {HEAVY_MODEL_BYTES} bytes, sha256 {HEAVY_MODEL_SHA256})"
+            )
+        if not (target.is_file() and _is_heavy_model(target)):
+            write_bytes_atomic(target, src.read_bytes())
+        return target
+    if not target.is_file():
+        raise FileNotFoundError(
+            f"pose.model=heavy: {target} is missing (MediaPipe's wheel ships only the full model); {_HOW_TO_GET}"
+        )
+    if not _is_heavy_model(target):
+        raise ValueError(
+            f"pose.model=heavy: {target} is not the published heavy model (sha256 {HEAVY_MODEL_SHA256}); "
+            f"delete it and {_HOW_TO_GET}"
+        )
+    return target
 
 
 def _protobuf_compat() -> None:
@@ -75,14 +175,31 @@ def _set_calculator_options(self, config, params) -> None:
 
 
 def load_pose_estimator(
-    static: bool = False, min_detection_confidence: float = 0.5, min_tracking_confidence: float = 0.5
+    static: bool = False,
+    min_detection_confidence: float = 0.5,
+    min_tracking_confidence: float = 0.5,
+    model: str = "full",
+    heavy_model: str | os.PathLike | None = None,
 ):
-    """A MediaPipe Pose estimator (full model, shipped in the wheel); ``static`` = no tracking.
+    """A MediaPipe Pose estimator; ``static`` = no tracking.
+
+    Args:
+        model: ``"full"`` (shipped in the wheel) or ``"heavy"`` (:func:`install_heavy_model`;
+            ``heavy_model`` = path of a verified copy, else the module folder's). Nothing is
+            downloaded: MediaPipe's own downloader is disabled while the estimator is built.
 
     Raises:
         ImportError: mediapipe is not installed (``pip install -e ".[video]" && pip install --no-deps
             mediapipe==0.10.14``: its declared dependencies would add jax and a second OpenCV).
+        ValueError: ``model`` not in :data:`MODELS`; a heavy model file with the wrong checksum.
+        FileNotFoundError: ``model="heavy"`` and no heavy model (the message says how to get it).
     """
+    if model not in MODELS:
+        raise ValueError(f"pose.model must be one of {', '.join(MODELS)}, got {model!r}")
+    if model == "full" and heavy_model is not None:
+        raise ValueError("heavy_model is given but model is 'full'; pass model='heavy' to use it")
+    if model == "heavy":
+        install_heavy_model(heavy_model)
     try:
         _protobuf_compat()
         from mediapipe.python import solution_base
@@ -94,14 +211,28 @@ def load_pose_estimator(
             "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
             'pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14'
         ) from exc
-    return mp_pose.Pose(
-        static_image_mode=static,
-        model_complexity=1,
-        smooth_landmarks=not static,
-        enable_segmentation=False,
-        min_detection_confidence=min_detection_confidence,
-        min_tracking_confidence=min_tracking_confidence,
-    )
+    download = mp_pose.download_utils.download_oss_model
+    mp_pose.download_utils.download_oss_model = _no_download
+    try:
+        return mp_pose.Pose(
+            static_image_mode=static,
+            model_complexity=MODELS[model],
+            smooth_landmarks=not static,
+            enable_segmentation=False,
+            min_detection_confidence=min_detection_confidence,
+            min_tracking_confidence=min_tracking_confidence,
+        )
+    finally:
+        mp_pose.download_utils.download_oss_model = download
+
+
+def _no_download(model_path: str) -> None:
+    """Stands in for MediaPipe's ``download_oss_model``: lfd never downloads at run time."""
+    path = _mediapipe_root().parent / model_path
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"{path} is missing and lfd does not download models at run time; {_HOW_TO_GET}"
+        )
 
 
 def landmarks_of(result, size: tuple[int, int], offset=(0.0, 0.0), scale=1.0):

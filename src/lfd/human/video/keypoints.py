@@ -36,6 +36,7 @@ class VideoKeypoints:
         image_size: (width, height) px of the original frames.
         source: the video path. seconds: wall time of the estimation, s.
         names: the 33 landmark names (:data:`MEDIAPIPE_LANDMARKS`).
+        model: the landmark model (``"full"`` or ``"heavy"``).
     """
 
     t: np.ndarray
@@ -49,6 +50,7 @@ class VideoKeypoints:
     source: str = ""
     seconds: float = float("nan")
     names: tuple[str, ...] = MEDIAPIPE_LANDMARKS
+    model: str = "full"
 
     @property
     def n_frames(self) -> int:
@@ -143,6 +145,7 @@ class VideoKeypoints:
             image_size=np.array(self.image_size),
             source=np.array(self.source),
             seconds=np.array(self.seconds),
+            model=np.array(self.model),
         )
         write_bytes_atomic(Path(path), buffer.getvalue())
         return Path(path)
@@ -171,6 +174,7 @@ class VideoKeypoints:
                     image_size=tuple(int(v) for v in z["image_size"]),
                     source=str(z["source"]),
                     seconds=float(z["seconds"]),
+                    model=str(z["model"]) if "model" in z.files else "full",
                 )
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
             raise ValueError(

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..skeleton import canonical_joint_name
 
-__all__ = ["ARM_EDGES", "CANONICAL_NAMES", "MEDIAPIPE_LANDMARKS", "torso"]
+__all__ = ["ARM_EDGES", "CANONICAL_NAMES", "LEFT_RIGHT_GROUPS", "MEDIAPIPE_LANDMARKS", "torso"]
 
 #: MediaPipe Pose landmark order (BlazePose topology, 33 points).
 MEDIAPIPE_LANDMARKS = (
@@ -27,6 +27,20 @@ TRUNK_RIGHT = [MEDIAPIPE_LANDMARKS.index(MEDIAPIPE_LANDMARKS[i].replace("left", 
 #: Every left landmark and its right counterpart, in the same order.
 ALL_LEFT = [i for i, n in enumerate(MEDIAPIPE_LANDMARKS) if "left" in n]
 ALL_RIGHT = [MEDIAPIPE_LANDMARKS.index(MEDIAPIPE_LANDMARKS[i].replace("left", "right")) for i in ALL_LEFT]
+#: Left/right pairs decided together when a multi-view recording's labels are reconciled
+#: (:func:`lfd.human.multiview.reconcile_left_right`): trunk (shoulders, hips; the anchor that
+#: also decides which views show the person), arms, legs. The face's pairs are left as given: its
+#: points lie too close together (and are guessed in back views) for reprojection to tell them apart.
+_PAIR = {n[5:]: (i, MEDIAPIPE_LANDMARKS.index(n.replace("left", "right")))
+         for i, n in enumerate(MEDIAPIPE_LANDMARKS) if n.startswith("left_")}  # fmt: skip
+LEFT_RIGHT_GROUPS = tuple(
+    tuple(_PAIR[n] for n in names)
+    for names in (
+        ("shoulder", "hip"),
+        ("elbow", "wrist", "pinky", "index", "thumb"),
+        ("knee", "ankle", "heel", "foot_index"),
+    )
+)
 #: Shoulders then hips.
 TORSO = [MEDIAPIPE_LANDMARKS.index(n) for n in ("left_shoulder", "right_shoulder", "left_hip", "right_hip")]
 #: Landmark pairs drawn on a video frame (arms and torso).

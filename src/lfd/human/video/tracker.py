@@ -37,6 +37,8 @@ def estimate_keypoints(
     max_speed: float = 3.0,
     reacquire_s: float = 1.0,
     progress: bool = False,
+    model: str = "full",
+    heavy_model: str | os.PathLike | None = None,
 ) -> VideoKeypoints:
     """Run the pose estimator over a video, following one person (see the module docstring).
 
@@ -50,20 +52,25 @@ def estimate_keypoints(
             torso lengths in ``dt`` seconds since they were last seen; farther is a different person.
         reacquire_s: s; after this long without the person, whoever is found is accepted.
         progress: show a tqdm progress bar over frames.
+        model: landmark model, ``"full"`` (in MediaPipe's wheel) or ``"heavy"`` (more accurate,
+            slower; see :func:`~lfd.human.video.estimator.load_pose_estimator`). heavy_model: path
+            of a verified ``pose_landmark_heavy.tflite`` (None = MediaPipe's module folder).
 
     Returns:
         :class:`VideoKeypoints` (one entry per processed frame).
 
     Raises:
-        FileNotFoundError: no such video. ValueError: unreadable video, bad arguments.
-        ImportError: mediapipe is not installed.
+        FileNotFoundError: no such video; ``model="heavy"`` without the heavy model.
+        ValueError: unreadable video, bad arguments. ImportError: mediapipe is not installed.
     """
     if not (max_jump > 0 and max_speed >= 0 and reacquire_s >= 0):
         raise ValueError(
             f"max_jump must be > 0, max_speed and reacquire_s >= 0; got {max_jump!r}, {max_speed!r}, {reacquire_s!r}"
         )
     info = video_info(video)
-    tracker = load_pose_estimator(False, min_detection_confidence, min_tracking_confidence)
+    tracker = load_pose_estimator(
+        False, min_detection_confidence, min_tracking_confidence, model=model, heavy_model=heavy_model
+    )
     searcher = None
     ts, idxs, pxs, viss, worlds, det, other = [], [], [], [], [], [], []
     last = None  # (t, centre, torso length, box) of the followed person
@@ -88,7 +95,7 @@ def estimate_keypoints(
                     # Someone else: look for the followed person around where they were.
                     if searcher is None:
                         searcher = load_pose_estimator(
-                            True, min_detection_confidence, min_tracking_confidence
+                            True, min_detection_confidence, min_tracking_confidence, model, heavy_model
                         )
                     x0, y0, x1, y1 = (last[3] / scale).astype(int)
                     crop = np.ascontiguousarray(rgb[max(y0, 0) : max(y1, 0), max(x0, 0) : max(x1, 0)])
@@ -144,4 +151,5 @@ def estimate_keypoints(
         image_size=(info.width, info.height),
         source=str(video),
         seconds=time.perf_counter() - start,
+        model=model,
     )

@@ -12,7 +12,7 @@ import pytest
 
 from lfd.human.multiview import read_calibration, triangulate
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_qualisys_calibration_of_the_pose2sim_demo(pose2sim_demo):
