@@ -17,6 +17,10 @@ Public API (numpy + torch only)::
     CartesianDMP(n_basis=20, ..., formulation="pastor", ridge=1e-12, orientation="log" | "ude")
         .fit(t (T,), pose (T, 7) | (B, T, 7))        # [x, y, z, qw, qx, qy, qz]
         .rollout(t=None, start=None, goal=None, tau=None, weights=None) -> (T, 7) | (B, T, 7)
+    FinalVelocityDMP(n_basis=20, alpha_z=25.0, beta_z=None, alpha_s=None, overlap=0.8, ridge=1e-12)
+        .fit(t (T,), y (T, D) | (B, T, D))        # hitting: reaches goal_ with goal_velocity_ at tau
+        .rollout(t=None, y0=None, goal=None, goal_velocity=None, tau=None, weights=None,
+                 return_derivatives=False, yd0=None, ydd0=None, goal_acceleration=None)
     RhythmicDMP(n_basis=20, alpha_z=25.0, beta_z=None, overlap=0.8, ridge=1e-12)
         .fit(t, y, period=None, method="trajectory")
         .rollout(t=None, y0=None, goal=None, tau=None, weights=None,
@@ -86,6 +90,7 @@ from .cartesian import CartesianDMP
 from .coupling import JointLimits, ObstacleAvoidance
 from .discrete import DMP, FIT_METHODS
 from .distribution import DMPDistribution
+from .final_velocity import FinalVelocityDMP
 from .fitting import DEFAULT_RIDGE
 from .formulation import DEFAULT_FORMULATION, FORMULATIONS
 from .functional import DiscreteGains, Gains, clear_caches, rollout_batch
@@ -107,6 +112,7 @@ __all__ = [
     "DMPRunner",
     "DMPState",
     "DiscreteGains",
+    "FinalVelocityDMP",
     "Gains",
     "JointLimits",
     "ObstacleAvoidance",
