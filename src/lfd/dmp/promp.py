@@ -159,7 +159,8 @@ class ProMP:
             basis[i, : ti.shape[0]] = promp_basis(phase, self.n_basis, self.overlap)
             targets[i, : ti.shape[0]] = torch.from_numpy(yi)
         gram = basis.transpose(1, 2) @ basis + self.ridge * torch.eye(self.n_basis, dtype=_DTYPE)
-        weights = torch.linalg.solve(gram, basis.transpose(1, 2) @ targets)  # (N, K, D)
+        # pseudo-inverse like movement_primitives: the minimum-norm fit when T_i < K (gram singular)
+        weights = torch.linalg.pinv(gram, hermitian=True) @ (basis.transpose(1, 2) @ targets)  # (N, K, D)
         residual = targets - basis @ weights  # padded rows are zero
         self.noise_ = float(torch.sqrt((residual**2).sum() / (sum(yi.shape[0] for yi in ys) * n_dims)))
         self.weights_ = weights.transpose(1, 2).reshape(n_demos, n_dims * self.n_basis).numpy()
