@@ -197,6 +197,25 @@ def test_lasa_conditioning_on_a_goal_and_a_via_point():
     assert np.all(conditioned.var_trajectory(t) <= promp.var_trajectory(t) + 1e-9)
 
 
+def test_save_and_load_round_trip(tmp_path):
+    promp = fitted().condition(0.5, [0.1, 0.2])
+    promp.save(tmp_path / "reach.promp.json")
+    loaded = ProMP.load(tmp_path / "reach.promp.json")
+    t = np.linspace(0.0, 2.0, 30)
+    np.testing.assert_array_equal(loaded.mean_trajectory(t), promp.mean_trajectory(t))
+    np.testing.assert_array_equal(loaded.var_trajectory(t), promp.var_trajectory(t))
+    assert loaded.noise_ == promp.noise_ and repr(loaded) == repr(promp)
+    ProMP(n_basis=4).save(tmp_path / "empty.json")
+    assert not ProMP.load(tmp_path / "empty.json").is_fitted
+    (tmp_path / "bad.json").write_text(
+        '{"type": "lfd.dmp.ProMP", "version": 1, "params": {"n_basis": 3}, "fitted": {"mean": [1, 2]}}'
+    )
+    with pytest.raises(ValueError, match="bad ProMP contents"):
+        ProMP.load(tmp_path / "bad.json")
+    with pytest.raises(ValueError, match=".json"):
+        promp.save(tmp_path / "reach.txt")
+
+
 @pytest.mark.parametrize(
     ("build", "message"),
     [

@@ -38,6 +38,7 @@ Public API (numpy + torch only)::
         .mean_trajectory(t) (T, D), .var_trajectory(t) (T, D), .cov_trajectory(t) (T, D, T, D)
         .sample_trajectories(t, n, rng) (n, T, D), .condition(t_star, y_star, y_cov=0) -> ProMP
         .log_likelihood(t, y (T, D) | (B, T, D), noise=None) -> float | (B,)
+        .save(path) / ProMP.load(path)
     DMPDistribution(cov_reg=0.0, **DMP params).fit(t, Y (N, T, D) | [(T_i, D)])
         .propagate(t=None, tau=None, y0=None, goal=None) -> mean (T, D), cov (T, D, T, D)  # closed form
         .sample_trajectories(n, t=None, tau=None, rng=None) (n, T, D)

@@ -28,6 +28,7 @@ import numbers
 import numpy as np
 import torch
 
+from . import _io
 from . import _validation as check
 
 __all__ = ["ProMP"]
@@ -191,6 +192,44 @@ class ProMP:
         self.duration_ = check.positive_float("duration", duration)
         self.noise_ = getattr(self, "noise_", 0.0)
         return self
+
+    def save(self, path) -> None:
+        """Write the settings and the weight distribution to a JSON file (atomically).
+
+        Args:
+            path: file path ending in ``.json``; its directory must exist.
+
+        Raises:
+            ValueError: ``path`` does not end in ``.json``.
+        """
+        params = {
+            "n_basis": self.n_basis,
+            "overlap": self.overlap,
+            "ridge": self.ridge,
+            "cov_reg": self.cov_reg,
+        }
+        fitted = None
+        if self.is_fitted:
+            fitted = {"mean": self.mean_, "cov": self.cov_, "duration": self.duration_, "noise": self.noise_}
+        _io.write_json(path, "lfd.dmp.ProMP", params, fitted)
+
+    @classmethod
+    def load(cls, path) -> ProMP:
+        """Read a ProMP written by :meth:`save` (without the per-demonstration ``weights_``).
+
+        Raises:
+            FileNotFoundError: no such file.
+            ValueError: not a ProMP file, or inconsistent contents (named in the message).
+        """
+        params, fitted = _io.read_json(path, "lfd.dmp.ProMP")
+        try:
+            promp = cls(**params)
+            if fitted is not None:
+                promp.from_weight_distribution(fitted["mean"], fitted["cov"], fitted["duration"])
+                promp.noise_ = cls._non_negative("noise", fitted["noise"])
+        except (TypeError, KeyError, ValueError) as exc:
+            raise ValueError(f"{path}: bad ProMP contents: {exc}") from exc
+        return promp
 
     # --- state-space distribution -------------------------------------------------------
 
