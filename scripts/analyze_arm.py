@@ -83,9 +83,10 @@ def run(cfg: DictConfig, out_dir: str | Path) -> Path:
     if source.is_file():
         s = analyze_file(source, out, **save_options(cfg)).summary()
         print(
-            f"[lfd] {source}: {s['frames']} frames, {cfg.side} arm; ROM abduction {s['abduction_rom_deg']:.0f} deg, "
-            f"flexion {s['flexion_rom_deg']:.0f} deg, elbow {s['elbow_flexion_rom_deg']:.0f} deg; "
-            f"peak shoulder flexion torque {s['flexion_peak_torque_Nm']:.1f} N m"
+            f"[lfd] {source}: {s['frames']} frames, {cfg.side} arm; elevation {s['elevation_min_deg']:.0f}-"
+            f"{s['elevation_max_deg']:.0f} deg (plane of elevation {s['plane_of_elevation_min_deg']:.0f}-"
+            f"{s['plane_of_elevation_max_deg']:.0f} deg), elbow {s['elbow_flexion_rom_deg']:.0f} deg ROM; "
+            f"peak shoulder elevation torque {s['elevation_peak_torque_Nm']:.1f} N m"
         )
     else:
         rows = analyze_folder(source, out, pattern=cfg.pattern, **save_options(cfg))

@@ -146,7 +146,7 @@ def test_batch_marks_the_implausible_file_failed_and_analyses_the_good_one(tmp_p
     assert rows["ticks.csv"]["status"].startswith(
         f"error: {folder / 'ticks.csv'}: time column gives 3e-06 frames/s"
     )
-    assert rows["in_mm.csv"]["abduction_rom_deg"] == rows["ticks.csv"]["flexion_peak_torque_Nm"] == ""
+    assert rows["in_mm.csv"]["abduction_rom_deg"] == rows["ticks.csv"]["elevation_peak_torque_Nm"] == ""
     outputs = summary.parent
     assert (outputs / "good" / "arm.json").exists()
     assert not (outputs / "in_mm").exists() and not (outputs / "ticks").exists()

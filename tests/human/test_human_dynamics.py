@@ -41,13 +41,14 @@ def test_de_leva_masses_and_hand_load():
     np.testing.assert_allclose(female.spec.link_masses[2:], [80 * 0.0255, 80 * (0.0138 + 0.0056)])
     loaded = arm_model(body_mass=80.0, hand_load=3.0)
     assert loaded.spec.link_masses[3] == pytest.approx(male.spec.link_masses[3] + 3.0)
-    # Static check by hand: arm horizontal sideways (abduction 90 deg, elbow straight) holding 3 kg:
-    # the extra abduction torque is 3 kg * g * (forearm + upper arm + half hand).
-    q = np.array([[np.pi / 2, 0.0, 0.0, 0.0]])
+    # Static check by hand: arm horizontal sideways (plane 0, elevation 90 deg, elbow straight) holding
+    # 3 kg: the extra elevation torque is 3 kg * g * (forearm + upper arm + half hand).
+    q = np.array([[0.0, np.pi / 2, 0.0, 0.0]])
     zero = np.zeros_like(q)
     g = np.array([0.0, 0.0, -9.81])
     extra = arm_torques(loaded, q, zero, zero, g) - arm_torques(male, q, zero, zero, g)
-    assert extra[0, 0] == pytest.approx(3.0 * 9.81 * (0.30 + 0.27 + 0.19 / 2))
+    assert extra[0, 1] == pytest.approx(3.0 * 9.81 * (0.30 + 0.27 + 0.19 / 2))
+    np.testing.assert_allclose(extra[0, [0, 2, 3]], 0.0, atol=1e-12)
     with pytest.raises(ValueError, match="hand_load"):
         arm_model(hand_load=-1.0)
     with pytest.raises(ValueError, match="sex"):
@@ -72,5 +73,5 @@ def test_gravity_torque_symmetric_for_left_and_right():
     right, left = analyze_arm(rec.skeleton, side="right"), analyze_arm(rec.skeleton, side="left")
     for result, side in ((right, "right"), (left, "left")):
         assert np.sqrt(np.nanmean((result.tau - rec.tau[side]) ** 2)) < 0.3
-    # holding the arm up sideways needs a positive abduction torque on either side (gravity pulls it down)
-    assert np.nanmean(right.tau[:, 0]) > 0 and np.nanmean(left.tau[:, 0]) > 0
+    # holding the arm up needs a positive elevation torque on either side (gravity pulls it down)
+    assert np.nanmean(right.tau[:, 1]) > 0 and np.nanmean(left.tau[:, 1]) > 0

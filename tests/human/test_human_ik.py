@@ -1,20 +1,63 @@
-"""Closed-form 4-DoF arm IK: exact against the catalogue FK, both sides, limits, continuity, singular cases."""
+"""ISB arm IK: the Y-X-Y definition (scipy), exact against the catalogue FK over the full range,
+both sides, singular poses by continuity (flagged, never clamped); the thesis's derived angles."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 import torch
+from scipy.spatial.transform import Rotation
 
-from lfd.human.arm_ik import LIMITS, arm_fk, arm_ik, mirror
+from lfd.human.arm_ik import arm_fk, arm_frames, arm_ik, canonical_angles, mirror
+from lfd.human.thesis_angles import THESIS_RANGE, thesis_fk, thesis_ik
 from lfd.robots import load_robot
 
 L1, L2 = 0.31, 0.26
+DEG = np.pi / 180
+
+
+def _wrapped(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 @pytest.fixture(scope="module")
 def robot():
     return load_robot("human_arm", upper_arm_length=L1, forearm_length=L2)
+
+
+def _random_q(n, seed):
+    """Poses over the whole sphere of upper-arm directions, any rotation, elbow 0-170 deg."""
+    rng = np.random.default_rng(seed)
+    return np.stack([rng.uniform(-np.pi, np.pi, n), np.arccos(rng.uniform(-1, 1, n)), rng.uniform(-np.pi, np.pi, n),
+                     rng.uniform(0, 170 * DEG, n)], 1)  # fmt: skip
+
+
+def test_frames_are_the_isb_yxy_sequence():
+    # ISB thorax axes in the trunk frame (x forward, y left, z up): X = x (anterior), Y = z (up), Z = -y (right).
+    to_trunk = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # columns: ISB X, Y, Z in trunk coordinates
+    q = _random_q(200, 0)
+    isb = Rotation.from_euler("YXY", np.stack([q[:, 0], -q[:, 1], q[:, 2]], 1)).as_matrix()  # intrinsic
+    np.testing.assert_allclose(arm_frames(q), to_trunk @ isb @ to_trunk.T, atol=1e-12)
+
+
+def test_anatomical_meaning_by_hand():
+    q = (
+        np.array(
+            [[0, 90, 0, 0], [90, 90, 0, 0], [-90, 45, 0, 0], [0, 180, 0, 0], [0, 0, 90, 90], [0, 0, 0, 90]]
+        )
+        * DEG
+    )
+    elbow, wrist = arm_fk(q, 0.3, 0.25)
+    np.testing.assert_allclose(elbow[0], [0, -0.3, 0], atol=1e-12)  # plane 0: abduction, sideways (right: -y)
+    np.testing.assert_allclose(elbow[1], [0.3, 0, 0], atol=1e-12)  # plane 90: forward flexion
+    assert elbow[2, 0] < -0.2  # negative plane: behind the body (extension)
+    np.testing.assert_allclose(elbow[3], [0, 0, 0.3], atol=1e-12)  # elevation 180: straight up
+    np.testing.assert_allclose(
+        wrist[4] - elbow[4], [0, 0.25, 0], atol=1e-12
+    )  # internal rotation: towards the body
+    np.testing.assert_allclose(
+        wrist[5] - elbow[5], [0.25, 0, 0], atol=1e-12
+    )  # elbow flexion: forearm forwards
 
 
 def test_fk_matches_catalogue_robot(robot):
@@ -23,128 +66,145 @@ def test_fk_matches_catalogue_robot(robot):
     elbow, wrist = arm_fk(q, L1, L2)
     np.testing.assert_allclose(elbow, frames[:, 3, :3, 3], atol=1e-12)  # elbow = origin of the forearm link
     np.testing.assert_allclose(wrist, frames[:, 4, :3, 3], atol=1e-12)  # wrist = tool frame
-    assert np.allclose(LIMITS, [robot.spec.lower, robot.spec.upper])
+    np.testing.assert_allclose(frames[:, 2, :3, :3], arm_frames(q), atol=1e-12)  # upper-arm orientation
 
 
-def test_round_trip_exact_on_random_in_limit_poses(robot):
-    q = robot.sample_q(20000, torch.Generator().manual_seed(2)).numpy()
+def test_round_trip_exact_over_the_whole_sphere():
+    q = _random_q(20000, 2)
     elbow, wrist = arm_fk(q, L1, L2)
-    # independent samples: no continuity to keep
-    res = arm_ik(np.zeros_like(elbow), elbow, wrist, continuity=0.0)
+    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
     regular = ~res.elbow_singular & ~res.shoulder_singular
-    assert regular.mean() > 0.8
-    np.testing.assert_allclose(res.q[regular], q[regular], atol=1e-9)
-    # Both shoulder branches occur among in-limit poses (flexion beyond -90 deg needs branch B).
-    assert 0.05 < res.branch.mean() < 0.5
+    assert regular.mean() > 0.85
+    err = _wrapped(res.q - q)[regular]
+    assert np.abs(err).max() < 1e-9
+    assert res.q[:, 1].min() >= 0 and res.q[:, 1].max() <= np.pi  # elevation in [0, 180] deg, nothing capped
+    assert res.q[:, 1].max() > 175 * DEG
+    np.testing.assert_allclose(res.q[:, 1], q[:, 1], atol=1e-9)  # the elevation is exact in every frame
+    np.testing.assert_allclose(res.q[:, 3], q[:, 3], atol=1e-9)
 
 
-def test_elbow_flexion_is_angle_between_segment_directions():
-    # Thesis-style law of cosines on the shoulder-wrist distance gives the *interior* angle;
-    # the model's elbow flexion is pi minus it (0 = straight). Check against a hand-made pose.
-    shoulder = np.zeros((1, 3))
-    elbow = np.array([[0.0, 0.0, -L1]])
-    for bend in np.deg2rad([0.5, 30.0, 90.0, 140.0]):
-        wrist = elbow + L2 * np.array([[np.sin(bend), 0.0, -np.cos(bend)]])  # forearm forwards by `bend`
-        res = arm_ik(shoulder, elbow, wrist)
-        assert res.q[0, 3] == pytest.approx(bend, abs=1e-12)
-        if bend > np.deg2rad(10):
-            assert res.q[0, :3] == pytest.approx([0.0, 0.0, 0.0], abs=1e-12)
-
-
-def test_shoulder_terms_signs():
-    shoulder = np.zeros((3, 3))
-    # arm raised sideways (right arm: towards -y), forwards (+x), backwards (-x), all at 40 deg
-    a = np.deg2rad(40)
-    elbow = L1 * np.array(
-        [[0, -np.sin(a), -np.cos(a)], [np.sin(a), 0, -np.cos(a)], [-np.sin(a), 0, -np.cos(a)]]
-    )
-    wrist = elbow + np.array([[L2 * 0.6, 0, -L2 * 0.8]] * 3)
-    q = arm_ik(shoulder, elbow, wrist).q
-    assert q[0, 0] == pytest.approx(a) and q[0, 1] == pytest.approx(0.0, abs=1e-12)  # abduction
-    assert q[1, 1] == pytest.approx(-a) and q[1, 0] == pytest.approx(0.0, abs=1e-12)  # flexion forwards < 0
-    assert q[2, 1] == pytest.approx(a)  # extension backwards > 0
-
-
-def test_left_arm_is_the_mirror_image(robot):
-    q = robot.sample_q(300, torch.Generator().manual_seed(3)).numpy()
+def test_raising_the_arm_sideways_to_overhead_is_not_capped():
+    # like UI-PRMD m07: abduction to 170 deg with the elbow slightly bent; the thesis model stopped at 90
+    t = np.linspace(0, 1, 200)
+    q = np.stack([5 * DEG + 0 * t, 155 * DEG * t + 15 * DEG, 20 * DEG + 0 * t, 25 * DEG + 0 * t], 1)
     elbow, wrist = arm_fk(q, L1, L2)
-    left = arm_ik(
-        np.zeros_like(elbow), mirror(elbow, "left"), mirror(wrist, "left"), side="left", continuity=0
+    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
+    assert res.q[:, 1].max() == pytest.approx(170 * DEG, abs=1e-9)
+    np.testing.assert_allclose(res.q, q, atol=1e-9)
+    thesis = thesis_ik(np.zeros_like(elbow), elbow, wrist)
+    assert thesis.q[:, 0].max() > 150 * DEG  # derived abduction is not clamped either, but flagged
+    assert thesis.outside_range[-1] and not thesis.outside_range[0]
+
+
+def test_swing_through_hanging_keeps_the_plane_on_the_continuous_branch():
+    # forward flexion 60 deg -> hanging -> extension 40 deg in the sagittal plane, elbow bent
+    t = np.linspace(0, 1, 301)
+    signed = 60 * DEG - 100 * DEG * t
+    q = np.stack([90 * DEG + 0 * t, signed, 15 * DEG + 0 * t, 70 * DEG + 0 * t], 1)
+    elbow, wrist = arm_fk(q, L1, L2)
+    cont = arm_ik(np.zeros_like(elbow), elbow, wrist, canonical=False)
+    np.testing.assert_allclose(cont.q, q, atol=1e-9)  # plane kept, elevation through 0: smooth
+    assert cont.shoulder_singular.any() and not cont.shoulder_singular[[0, -1]].any()
+    res = arm_ik(np.zeros_like(elbow), elbow, wrist)  # ISB form: elevation >= 0, the plane turns at hanging
+    np.testing.assert_allclose(res.q[:, 1], np.abs(signed), atol=1e-9)
+    assert res.q[0, 0] == pytest.approx(90 * DEG) and _wrapped(res.q[-1, 0] + 90 * DEG) == pytest.approx(
+        0, abs=1e-9
     )
+    np.testing.assert_allclose(arm_fk(res.q, L1, L2)[1], wrist, atol=1e-9)  # the same poses
+
+
+def test_through_straight_up_and_plane_change_at_hanging():
+    # abduction up through straight overhead (elevation 150 -> 200 on the continuous branch)
+    t = np.linspace(0, 1, 201)
+    q = np.stack([10 * DEG + 0 * t, 150 * DEG + 50 * DEG * t, -20 * DEG + 0 * t, 40 * DEG + 0 * t], 1)
+    elbow, wrist = arm_fk(q, L1, L2)
+    cont = arm_ik(np.zeros_like(elbow), elbow, wrist, canonical=False)
+    np.testing.assert_allclose(cont.q, q, atol=1e-9)
+    assert arm_ik(np.zeros_like(elbow), elbow, wrist).q[:, 1].max() <= np.pi
+    # arm lowered sideways to hanging, then raised forwards: the plane moves 0 -> 90 deg while hanging
+    elev = 30 * DEG * np.abs(2 * t - 1)
+    plane = np.where(t < 0.5, 0.0, 90 * DEG)
+    q = np.stack([plane, elev, 90 * DEG - plane, 80 * DEG + 0 * t], 1)  # plane + rotation constant
+    elbow, wrist = arm_fk(q, L1, L2)
+    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
+    assert res.shoulder_singular[100] and np.isfinite(res.q).all()
+    assert np.abs(np.diff(res.q, axis=0)).max() < 10 * DEG  # no jumps: the plane is interpolated
+    np.testing.assert_allclose(res.q[:, 1], elev, atol=1e-9)
+    np.testing.assert_allclose(res.q[:, 0] + res.q[:, 2], 90 * DEG, atol=1 * DEG)  # the forearm is kept
+    np.testing.assert_allclose(arm_fk(res.q, L1, L2)[0], elbow, atol=0.3 * L1 * np.sin(10 * DEG))
+
+
+def test_rotation_with_the_arm_hanging():
+    # internal/external rotation with the upper arm at the side (UI-PRMD m09): plane undefined the
+    # whole time, held at 0, so the axial rotation carries the forearm's swing
+    rng = np.random.default_rng(0)
+    t = np.linspace(0, 2, 121)
+    q = np.stack([0 * t, 4 * DEG + 0 * t, 60 * DEG * np.sin(np.pi * t), 90 * DEG + 0 * t], 1)
+    elbow, wrist = arm_fk(q, L1, L2)
+    noise = rng.normal(0, 0.002, elbow.shape)
+    res = arm_ik(np.zeros_like(elbow), elbow + noise, wrist + noise)
+    assert res.shoulder_singular.all()
+    assert np.abs(res.q[:, 0]).max() == 0.0
+    assert np.abs(res.q[:, 2] - q[:, 2]).max() < 6 * DEG
+
+
+def test_straight_elbow_rotation_interpolated_and_flagged():
+    t = np.linspace(0, 2, 121)
+    elbow_flex = 60 * DEG * np.abs(np.cos(np.pi * t / 2))  # straightens at t = 1
+    q = np.stack([0.4 + 0 * t, 0.9 + 0 * t, 30 * DEG + 10 * DEG * t, elbow_flex], 1)
+    elbow, wrist = arm_fk(q, L1, L2)
+    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
+    assert res.elbow_singular[60] and not res.elbow_singular[0] and np.isfinite(res.q).all()
+    assert np.abs(res.q[:, 2] - q[:, 2]).max() < 1.0 * DEG  # interpolated across: within 1 deg of the truth
+    np.testing.assert_allclose(arm_fk(res.q, L1, L2)[1], wrist, atol=1e-9)  # wrist still exact
+    # starting (and ending) with a straight elbow: the rotation is held from the nearest bent frame
+    res = arm_ik(np.zeros_like(elbow[60:]), elbow[60:], wrist[60:])
+    assert res.elbow_singular[0] and np.isfinite(res.q).all()
+    # the held rotation misses the truth's (slowly changing) one by < 1 deg on a forearm bent < 10 deg
+    np.testing.assert_allclose(arm_fk(res.q, L1, L2)[1], wrist[60:], atol=L2 * np.sin(10 * DEG) * DEG)
+
+
+def test_left_arm_is_the_mirror_image():
+    q = _random_q(300, 3)
+    elbow, wrist = arm_fk(q, L1, L2)
+    left = arm_ik(np.zeros_like(elbow), mirror(elbow, "left"), mirror(wrist, "left"), side="left")
     ok = ~left.elbow_singular & ~left.shoulder_singular
-    np.testing.assert_allclose(left.q[ok], q[ok], atol=1e-9)
-    # a left arm raised sideways moves towards +y and has positive abduction
-    e = np.array([[0.0, L1, 0.0]]) * 0.9 + np.array([[0.0, 0.0, -0.1]])
-    assert arm_ik(np.zeros((1, 3)), e, e + [[0.1, 0.0, -0.1]], side="left").q[0, 0] > 1.0
+    assert np.abs(_wrapped(left.q[ok] - q[ok])).max() < 1e-9
+    # a left arm raised sideways moves towards +y: plane of elevation 0, elevation 90 deg
+    e = np.array([[0.0, L1, 0.0]])
+    res = arm_ik(np.zeros((1, 3)), e, e + [[0.1, 0.0, 0.0]], side="left")
+    assert res.q[0, :2] == pytest.approx([0.0, np.pi / 2])
     with pytest.raises(ValueError, match="side must be"):
         arm_ik(np.zeros((1, 3)), e, e, side="middle")
 
 
-def test_continuity_through_branch_change():
-    # Raise the arm forwards from hanging to 125 deg flexion (beyond horizontal: branch B) with a
-    # slight outward tilt and a bent elbow: the angles must change smoothly, no jump of ~pi.
-    t = np.linspace(0, 1, 400)
-    q = np.stack([np.deg2rad(10) * np.ones_like(t), -np.deg2rad(125) * t, np.deg2rad(20) * np.ones_like(t),
-                  np.deg2rad(60) * np.ones_like(t)], 1)  # fmt: skip
-    elbow, wrist = arm_fk(q, L1, L2)
-    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
-    assert np.abs(np.diff(res.q, axis=0)).max() < np.deg2rad(3)
-    assert not res.clamped.any()
-    e2, w2 = arm_fk(res.q, L1, L2)
-    np.testing.assert_allclose(w2, wrist, atol=1e-9)
-    assert res.branch[0] == 0 and res.branch[-1] == 1 and (np.diff(res.branch) != 0).sum() == 1
+def test_canonical_form_keeps_the_dynamics(robot):
+    # (phi + pi, -theta, psi + pi) is the same motion: RNEA gives the same torques but the elevation's sign
+    rng = np.random.default_rng(4)
+    q = _random_q(50, 4)
+    q[:, 1] *= -1  # negative elevations: all flipped by canonical_angles
+    qd, qdd = rng.normal(0, 2, q.shape), rng.normal(0, 10, q.shape)
+    tau = robot.inverse_dynamics(q, qd, qdd).numpy()
+    cq, cqd, cqdd, ctau = canonical_angles(q, qd, qdd, tau)
+    assert (cq[:, 1] >= 0).all()
+    np.testing.assert_allclose(robot.inverse_dynamics(cq, cqd, cqdd).numpy(), ctau, atol=1e-9)
+    np.testing.assert_allclose(arm_frames(cq), arm_frames(q), atol=1e-12)
 
 
-def test_no_jumps_when_dithering_at_the_branch_boundary():
-    # Flexion dithering around -90 deg (arm pointing forwards: where the two branches meet)
-    # with noisy elbow positions: no angle may jump (a branch flip would move q1 and q3 by pi).
-    rng = np.random.default_rng(0)
-    t = np.linspace(0, 4, 240)
-    q = np.stack([0.3 + 0 * t, -np.pi / 2 + 0.3 * np.sin(3 * t), 0.2 + 0 * t, 1.0 + 0 * t], 1)
-    elbow, wrist = arm_fk(q, L1, L2)
-    noise = rng.normal(0, 0.002, elbow.shape)
-    res = arm_ik(np.zeros_like(elbow), elbow + noise, wrist + noise)
-    # 2 mm noise on a 0.31 m arm is 0.4 deg of direction, amplified up to 1/cos(q2) ~ 6x near the
-    # singular direction for abduction and rotation: steps of a few degrees, but no jump of ~180.
-    assert np.abs(np.diff(res.q, axis=0)).max() < np.deg2rad(10)
-    assert np.abs(res.q - q).max() < np.deg2rad(8)
+def test_thesis_angles_round_trip_and_gimbal_lock():
+    rng = np.random.default_rng(5)
+    q = THESIS_RANGE[0] + rng.uniform(size=(2000, 4)) * (THESIS_RANGE[1] - THESIS_RANGE[0])
+    elbow, wrist = thesis_fk(q, L1, L2)
+    res = thesis_ik(np.zeros_like(elbow), elbow, wrist, continuity=0.0)
+    ok = ~res.elbow_singular & ~res.gimbal_lock
+    np.testing.assert_allclose(res.q[ok], q[ok], atol=1e-9)
+    # the thesis's gimbal lock is the arm pointing forwards (ISB: plane 90, elevation 90): flagged
+    e, w = arm_fk(np.array([[90 * DEG, 90 * DEG, 0.0, 1.0]]), L1, L2)
+    assert thesis_ik(np.zeros((1, 3)), e, w).gimbal_lock[0]
 
 
-def test_straight_arm_rotation_interpolated_and_flagged():
-    t = np.linspace(0, 2, 121)
-    elbow_flex = np.deg2rad(60) * np.abs(np.cos(np.pi * t / 2))  # straightens at t = 1
-    q = np.stack([0.4 + 0 * t, -0.3 + 0 * t, np.deg2rad(30) + np.deg2rad(10) * t, elbow_flex], 1)
-    elbow, wrist = arm_fk(q, L1, L2)
-    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
-    singular = res.elbow_singular
-    assert singular.any() and singular[60] and not singular[0]
-    assert np.isfinite(res.q).all()
-    # rotation is interpolated across the straight-arm frames: within 1 deg of the (linear) truth
-    assert np.abs(res.q[:, 2] - q[:, 2]).max() < np.deg2rad(1.0)
-    np.testing.assert_allclose(arm_fk(res.q, L1, L2)[1], wrist, atol=1e-9)  # wrist still exact
-
-
-def test_gimbal_lock_abduction_interpolated():
-    t = np.linspace(0, 2, 121)
-    flex = -np.pi / 2 + np.deg2rad(30) * (t - 1)  # passes through -90 deg (arm pointing forwards)
-    q = np.stack([np.deg2rad(20) * np.ones_like(t), flex, 0.3 + 0 * t, 1.2 + 0 * t], 1)
-    elbow, wrist = arm_fk(q, L1, L2)
-    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
-    assert res.shoulder_singular[60] and not res.shoulder_singular[0]
-    np.testing.assert_allclose(arm_fk(res.q, L1, L2)[0], elbow, atol=1e-9)
-    np.testing.assert_allclose(arm_fk(res.q, L1, L2)[1], wrist, atol=1e-9)
-    assert np.abs(np.diff(res.q, axis=0)).max() < np.deg2rad(5)
-
-
-def test_limits_clamped_and_flagged():
-    # arm raised sideways above horizontal (abduction 120 deg): outside the model's range
-    a = np.deg2rad(120)
-    elbow = L1 * np.array([[0.0, -np.sin(a), -np.cos(a)]])
-    res = arm_ik(np.zeros((1, 3)), elbow, elbow + [[0.2, 0.0, 0.0]])
-    assert res.clamped[0]
-    assert np.all(res.q >= LIMITS[0]) and np.all(res.q <= LIMITS[1])
-
-
-def test_bad_shapes():
+def test_bad_input():
     with pytest.raises(ValueError, match=r"elbow must have shape \(T, 3\)"):
         arm_ik(np.zeros((2, 3)), np.zeros((2, 2)), np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="singular_deg"):
+        arm_ik(np.zeros((2, 3)), np.ones((2, 3)), np.ones((2, 3)), singular_deg=60.0)

@@ -64,6 +64,40 @@ def test_synthetic_ground_truth_accuracy(corrupted, side):
     assert result.segment_lengths["forearm"] == pytest.approx(0.26, abs=0.01)
 
 
+def _wrapped_rmse_deg(a, b, rows):
+    d = (a[rows] - b[rows] + np.pi) % (2 * np.pi) - np.pi
+    return np.rad2deg(np.sqrt(np.mean(d**2, axis=0)))
+
+
+@pytest.mark.parametrize("motion", ["overhead", "behind_back", "through_singular"])
+@pytest.mark.parametrize("side", ["right", "left"])
+def test_full_range_of_motion(motion, side):
+    """The same thresholds as the default motions (see above) over the full range: arm raised above the
+    head (elevation up to ~165 deg), behind the back (plane of elevation -80..-30 deg, internally
+    rotated), and swinging through hanging and straight up, where the plane of elevation and the axial
+    rotation are undefined: there they are compared at least 0.5 s away from a flagged frame, and the
+    elevation, the elbow and the torques everywhere."""
+    rec = synthetic_recording(duration=20.0, seed=7, noise=0.01, dropouts=12, long_gap=0.5, outlier_burst=True,
+                              swap=True, motion=motion)  # fmt: skip
+    result = analyze_arm(rec.skeleton, side=side)
+    truth = rec.q[side]
+    ok = np.isfinite(result.q).all(1)
+    flagged = result.flags["shoulder_singular"] | result.flags["elbow_singular"]
+    far = ok & ~(np.convolve(flagged.astype(float), np.ones(31), "same") > 0)
+    assert far.mean() > 0.2
+    angle = _wrapped_rmse_deg(result.q, truth, far)
+    assert np.all(angle[[0, 1, 3]] < 4.0) and angle[2] < 8.0, angle
+    assert np.all(_wrapped_rmse_deg(result.q, truth, ok)[[1, 3]] < 4.0)  # elevation, elbow: everywhere
+    torque = _rmse(result.tau, rec.tau[side])
+    assert np.all(torque[:3] < 1.0) and torque[3] < 0.6, torque
+    peak = np.rad2deg(truth[ok, 1].max())
+    assert np.rad2deg(result.q[ok, 1].max()) == pytest.approx(peak, abs=4.0)  # nothing capped
+    if motion == "overhead":
+        assert peak > 150.0
+    if motion == "through_singular":
+        assert result.flags["shoulder_singular"].sum() > 50 and np.rad2deg(truth[:, 1]).min() < 5.0
+
+
 def test_without_swap_repair_the_error_is_large(corrupted):
     """The swap matters: without repair the right-arm angles over that second are the left arm's."""
     result = analyze_arm(corrupted.skeleton, side="right", repair_swaps_=False)
@@ -108,7 +142,16 @@ def test_outputs(tmp_path):
     assert result.positions.shape == result.raw_positions.shape == result.reconstructed.shape == (90, 3, 3)
     csv = result.to_csv(tmp_path / "a.csv")
     header = csv.read_text().splitlines()[0].split(",")
-    assert header[:5] == ["time_s", "abduction_deg", "flexion_deg", "rotation_deg", "elbow_flexion_deg"]
+    assert header[:5] == [
+        "time_s",
+        "plane_of_elevation_deg",
+        "elevation_deg",
+        "axial_rotation_deg",
+        "elbow_flexion_deg",
+    ]
+    assert {"thesis_abduction_deg", "thesis_flexion_deg", "shoulder_singular", "elbow_singular"} <= set(
+        header
+    )
     assert "elbow_flexion_torque_Nm" in header and len(csv.read_text().splitlines()) == 91
     data = np.genfromtxt(csv, delimiter=",", skip_header=1)
     np.testing.assert_allclose(data[:, 1:5], np.rad2deg(result.q), rtol=1e-5, atol=1e-4)
@@ -116,13 +159,14 @@ def test_outputs(tmp_path):
     result.to_mot(mot)
     lines = mot.read_text().splitlines()
     assert lines[1:6] == ["version=1", "nRows=90", "nColumns=9", "inDegrees=yes", "endheader"]
-    assert lines[6].split("\t")[:3] == ["time", "right_abduction", "right_flexion"]
+    assert lines[6].split("\t")[:3] == ["time", "right_plane_of_elevation", "right_elevation"]
     doc = json.loads(result.to_json(tmp_path / "a.json").read_text())
     assert doc["subject"] == {"body_mass": 60.0, "sex": "female", "hand_load": 0.0}
     assert doc["summary"]["frames"] == 90 and doc["quality"]["gaps_left"][0]["joint"] == "wrist_right"
     assert len(doc["frames"]["time_s"]) == 90
     summary = result.summary()
-    assert summary["abduction_rom_deg"] > 5 and summary["flexion_peak_torque_Nm"] > 1
+    assert summary["elevation_rom_deg"] > 5 and summary["elevation_peak_torque_Nm"] > 1
+    assert summary["abduction_rom_deg"] > 5  # the thesis's angles, derived
 
 
 def test_plots_and_gif(tmp_path):

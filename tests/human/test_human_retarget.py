@@ -13,13 +13,14 @@ from lfd.robots import load_robot
 
 
 def human_motion(seed: int, duration: float = 4.0, rate: float = 30.0, side: str = "right"):
-    """Known human-arm angles (sums of sines inside the limits) -> trunk-frame shoulder, elbow, wrist."""
+    """Known human-arm angles (ISB, sums of sines around the arm raised 50 deg in front of the frontal
+    plane) -> trunk-frame shoulder, elbow, wrist."""
     rng = np.random.default_rng(seed)
     t = np.arange(int(duration * rate)) / rate
     freq = rng.uniform(0.15, 0.5, (4, 2))
     phase = rng.uniform(0, 2 * np.pi, (4, 2))
     amp = np.deg2rad([[15, 10], [20, 15], [20, 10], [25, 15]])
-    q, _, _ = _sines(t, np.deg2rad([30.0, -40.0, 10.0, 70.0]), amp, freq, phase)
+    q, _, _ = _sines(t, np.deg2rad([40.0, 50.0, 10.0, 70.0]), amp, freq, phase)
     elbow, wrist = arm_fk(q, 0.30, 0.26)
     shoulder = np.array([0.0, -0.18 if side == "right" else 0.18, 0.0])
     pts = [shoulder + mirror(p, side) for p in (np.zeros_like(elbow), elbow, wrist)]

@@ -60,7 +60,7 @@ def test_batch_mode_writes_summary(tmp_path):
     assert [r["file"] for r in rows] == ["a.csv", "b.trc", "broken.csv"]
     assert rows[0]["status"] == rows[1]["status"] == "ok"
     assert rows[2]["status"].startswith("error:") and "missing" in rows[2]["status"]
-    assert 0 < float(rows[0]["abduction_rom_deg"]) < 180 and float(rows[0]["flexion_peak_torque_Nm"]) > 0
+    assert 0 < float(rows[0]["abduction_rom_deg"]) < 180 and float(rows[0]["elevation_peak_torque_Nm"]) > 0
     assert (out / "a" / "arm.csv").exists() and (out / "b" / "arm.mot").exists()
 
 

@@ -147,24 +147,30 @@ def test_human_arm_masses_and_centres_of_mass(sex):
     np.testing.assert_allclose(spec.link_coms[2], [0, 0, -0.577 * 0.32])
     forearm_hand_com = (forearm * 0.457 * 0.25 + hand * (0.25 + 0.5 * 0.18)) / (forearm + hand)
     np.testing.assert_allclose(spec.link_coms[3], [0, 0, -forearm_hand_com])
-    np.testing.assert_allclose(robot.lower, np.array([-90, -130, -90, 0]) * DEG)
-    np.testing.assert_allclose(robot.upper, np.array([90, 45, 90, 150]) * DEG)
+    np.testing.assert_allclose(robot.lower, np.array([-100, 0, -90, 0]) * DEG)
+    np.testing.assert_allclose(robot.upper, np.array([160, 180, 90, 150]) * DEG)
 
 
 def test_human_arm_joint_conventions():
+    # ISB shoulder (plane of elevation, elevation, axial rotation) and elbow flexion
     robot = load_robot("human_arm", upper_arm_length=0.3, forearm_length=0.25)
     right = np.pi / 2
-    rows = [[0.0, 0, 0, 0], [right, 0, 0, 0], [0, -right, 0, 0], [0, 0, 0, right], [0, 0, right, right]]
+    rows = [[0.0, 0, 0, 0], [0, right, 0, 0], [right, right, 0, 0], [0, np.pi, 0, 0], [0, 0, 0, right],
+            [0, 0, right, right], [-right, right / 2, 0, 0]]  # fmt: skip
     q = torch.tensor(rows, dtype=torch.float64)
     frames = robot.fk(q, all_links=True).numpy()
     elbow, wrist = frames[:, 3, :3, 3], frames[:, 4, :3, 3]
     np.testing.assert_allclose(wrist[0], [0, 0, -0.55], atol=1e-12)  # hanging straight down
-    np.testing.assert_allclose(elbow[1], [0, -0.3, 0], atol=1e-12)  # abduction: sideways, away from the body
-    np.testing.assert_allclose(elbow[2], [0.3, 0, 0], atol=1e-12)  # negative flexion: forwards
-    np.testing.assert_allclose(wrist[3], [0.25, 0, -0.3], atol=1e-12)  # elbow flexion: forearm forwards
     np.testing.assert_allclose(
-        wrist[4], [0, 0.25, -0.3], atol=1e-12
+        elbow[1], [0, -0.3, 0], atol=1e-12
+    )  # plane 0: abduction, sideways away from the body
+    np.testing.assert_allclose(elbow[2], [0.3, 0, 0], atol=1e-12)  # plane 90 deg: forward flexion
+    np.testing.assert_allclose(elbow[3], [0, 0, 0.3], atol=1e-12)  # elevation 180 deg: straight up
+    np.testing.assert_allclose(wrist[4], [0.25, 0, -0.3], atol=1e-12)  # elbow flexion: forearm forwards
+    np.testing.assert_allclose(
+        wrist[5], [0, 0.25, -0.3], atol=1e-12
     )  # internal rotation: forearm towards the body
+    assert elbow[6, 0] < -0.2  # negative plane: the arm behind the body (extension)
 
 
 @pytest.mark.parametrize(

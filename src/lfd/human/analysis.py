@@ -1,8 +1,11 @@
 """The arm-analysis pipeline (docs/human.md) and its result type :class:`ArmAnalysis`.
 
 skeleton -> left/right swap repair -> (Hampel) -> bone-length outliers -> short-gap
-interpolation -> filter (Butterworth or median) -> trunk frame -> closed-form 4-DoF IK ->
-smooth fit (spline or CV polynomial) -> velocities, accelerations -> Newton-Euler torques.
+interpolation -> filter (Butterworth or median) -> trunk frame -> closed-form IK in the ISB
+convention (plane of elevation, elevation, axial rotation, elbow flexion; no clamping,
+singular poses by continuity) -> smooth fit (spline or CV polynomial) -> velocities,
+accelerations -> Newton-Euler torques; the thesis's abduction/flexion/rotation are derived
+from the fitted pose (:mod:`lfd.human.thesis_angles`).
 
 Example (runnable)::
 
@@ -25,7 +28,7 @@ import numpy as np
 
 from lfd.io.files import write_text_atomic
 
-from .arm_ik import LIMITS, arm_fk, arm_ik, mirror
+from .arm_ik import arm_fk, arm_ik, canonical_angles, mirror
 from .cleaning import fill_gaps, repair_swaps
 from .dynamics import arm_model, arm_torques
 from .filters import FILTERS, filter_positions, hampel_filter
@@ -33,11 +36,14 @@ from .fit import FITS, fit_derivatives
 from .plausibility import check_body_mass
 from .readers import read_skeleton
 from .skeleton import Skeleton
+from .thesis_angles import thesis_ik
 from .trunk import to_trunk, trunk_frames
 
-__all__ = ["JOINT_NAMES", "ArmAnalysis", "analyze_arm"]
+__all__ = ["JOINT_NAMES", "THESIS_NAMES", "ArmAnalysis", "analyze_arm"]
 
-JOINT_NAMES = ("abduction", "flexion", "rotation", "elbow_flexion")
+JOINT_NAMES = ("plane_of_elevation", "elevation", "axial_rotation", "elbow_flexion")
+THESIS_NAMES = ("abduction", "flexion", "rotation")
+_FLAGS = ("shoulder_singular", "elbow_singular", "thesis_gimbal_lock", "thesis_outside_range")
 _GRAVITY = 9.81
 _DEFAULT_HAND_LENGTH = {"male": 0.19, "female": 0.18}
 
@@ -48,7 +54,8 @@ class ArmAnalysis:
 
     Attributes:
         t: (T,) s.
-        q: (T, 4) rad, fitted joint angles (abduction, flexion, rotation, elbow flexion).
+        q: (T, 4) rad, fitted joint angles (``JOINT_NAMES``: ISB plane of elevation, elevation,
+            axial rotation, then elbow flexion; plane and rotation unwrapped, see :mod:`lfd.human.arm_ik`).
         qd: (T, 4) rad/s. qdd: (T, 4) rad/s^2 (derivatives of the fit).
         tau: (T, 4) N m, joint torques (Newton-Euler, gravity in the trunk frame).
         q_ik: (T, 4) rad, the per-frame IK solution before the fit.
@@ -57,9 +64,14 @@ class ArmAnalysis:
         reconstructed: (T, 3, 3) m, shoulder, elbow, wrist of the model at ``q`` (FK).
         gravity: (T, 3) m/s^2, gravity in the trunk frame.
         segment_lengths: upper_arm, forearm, hand (m; median bone lengths of the data).
-        quality: counts and frame lists: gaps filled / left, swaps repaired, singular and
-            clamped frames, outliers.
+        quality: counts and frame lists: gaps filled / left, swaps repaired, singular frames,
+            outliers.
         side, subject (body_mass, sex, hand_load), settings, source.
+        thesis: (T, 3) rad, the thesis's abduction, flexion, rotation of the fitted pose
+            (derived; gimbal lock with the upper arm along x, see :mod:`lfd.human.thesis_angles`).
+        flags: per-frame (T,) bool arrays: ``shoulder_singular`` (arm hanging or straight up,
+            plane interpolated), ``elbow_singular`` (straight elbow, rotation interpolated),
+            ``thesis_gimbal_lock``, ``thesis_outside_range`` (thesis angles beyond the thesis's range).
     """
 
     t: np.ndarray
@@ -78,10 +90,13 @@ class ArmAnalysis:
     subject: dict
     settings: dict
     source: str = ""
+    thesis: np.ndarray | None = None
+    flags: dict = dataclasses.field(default_factory=dict)
 
     # ------------------------------------------------------------------ summaries
     def summary(self) -> dict:
-        """Range of motion (deg) and peak absolute torque (N m) per joint, plus quality counts."""
+        """Per ISB joint min, max, range of motion and mean (deg) and peak absolute torque (N m); min,
+        max, range of the derived thesis angles (deg); quality counts."""
         out: dict = {"source": self.source, "side": self.side, "frames": int(len(self.t)),
                      "duration_s": float(self.t[-1] - self.t[0]) if len(self.t) else 0.0}  # fmt: skip
         deg = np.rad2deg(self.q)
@@ -91,14 +106,25 @@ class ArmAnalysis:
             out[f"{name}_min_deg"] = float(col.min()) if col.size else float("nan")
             out[f"{name}_max_deg"] = float(col.max()) if col.size else float("nan")
             out[f"{name}_rom_deg"] = float(col.max() - col.min()) if col.size else float("nan")
+            out[f"{name}_mean_deg"] = float(col.mean()) if col.size else float("nan")
             out[f"{name}_peak_torque_Nm"] = float(tau.max()) if tau.size else float("nan")
+        thesis = np.rad2deg(self._thesis())
+        for j, name in enumerate(THESIS_NAMES):
+            col = thesis[:, j][np.isfinite(thesis[:, j])]
+            out[f"{name}_min_deg"] = float(col.min()) if col.size else float("nan")
+            out[f"{name}_max_deg"] = float(col.max()) if col.size else float("nan")
+            out[f"{name}_rom_deg"] = float(col.max() - col.min()) if col.size else float("nan")
         for key in ("gaps_filled", "gaps_left", "swap_frames", "elbow_singular_frames", "shoulder_singular_frames",
-                    "clamped_frames", "outliers", "missing_frames"):  # fmt: skip
+                    "thesis_gimbal_lock_frames", "outliers", "missing_frames"):  # fmt: skip
             out[key] = self.quality.get(key)
         return out
 
+    def _thesis(self) -> np.ndarray:
+        return np.full((len(self.t), 3), np.nan) if self.thesis is None else self.thesis
+
     def table(self) -> dict[str, np.ndarray]:
-        """Per-frame columns (degrees at this edge): angles, velocities, accelerations, torques, positions."""
+        """Per-frame columns (degrees at this edge): ISB angles, velocities, accelerations, torques, the
+        derived thesis angles, the singular-pose flags (0/1) and positions."""
         cols: dict[str, np.ndarray] = {"time_s": self.t}
         for j, name in enumerate(JOINT_NAMES):
             cols[f"{name}_deg"] = np.rad2deg(self.q[:, j])
@@ -108,6 +134,10 @@ class ArmAnalysis:
             cols[f"{name}_acc_deg_s2"] = np.rad2deg(self.qdd[:, j])
         for j, name in enumerate(JOINT_NAMES):
             cols[f"{name}_torque_Nm"] = self.tau[:, j]
+        for j, name in enumerate(THESIS_NAMES):
+            cols[f"thesis_{name}_deg"] = np.rad2deg(self._thesis()[:, j])
+        for name in _FLAGS:
+            cols[name] = np.asarray(self.flags.get(name, np.zeros(len(self.t), bool)), float)
         for i, joint in enumerate(("shoulder", "elbow", "wrist")):
             for k, axis in enumerate("xyz"):
                 cols[f"{joint}_{axis}_m"] = self.positions[:, i, k]
@@ -124,7 +154,7 @@ class ArmAnalysis:
         return write_text_atomic(path, "\n".join(lines) + "\n")
 
     def to_mot(self, path: str | os.PathLike) -> Path:
-        """Write an OpenSim motion file: time, the four angles (deg) and the joint moments (N m)."""
+        """Write an OpenSim motion file: time, the four ISB angles (deg) and the joint moments (N m)."""
         names = [f"{self.side}_{n}" for n in JOINT_NAMES] + [f"{self.side}_{n}_moment" for n in JOINT_NAMES]
         data = np.column_stack([self.t, np.rad2deg(self.q), self.tau])
         header = [Path(path).stem, "version=1", f"nRows={len(data)}", f"nColumns={data.shape[1]}",
@@ -250,7 +280,8 @@ def analyze_arm(
             ``spline_cutoff`` Hz (``None``: generalised cross-validation).
         hand_load: kg held in the hand. hand_length: m (default: median wrist to hand tip
             from the data when that is plausible, 0.12-0.25 m, else 0.19 m male / 0.18 m female).
-        singular_deg: threshold of the straight-arm / gimbal-lock cases (deg).
+        singular_deg: threshold of the singular poses (deg): arm hanging or straight up (plane
+            of elevation undefined), straight elbow (axial rotation undefined).
         gravity: m/s^2, magnitude along ``-skeleton.up``.
 
     Returns:
@@ -337,7 +368,9 @@ def analyze_arm(
     lengths["hand"] = float(hand_length) if hand_length is not None else _DEFAULT_HAND_LENGTH[sex]
 
     model_pos = mirror(positions - positions[:, :1], side)  # right-arm model, shoulder at the origin
-    ik = arm_ik(model_pos[:, 0], model_pos[:, 1], model_pos[:, 2], "right", singular_deg=singular_deg)
+    ik = arm_ik(
+        model_pos[:, 0], model_pos[:, 1], model_pos[:, 2], "right", singular_deg=singular_deg, canonical=False
+    )
     missing_frames = ~np.isfinite(ik.q).all(1)
     options = (
         {"max_order": poly_max_order, "window": poly_window}
@@ -345,23 +378,33 @@ def analyze_arm(
         else {"cutoff": spline_cutoff}
     )
     q, qd, qdd = fit_derivatives(t, ik.q, fit, **options)
-    # The fit may overshoot a limit the IK clamped to; the reported angles respect the limits.
-    q = np.where(np.isfinite(q), np.clip(q, LIMITS[0], LIMITS[1]), np.nan)
 
     g_source = -gravity * skeleton.up
     g_trunk = mirror(np.einsum("tij,i->tj", rotation, g_source), side)
     robot = arm_model(lengths["upper_arm"], lengths["forearm"], lengths["hand"], body_mass, sex, hand_load)
     tau = arm_torques(robot, q, qd, qdd, g_trunk)
+    # fitted on the continuous branch (smooth through hanging / straight up), reported in the ISB form
+    q, qd, qdd, tau = canonical_angles(q, qd, qdd, tau)
 
     elbow, wrist = arm_fk(np.nan_to_num(q), lengths["upper_arm"], lengths["forearm"])
     recon = mirror(np.stack([np.zeros_like(elbow), elbow, wrist], 1), side) + positions[:, :1]
     recon[missing_frames | ~np.isfinite(q).all(1)] = np.nan
+    fitted_ok = np.isfinite(q).all(1)
+    thesis = np.full((len(t), 3), np.nan)
+    derived = thesis_ik(
+        np.zeros_like(elbow[fitted_ok]), elbow[fitted_ok], wrist[fitted_ok], singular_deg=singular_deg
+    )
+    thesis[fitted_ok] = derived.q[:, :3]
+    flags = {"shoulder_singular": ik.shoulder_singular & ~missing_frames,
+             "elbow_singular": ik.elbow_singular & ~missing_frames,
+             "thesis_gimbal_lock": np.zeros(len(t), bool), "thesis_outside_range": np.zeros(len(t), bool)}  # fmt: skip
+    flags["thesis_gimbal_lock"][fitted_ok] = derived.gimbal_lock
+    flags["thesis_outside_range"][fitted_ok] = derived.outside_range
 
     quality.update(
-        elbow_singular_frames=int((ik.elbow_singular & ~missing_frames).sum()),
-        shoulder_singular_frames=int((ik.shoulder_singular & ~missing_frames).sum()),
-        clamped_frames=int(ik.clamped.sum()),
-        branch_switches=int((np.diff(ik.branch) != 0).sum()),
+        elbow_singular_frames=int(flags["elbow_singular"].sum()),
+        shoulder_singular_frames=int(flags["shoulder_singular"].sum()),
+        thesis_gimbal_lock_frames=int(flags["thesis_gimbal_lock"].sum()),
         missing_frames=int(missing_frames.sum()),
     )
     settings = dict(
@@ -382,7 +425,9 @@ def analyze_arm(
         rate_hz=rate,
     )
     return ArmAnalysis(
-        t=t, q=q, qd=qd, qdd=qdd, tau=tau, q_ik=ik.q, positions=positions, raw_positions=raw_positions,
+        t=t, q=q, qd=qd, qdd=qdd, tau=tau, q_ik=canonical_angles(ik.q)[0], positions=positions,
+        raw_positions=raw_positions,
         reconstructed=recon, gravity=mirror(g_trunk, side), segment_lengths=lengths, quality=quality, side=side,
         subject={"body_mass": body_mass, "sex": sex, "hand_load": hand_load}, settings=settings, source=skeleton.source,
+        thesis=thesis, flags=flags,
     )  # fmt: skip

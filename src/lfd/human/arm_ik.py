@@ -1,41 +1,47 @@
-r"""Closed-form inverse kinematics of the 4-DoF human arm (docs/human.md), both sides.
+r"""Closed-form inverse kinematics of the human arm in the ISB convention (docs/human.md), both sides.
 
-Model (``load_robot("human_arm")``, right arm, base at the shoulder, x forward, y left,
-z up, all angles zero = arm hanging down): ``R_12 = Rx(-q1) Ry(q2)`` (abduction about -x,
-then flexion about the moved y), rotation ``q3`` about the upper-arm axis, elbow flexion
-``q4`` about -y of the upper arm. With ``L1``, ``L2`` the upper-arm and forearm lengths
+Shoulder angles follow the ISB recommendation (Wu et al. 2005, J. Biomech. 38:981): the
+humerus relative to the thorax as a Y-X-Y Euler sequence, *plane of elevation* ``phi``
+(about the thorax's vertical axis; 0 = the frontal plane, i.e. abduction, 90 deg = the
+sagittal plane in front, i.e. forward flexion, negative = behind the body), *elevation*
+``theta`` (0 = arm hanging, 180 deg = straight up; ISB's "negative rotation about the moved
+X") and *axial rotation* ``psi`` about the humerus (positive = internal); then elbow
+flexion ``q4`` (0 = straight). OpenSim's upper-limb models (``elv_angle``, ``shoulder_elv``,
+``shoulder_rot``) use the same sequence.
+
+Model (``load_robot("human_arm")``, right arm, base at the shoulder, trunk frame x forward,
+y left, z up, so ISB's thorax X, Y, Z are our x, z, -y):
+``R = Rz(phi) Rx(-theta) Rz(psi)``, upper-arm direction ``u = R (0, 0, -1)`` and forearm
+direction ``f = R (sin q4, 0, -cos q4)``, i.e.
 
 .. math::
 
-    e = L_1\,u,\quad u = R_{12}\,(0, 0, -1) = (-\sin q_2,\; -\cos q_2 \sin q_1,\; -\cos q_2 \cos q_1)
+    u = (\sin\theta \sin\varphi,\; -\sin\theta \cos\varphi,\; -\cos\theta)
 
-    w - e = L_2\,f,\quad f = R_{12} R_z(q_3)\,(\sin q_4,\; 0,\; -\cos q_4)
+Solution: ``theta = arccos(-u_z)`` (in ``[0, pi]``, always exact), ``phi = atan2(u_x, -u_y)``,
+``q4 = arccos(u . f)`` (in ``[0, pi]``), ``psi = atan2(d_y, d_x)`` with
+``d = (Rz(phi) Rx(-theta))^T f = (cos psi sin q4, sin psi sin q4, -cos q4)``.
 
-Derivation (ours; the thesis' formulas are not used):
-
-* elbow flexion: ``u . f = (0, 0, -1) . Rz(q3) (sin q4, 0, -cos q4) = cos q4``, so
-  ``q4 = arccos(u . f)``, the angle between the upper-arm and forearm *directions* (0 =
-  straight arm), unique in ``[0, pi]``;
-* shoulder: ``q2 = arcsin(-u_x)``, ``q1 = atan2(-u_y, -u_z)`` (branch A, ``cos q2 > 0``)
-  or ``q2 = pi - arcsin(-u_x)``, ``q1 = atan2(u_y, u_z)`` (branch B, ``cos q2 < 0``);
-  the two give the same elbow, and branch B's upper-arm frame is branch A's turned by
-  ``pi`` about the arm, so its rotation is ``q3 + pi``;
-* rotation: ``d = R_12^T f = (cos q3 sin q4, sin q3 sin q4, -cos q4)``, so
-  ``q3 = atan2(d_y, d_x)``.
-
-Singular cases: the straight arm (``sin q4 ~ 0``) leaves ``q3`` undefined, and the arm
-pointing along the x axis (``cos q2 ~ 0``) leaves ``q1`` undefined (gimbal lock). Those
-frames are flagged; the undefined angle is interpolated in time from the well-defined
-frames around it (held at the ends), then the others are recomputed from it so the
-elbow and wrist stay exact. The branch sequence minimises the limit violation plus the
-frame-to-frame angle change (a two-state Viterbi recursion), so it switches only where the
-branches meet or where the limits demand it, never back and forth on noise; angles still
-outside the limits (poses the model cannot reach, e.g. the arm raised sideways above the
-shoulder) are clamped and flagged.
+Singular poses are handled by continuity, never by clamping. Every pose has a second
+description ``(phi + pi, -theta, psi + pi)``; frame by frame the one nearest to the previous
+frame is kept (the *continuous branch*), so a swing through hanging keeps its plane and the
+elevation passes through 0 (through straight up: beyond 180 deg) instead of the plane turning
+by 180 deg in one frame. With the arm within ``singular_deg`` of hanging or straight up the
+plane is undefined (only ``phi + psi``, resp. ``phi - psi``, is): it is interpolated in time
+between the well-defined frames around it (held at the ends; 0 if the arm never leaves the
+singular zone), the elevation keeps its exact magnitude (on the neighbours' side of the
+singular pose; on a swing through, the side changes once, at the frame nearest to it), and
+``psi`` is recomputed from the interpolated plane, which keeps the forearm's orientation.
+With a straight elbow ``psi`` is undefined and is interpolated. Those frames are flagged.
+``phi`` and ``psi`` are unwrapped over time (no 360 deg jumps) and shifted by whole turns so
+that their medians lie in ``(-180, 180]`` deg. By default the result is returned in the ISB
+form (:func:`canonical_angles`: elevation in ``[0, 180]`` deg, the plane turning by 180 deg
+where the arm passes through hanging); ``canonical=False`` keeps the continuous branch, the
+one to fit smooth trajectories and derivatives on (what :func:`lfd.human.analyze_arm` does
+before converting the fit, its derivatives and torques to the ISB form).
 
 The left arm is solved as the mirror image (``y -> -y`` in the trunk frame) of a right
-arm, so its angles carry the same anatomical meaning (positive abduction raises the arm
-sideways, away from the body, on either side).
+arm, so its angles carry the same anatomical meaning on either side.
 """
 
 from __future__ import annotations
@@ -44,10 +50,8 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["LIMITS", "ArmIKResult", "arm_fk", "arm_ik", "mirror"]
+__all__ = ["ArmIKResult", "arm_fk", "arm_frames", "arm_ik", "canonical_angles", "mirror", "unwrap_finite"]
 
-# (abduction, flexion, rotation, elbow flexion) limits in rad, those of load_robot("human_arm").
-LIMITS = np.deg2rad(np.array([[-90.0, -130.0, -90.0, 0.0], [90.0, 45.0, 90.0, 150.0]]))
 _MIRROR = np.array([1.0, -1.0, 1.0])
 
 
@@ -60,29 +64,50 @@ def mirror(points: np.ndarray, side: str) -> np.ndarray:
     raise ValueError(f"side must be 'left' or 'right', got {side!r}")
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + np.pi) % (2 * np.pi) - np.pi
+def _rz(a: np.ndarray) -> np.ndarray:
+    c, s, z, o = np.cos(a), np.sin(a), np.zeros_like(a), np.ones_like(a)
+    return np.stack([c, -s, z, s, c, z, z, z, o], -1).reshape(*np.shape(a), 3, 3)
 
 
-def _r12(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
-    """(T, 3, 3) ``Rx(-q1) @ Ry(q2)``."""
-    c1, s1, c2, s2 = np.cos(q1), np.sin(q1), np.cos(q2), np.sin(q2)
-    zero = np.zeros_like(q1)
-    rx = np.stack([np.ones_like(q1), zero, zero, zero, c1, s1, zero, -s1, c1], -1).reshape(-1, 3, 3)
-    ry = np.stack([c2, zero, s2, zero, np.ones_like(q1), zero, -s2, zero, c2], -1).reshape(-1, 3, 3)
-    return rx @ ry
+def _rx(a: np.ndarray) -> np.ndarray:
+    c, s, z, o = np.cos(a), np.sin(a), np.zeros_like(a), np.ones_like(a)
+    return np.stack([o, z, z, z, c, -s, z, s, c], -1).reshape(*np.shape(a), 3, 3)
+
+
+def arm_frames(q: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) orientation of the upper arm (humerus) in the trunk frame, ``Rz(phi) Rx(-theta) Rz(psi)``."""
+    q = np.asarray(q, dtype=float)
+    return _rz(q[:, 0]) @ _rx(-q[:, 1]) @ _rz(q[:, 2])
 
 
 def arm_fk(q: np.ndarray, upper_arm_length: float, forearm_length: float) -> tuple[np.ndarray, np.ndarray]:
-    """Elbow and wrist positions ``(T, 3)`` each, m, of the right-arm model (shoulder at 0)."""
+    """Elbow and wrist positions ``(T, 3)`` each, m, of the right-arm model (shoulder at 0) at ``q (T, 4)`` rad."""
     q = np.asarray(q, dtype=float)
-    r12 = _r12(q[:, 0], q[:, 1])
-    u = -r12[:, :, 2]
-    c3, s3, c4, s4 = np.cos(q[:, 2]), np.sin(q[:, 2]), np.cos(q[:, 3]), np.sin(q[:, 3])
-    d = np.stack([c3 * s4, s3 * s4, -c4], -1)
-    f = np.einsum("tij,tj->ti", r12, d)
-    elbow = upper_arm_length * u
-    return elbow, elbow + forearm_length * f
+    r = arm_frames(q)
+    local = np.stack([np.sin(q[:, 3]), np.zeros(len(q)), -np.cos(q[:, 3])], -1)
+    elbow = -upper_arm_length * r[:, :, 2]
+    return elbow, elbow + forearm_length * np.einsum("tij,tj->ti", r, local)
+
+
+def unwrap_finite(a: np.ndarray) -> np.ndarray:
+    """Unwrap an angle series (rad) over its finite samples (NaN kept), then shift it by whole turns
+    so that its median lies in ``(-pi, pi]``."""
+    out = np.array(a, dtype=float)
+    ok = np.isfinite(out)
+    if ok.any():
+        out[ok] = np.unwrap(out[ok])
+        out[ok] -= 2 * np.pi * np.round((np.median(out[ok]) - 1e-12) / (2 * np.pi))
+    return out
+
+
+def _interpolate_over(values: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    """Fill ``values[bad]`` by linear interpolation over frame index from the finite values of the other
+    frames (held at the ends; 0 when there are none)."""
+    good = ~bad & np.isfinite(values)
+    if not good.any():
+        return np.where(bad, 0.0, values)
+    idx = np.arange(len(values))
+    return np.where(bad, np.interp(idx, idx[good], values[good]), values)
 
 
 @dataclasses.dataclass
@@ -90,78 +115,16 @@ class ArmIKResult:
     """Joint angles and per-frame flags of :func:`arm_ik`.
 
     Attributes:
-        q: (T, 4) rad (abduction, flexion, rotation, elbow flexion); NaN where the input is.
-        elbow_singular: (T,) bool, arm (nearly) straight, rotation interpolated.
-        shoulder_singular: (T,) bool, upper arm (nearly) along the x axis, abduction interpolated.
-        clamped: (T,) bool, some angle was outside the limits and was clamped.
-        branch: (T,) int8, 0 = branch A (cos q2 > 0), 1 = branch B.
+        q: (T, 4) rad (plane of elevation, elevation, axial rotation, elbow flexion); NaN where
+            the input is. Elevation in ``[0, pi]``, elbow flexion in ``[0, pi]``; plane and
+            rotation unwrapped (continuous, may leave ``(-pi, pi]``).
+        shoulder_singular: (T,) bool, arm (nearly) hanging or straight up, plane interpolated.
+        elbow_singular: (T,) bool, elbow (nearly) straight, axial rotation interpolated.
     """
 
     q: np.ndarray
-    elbow_singular: np.ndarray
     shoulder_singular: np.ndarray
-    clamped: np.ndarray
-    branch: np.ndarray
-
-
-def _interpolate_over(values: np.ndarray, bad: np.ndarray) -> np.ndarray:
-    """Replace ``values[bad]`` by linear interpolation over frame index from good finite frames."""
-    good = ~bad & np.isfinite(values)
-    if not good.any():
-        return np.where(np.isfinite(values), 0.0, np.nan)
-    idx = np.arange(len(values))
-    filled = np.interp(idx, idx[good], values[good])
-    return np.where(bad & np.isfinite(values), filled, values)
-
-
-def _violation(q: np.ndarray, ignore: np.ndarray | None = None) -> np.ndarray:
-    v = np.maximum(LIMITS[0] - q, 0) + np.maximum(q - LIMITS[1], 0)
-    if ignore is not None:
-        v = np.where(ignore, 0.0, v)
-    return v.sum(-1)
-
-
-def _angle_step(a: np.ndarray, b: np.ndarray, ignore: np.ndarray) -> np.ndarray:
-    """Sum over joints of the wrapped angle change from ``a`` (frame t-1) to ``b`` (frame t), (T-1,)."""
-    d = np.abs(_wrap(b - a))
-    return np.where(ignore | ~np.isfinite(d), 0.0, d).sum(-1)
-
-
-def _choose_branch(qa: np.ndarray, qb: np.ndarray, cost_a: np.ndarray, cost_b: np.ndarray,
-                   ignore: np.ndarray, weight: float) -> np.ndarray:  # fmt: skip
-    """Branch per frame minimising ``sum_t violation(q_t) + weight * sum_t |q_t - q_{t-1}|`` (Viterbi).
-
-    Two states (branch A, B); the transition costs are the angle changes between consecutive
-    frames on either branch, so a switch is taken only where it is cheap (where the branches
-    meet, near the gimbal lock) or where staying would violate the limits by more than the jump.
-    The recursion over time is sequential (a scalar loop); everything else is vectorised.
-    """
-    n = len(qa)
-    if n == 0:
-        return np.zeros(0, np.int8)
-    skip = ignore[1:] | ignore[:-1]
-    trans = weight * np.stack([
-        np.stack([_angle_step(qa[:-1], qa[1:], skip), _angle_step(qa[:-1], qb[1:], skip)], -1),
-        np.stack([_angle_step(qb[:-1], qa[1:], skip), _angle_step(qb[:-1], qb[1:], skip)], -1),
-    ], 1)  # (T-1, from, to)  # fmt: skip
-    unary = np.nan_to_num(np.stack([cost_a, cost_b], -1), nan=0.0)
-    back = np.zeros((n, 2), np.int8)
-    total = unary[0].copy()
-    trans_list, unary_list = trans.tolist(), unary.tolist()
-    ca, cb = float(total[0]), float(total[1])
-    for t in range(1, n):
-        (aa, ab), (ba, bb) = trans_list[t - 1]
-        ua, ub = unary_list[t]
-        from_a_to_a, from_b_to_a = ca + aa, cb + ba
-        from_a_to_b, from_b_to_b = ca + ab, cb + bb
-        back[t, 0] = 0 if from_a_to_a <= from_b_to_a else 1
-        back[t, 1] = 0 if from_a_to_b <= from_b_to_b else 1
-        ca, cb = min(from_a_to_a, from_b_to_a) + ua, min(from_a_to_b, from_b_to_b) + ub
-    branch = np.zeros(n, np.int8)
-    branch[-1] = 0 if ca <= cb else 1
-    for t in range(n - 1, 0, -1):
-        branch[t - 1] = back[t, branch[t]]
-    return branch
+    elbow_singular: np.ndarray
 
 
 def arm_ik(
@@ -171,30 +134,33 @@ def arm_ik(
     side: str = "right",
     *,
     singular_deg: float = 10.0,
-    continuity: float = 1.0,
-    clamp: bool = True,
+    canonical: bool = True,
 ) -> ArmIKResult:
-    """Joint angles of one arm from shoulder, elbow and wrist positions in the trunk frame.
+    """ISB joint angles of one arm from shoulder, elbow and wrist positions in the trunk frame.
 
     Args:
-        shoulder, elbow, wrist: (T, 3) m in the trunk frame (x forward, y left, z up).
+        shoulder, elbow, wrist: (T, 3) m in the trunk frame (x forward, y left, z up), in time order.
         side: ``"right"`` or ``"left"`` (solved as the mirror image, see module docstring).
-        singular_deg: a frame is singular when the elbow is within this angle of straight
-            (rotation undefined) or the upper arm within it of the x axis (abduction undefined).
-        continuity: weight of the frame-to-frame angle change against the limit violation
-            (both in rad) when the branch sequence is chosen; 0 picks the least-violating
-            branch in every frame independently (for unordered samples).
-        clamp: clamp to the joint limits (flagged in ``clamped``).
+        singular_deg: a frame is singular when the upper arm is within this angle of hanging or
+            straight up (plane of elevation undefined) or the elbow within it of straight
+            (axial rotation undefined).
+        canonical: return the ISB form (elevation in ``[0, pi]``); ``False`` keeps the
+            continuous branch (elevation may leave ``[0, pi]`` where the arm swings through
+            hanging or straight up, see :func:`canonical_angles`), which is what a smooth fit needs.
 
     Returns:
-        :class:`ArmIKResult`. With exact, in-limit, non-singular input,
-        ``arm_fk(q)`` reproduces the elbow and wrist directions exactly.
+        :class:`ArmIKResult`. With exact non-singular input ``arm_fk(q)`` reproduces the elbow
+        and wrist directions exactly; the elevation and the elbow flexion are exact in every frame.
+
+    Raises:
+        ValueError: a point array not of shape (T, 3), shapes that differ, a bad side or
+        singular_deg outside (0, 45).
 
     Example::
 
         >>> import numpy as np
         >>> from lfd.human.arm_ik import arm_fk, arm_ik
-        >>> q = np.array([[0.3, -0.5, 0.2, 1.0]])
+        >>> q = np.array([[0.3, 2.4, 0.2, 1.0]])  # arm raised 137 deg, 17 deg in front of the frontal plane
         >>> e, w = arm_fk(q, 0.3, 0.25)
         >>> np.allclose(arm_ik(np.zeros((1, 3)), e, w).q, q)
         True
@@ -202,6 +168,8 @@ def arm_ik(
     for name, x in (("shoulder", shoulder), ("elbow", elbow), ("wrist", wrist)):
         if np.ndim(x) != 2 or np.shape(x)[1] != 3:
             raise ValueError(f"{name} must have shape (T, 3), got {np.shape(x)}")
+    if not (isinstance(singular_deg, (int, float)) and 0 < singular_deg < 45):
+        raise ValueError(f"singular_deg must be a number of degrees in (0, 45), got {singular_deg!r}")
     s, e, w = (mirror(np.asarray(x, dtype=float), side) for x in (shoulder, elbow, wrist))
     if not (s.shape == e.shape == w.shape):
         raise ValueError(
@@ -212,39 +180,109 @@ def arm_ik(
     with np.errstate(invalid="ignore", divide="ignore"):
         u = upper / np.linalg.norm(upper, axis=1, keepdims=True)
         f = fore / np.linalg.norm(fore, axis=1, keepdims=True)
-    q4 = np.arccos(np.clip((u * f).sum(1), -1.0, 1.0))
-    elbow_singular = np.sin(q4) < eps
-    shoulder_singular = np.hypot(u[:, 1], u[:, 2]) < eps  # |cos q2| small
+    elbow_flexion = np.arccos(np.clip((u * f).sum(1), -1.0, 1.0))
+    elevation = np.arccos(np.clip(-u[:, 2], -1.0, 1.0))
+    shoulder_singular = np.hypot(u[:, 0], u[:, 1]) < eps  # sin(elevation) small
+    elbow_singular = np.sin(elbow_flexion) < eps
+    good = ~shoulder_singular & np.isfinite(elevation)
+    plane = np.where(good, np.arctan2(u[:, 0], -u[:, 1]), np.nan)
+    rotation = np.where(good & ~elbow_singular, _rotation(plane, elevation, f), np.nan)
+    flip = _continuous_branch(plane, elevation, rotation, good)
+    plane = unwrap_finite(np.where(flip, plane + np.pi, plane))
+    plane = _interpolate_over(plane, shoulder_singular & np.isfinite(elevation))
+    elevation = _continuous_elevation(np.where(flip, -elevation, elevation), good, shoulder_singular)
+    rotation = np.where(elbow_singular, np.nan, _rotation(plane, elevation, f))
+    rotation = _interpolate_over(unwrap_finite(rotation), elbow_singular & np.isfinite(elbow_flexion))
+    q = np.stack([plane, elevation, rotation, elbow_flexion], -1)
+    q[~np.isfinite(q).all(1)] = np.nan
+    if canonical:
+        q = canonical_angles(q)[0]
+    return ArmIKResult(q, shoulder_singular, elbow_singular)
 
-    def solve(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
-        d = np.einsum("tji,tj->ti", _r12(q1, q2), f)  # R12^T f
-        return np.arctan2(d[:, 1], d[:, 0])
 
-    q2a = np.arcsin(np.clip(-u[:, 0], -1.0, 1.0))
-    q1a = np.arctan2(-u[:, 1], -u[:, 2])
-    q1b, q2b = _wrap(q1a + np.pi), _wrap(np.pi - q2a)
-    qa = np.stack([q1a, q2a, solve(q1a, q2a), q4], -1)
-    qb = np.stack([q1b, q2b, solve(q1b, q2b), q4], -1)
-    ignore = np.zeros((len(u), 4), bool)
-    ignore[:, 2] = elbow_singular
-    ignore[:, 0] = shoulder_singular
-    if not (np.isfinite(continuity) and continuity >= 0):
-        raise ValueError(f"continuity must be a non-negative weight, got {continuity!r}")
-    branch = _choose_branch(qa, qb, _violation(qa, ignore), _violation(qb, ignore), ignore, continuity)
-    q = np.where(branch[:, None] == 1, qb, qa)
+def _rotation(plane: np.ndarray, elevation: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Axial rotation (T,) rad of the forearm direction ``f`` in the upper-arm frame at ``(plane, elevation)``."""
+    d = np.einsum("tji,tj->ti", _rz(plane) @ _rx(-elevation), f)  # R^T f
+    return np.arctan2(d[:, 1], d[:, 0])
 
-    if shoulder_singular.any():
-        q1 = _interpolate_over(q[:, 0], shoulder_singular)
-        q2 = np.arctan2(-u[:, 0], -(u[:, 1] * np.sin(q1) + u[:, 2] * np.cos(q1)))
-        q[:, 0], q[:, 1], q[:, 2] = q1, q2, solve(q1, q2)
-    if elbow_singular.any():
-        q[:, 2] = _interpolate_over(q[:, 2], elbow_singular)
-    branch = np.where(np.isfinite(q[:, 1]), np.cos(q[:, 1]) < 0, branch).astype(
-        np.int8
-    )  # after the interpolation
-    clamped = np.zeros(len(q), bool)
-    if clamp:
-        limited = np.clip(q, LIMITS[0], LIMITS[1])
-        clamped = (np.abs(limited - q) > 1e-9).any(1)
-        q = np.where(np.isfinite(q), limited, np.nan)
-    return ArmIKResult(q, elbow_singular, shoulder_singular, clamped, branch)
+
+def _continuous_branch(
+    plane: np.ndarray, elevation: np.ndarray, rotation: np.ndarray, good: np.ndarray
+) -> np.ndarray:
+    """(T,) bool: use the other representation ``(phi + pi, -theta, psi + pi)`` of the same pose in this
+    frame, chosen frame by frame (over the ``good`` frames in time order) as the one nearest to the
+    previous choice, so that a swing through the singular poses keeps its plane and reverses the
+    elevation instead of turning the plane by 180 deg."""
+    flip = np.zeros(len(plane), bool)
+    prev = None
+    for t in np.flatnonzero(good).tolist():
+        a = (plane[t], elevation[t], rotation[t])
+        if prev is not None:
+            b = (a[0] + np.pi, -a[1], a[2] + np.pi)
+            cost = [
+                sum(abs(_wrap(x - y)) for x, y in zip(c, prev) if np.isfinite(x) and np.isfinite(y))
+                for c in (a, b)
+            ]
+            if cost[1] < cost[0]:
+                flip[t], a = True, b
+        prev = (a[0], a[1], a[2] if np.isfinite(a[2]) or prev is None else prev[2])
+    return flip
+
+
+def _continuous_elevation(elevation: np.ndarray, good: np.ndarray, singular: np.ndarray) -> np.ndarray:
+    """Elevation (T,) on the continuous branch: unwrapped over the ``good`` frames; in each run of
+    singular frames its magnitude is kept exact and its side of the singular pose (below/above 0, or
+    180 deg) is the neighbours'; where they differ (a swing through) the side changes once, at the
+    frame closest to the singular pose."""
+    out = np.array(elevation, dtype=float)
+    out[good] = unwrap_finite(out[good])
+    magnitude = np.abs(_wrap(elevation))  # in [0, pi]
+    zones = singular & np.isfinite(elevation)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], zones.astype(np.int8), [0]])))
+    for start, stop in zip(edges[::2].tolist(), edges[1::2].tolist()):
+        left, right = np.flatnonzero(good[:start]), np.flatnonzero(good[stop:])
+        ends = [out[left[-1]]] if len(left) else []
+        ends += [out[stop + right[0]]] if len(right) else []
+        k = int(np.round(ends[0] / np.pi)) if ends else 0
+        sides = [1.0 if v - k * np.pi >= 0 else -1.0 for v in ends] or [1.0]
+        distance = magnitude[start:stop] if k % 2 == 0 else np.pi - magnitude[start:stop]
+        side = np.full(stop - start, sides[0])
+        if sides[-1] != sides[0]:
+            side[int(np.argmin(distance)) + 1 :] = sides[-1]
+        out[start:stop] = k * np.pi + side * distance
+    return out
+
+
+def _wrap(a):
+    return (a + np.pi) % (2 * np.pi) - np.pi
+
+
+def canonical_angles(
+    q: np.ndarray, qd: np.ndarray | None = None, qdd: np.ndarray | None = None, tau: np.ndarray | None = None
+) -> tuple[np.ndarray, ...]:
+    """The ISB form (elevation in ``[0, pi]``) of continuous-branch angles, with their derivatives and torques.
+
+    Where the elevation ``theta`` (taken modulo 2 pi) is negative, the pose is the same as
+    ``(phi + pi, -theta, psi + pi)``; there the elevation velocity, acceleration and torque
+    change sign (the elevation axis is reversed) and the others stay. ``phi`` and ``psi``
+    are then unwrapped over time (:func:`unwrap_finite`).
+
+    Args:
+        q: (T, 4) rad. qd, qdd, tau: (T, 4) or None.
+
+    Returns:
+        ``(q, qd, qdd, tau)`` converted (None stays None).
+    """
+    q = np.array(q, dtype=float)
+    theta = _wrap(q[:, 1])
+    flip = theta < 0
+    q[:, 1] = np.abs(theta)
+    for j in (0, 2):
+        q[:, j] = unwrap_finite(np.where(flip, q[:, j] + np.pi, q[:, j]))
+    out = [q]
+    for x in (qd, qdd, tau):
+        if x is not None:
+            x = np.array(x, dtype=float)
+            x[:, 1] = np.where(flip, -x[:, 1], x[:, 1])
+        out.append(x)
+    return tuple(out)

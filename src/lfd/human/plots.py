@@ -1,8 +1,11 @@
 """Figures of an :class:`~lfd.human.analysis.ArmAnalysis` (like the thesis' figures 3.6-3.9) and a stick-figure GIF.
 
 * ``positions.png``: raw vs filtered shoulder, elbow and wrist coordinates in the trunk frame;
-* ``angles.png``, ``velocities.png``, ``accelerations.png``: the four joint angles (per-frame
-  IK vs fit), their velocities and accelerations;
+* ``angles.png``, ``velocities.png``, ``accelerations.png``: the four ISB joint angles (plane of
+  elevation, elevation, axial rotation, elbow flexion; per-frame IK vs fit, frames with the arm
+  hanging or straight up shaded), their velocities and accelerations;
+* ``thesis_angles.png``: the thesis's abduction, flexion and rotation derived from the fit (gimbal-lock
+  frames shaded);
 * ``torques.png``: the four joint torques;
 * ``stick_figure.gif``: 3-D animation of the raw (grey) and the reconstructed (model FK, blue)
   arm in the trunk frame.
@@ -19,7 +22,8 @@ import numpy as np
 
 __all__ = ["plot_analysis", "stick_figure_gif"]
 
-_LABELS = ("abduction", "flexion", "rotation", "elbow flexion")
+_LABELS = ("plane of elevation", "elevation", "axial rotation", "elbow flexion")
+_THESIS_LABELS = ("abduction (thesis)", "flexion (thesis)", "rotation (thesis)")
 
 
 def _plt():
@@ -31,12 +35,15 @@ def _plt():
     return plt
 
 
-def _four_panels(plt, t, series, ylabel: str, title: str, path: Path, labels=("fit",)) -> Path:
-    fig, axes = plt.subplots(4, 1, figsize=(8, 8), sharex=True)
+def _four_panels(plt, t, series, ylabel: str, title: str, path: Path, labels=("fit",), names=_LABELS,
+                 shade=None) -> Path:  # fmt: skip
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, 2 * len(names)), sharex=True)
     for j, ax in enumerate(axes):
         for values, label, style in zip(series, labels, ("-", ":")):
             ax.plot(t, values[:, j], style, label=label, lw=1.2)
-        ax.set_ylabel(f"{_LABELS[j]}\n{ylabel}")
+        if shade is not None and shade.any():
+            ax.fill_between(t, 0, 1, where=shade, color="0.85", transform=ax.get_xaxis_transform(), lw=0)
+        ax.set_ylabel(f"{names[j]}\n{ylabel}")
         ax.grid(alpha=0.3)
     if len(series) > 1:
         axes[0].legend(loc="upper right", fontsize=8)
@@ -76,8 +83,14 @@ def plot_analysis(
     plt.close(fig)
     paths.append(out / "positions.png")
     deg = np.rad2deg
-    paths.append(_four_panels(plt, t, [deg(result.q), deg(result.q_ik)], "deg", f"{result.side} arm joint angles",
-                              out / "angles.png", labels=("fit", "per-frame IK")))  # fmt: skip
+    singular = result.flags.get("shoulder_singular")
+    paths.append(_four_panels(plt, t, [deg(result.q), deg(result.q_ik)], "deg",
+                              f"{result.side} arm joint angles (ISB; shaded: arm hanging or straight up)",
+                              out / "angles.png", labels=("fit", "per-frame IK"), shade=singular))  # fmt: skip
+    if result.thesis is not None:
+        paths.append(_four_panels(plt, t, [deg(result.thesis)], "deg",
+                                  "the thesis's angles, derived (shaded: gimbal lock)", out / "thesis_angles.png",
+                                  names=_THESIS_LABELS, shade=result.flags.get("thesis_gimbal_lock")))  # fmt: skip
     paths.append(_four_panels(plt, t, [deg(result.qd)], "deg/s", "joint velocities", out / "velocities.png"))
     paths.append(
         _four_panels(plt, t, [deg(result.qdd)], "deg/s²", "joint accelerations", out / "accelerations.png")

@@ -1,7 +1,11 @@
 """Synthetic depth-camera recordings with known ground truth, for validation and benchmarks.
 
-Known joint trajectories of the human-arm model (sums of sines inside the joint limits,
-exact derivatives) -> forward kinematics on both arms of a swaying trunk -> a Kinect-like
+Known joint trajectories of the human-arm model (ISB angles, sums of sines around a
+``motion`` preset: ``"default"`` (arm in front and to the side, 25-115 deg elevation),
+``"overhead"`` (raised above the head, up to ~165 deg), ``"behind_back"`` (plane of
+elevation behind the frontal plane, internally rotated, hand behind the back) or
+``"through_singular"`` (swinging through hanging and straight up, where the plane of
+elevation is undefined); exact derivatives) -> forward kinematics on both arms of a swaying trunk -> a Kinect-like
 camera frame (person about 2.5 m in front of the sensor, y up, z away), then optional
 corruption: white noise (``noise`` m per coordinate), short dropouts (untracked), one long
 dropout, an outlier burst on the wrist and one left/right label swap.
@@ -20,17 +24,24 @@ import dataclasses
 
 import numpy as np
 
-from .arm_ik import arm_fk, mirror
+from .arm_ik import arm_fk, canonical_angles, mirror
 from .dynamics import arm_model, arm_torques
 from .skeleton import Skeleton
 
-__all__ = ["SyntheticRecording", "camera_pose", "synthetic_recording"]
+__all__ = ["MOTIONS", "SyntheticRecording", "camera_pose", "synthetic_recording"]
 
 JOINTS = (
     "spine_base", "spine_shoulder", "shoulder_left", "elbow_left", "wrist_left",
     "shoulder_right", "elbow_right", "wrist_right", "neck",
 )  # fmt: skip
 _ARM_JOINTS = ("shoulder", "elbow", "wrist")
+# (centre, amplitude) in deg of plane of elevation, elevation, axial rotation, elbow flexion.
+MOTIONS = {
+    "default": ([45.0, 70.0, 10.0, 70.0], [40.0, 45.0, 28.0, 40.0]),
+    "overhead": ([60.0, 135.0, 0.0, 60.0], [40.0, 30.0, 30.0, 40.0]),
+    "behind_back": ([-55.0, 45.0, 60.0, 90.0], [25.0, 20.0, 20.0, 30.0]),
+    "through_singular": ([60.0, 90.0, 10.0, 70.0], [30.0, 110.0, 28.0, 40.0]),
+}
 
 
 @dataclasses.dataclass
@@ -39,7 +50,9 @@ class SyntheticRecording:
 
     Attributes:
         skeleton: the (corrupted) recording in the camera frame.
-        q, qd, qdd: per side (``"left"``, ``"right"``) (T, 4) rad, rad/s, rad/s^2.
+        q, qd, qdd: per side (``"left"``, ``"right"``) (T, 4) rad, rad/s, rad/s^2, ISB angles
+            (:mod:`lfd.human.arm_ik`, ISB form: elevation in [0, pi]; with ``through_singular`` the plane
+            of elevation jumps by pi where the arm passes through hanging or straight up).
         tau: per side (T, 4) N m for ``body_mass``/``sex`` and gravity in the trunk frame.
         gravity: (T, 3) m/s^2 in the trunk frame. lengths: upper_arm, forearm, hand (m).
         corrupted: description of the corruptions (frame ranges).
@@ -98,6 +111,7 @@ def synthetic_recording(
     body_mass: float = 75.0,
     sex: str = "male",
     hand_load: float = 0.0,
+    motion: str = "default",
 ) -> SyntheticRecording:
     """Make a synthetic recording (see module docstring); every corruption is reproducible from ``seed``.
 
@@ -108,7 +122,13 @@ def synthetic_recording(
         outlier_burst: 5 frames of the right wrist displaced by 0.25 m.
         swap: one second of left/right arm labels exchanged.
         camera: (4, 4) world -> camera pose (default :func:`camera_pose`).
+        motion: one of ``MOTIONS`` (see module docstring).
+
+    Raises:
+        ValueError: unknown ``motion``.
     """
+    if motion not in MOTIONS:
+        raise ValueError(f"motion must be one of {', '.join(MOTIONS)}, got {motion!r}")
     rng = np.random.default_rng(seed)
     t = np.arange(int(round(duration * rate))) / rate
     q, qd, qdd, tau = {}, {}, {}, {}
@@ -134,10 +154,11 @@ def synthetic_recording(
         n_freq = 3
         freq = rng.uniform(0.15, 0.6, (4, n_freq))
         phase = rng.uniform(0, 2 * np.pi, (4, n_freq))
-        centre = np.deg2rad([35.0, -45.0, 10.0, 70.0])
-        amplitude = np.deg2rad(np.array([22.0, 30.0, 28.0, 40.0]))[:, None] * rng.dirichlet(
-            np.ones(n_freq), 4
-        )
+        centre = np.deg2rad(MOTIONS[motion][0])
+        amplitude = np.deg2rad(np.array(MOTIONS[motion][1]))[:, None] * rng.dirichlet(np.ones(n_freq), 4)
+        if motion == "through_singular":  # one slow swing of the elevation from below 0 to beyond 180 deg
+            amplitude[1] = np.deg2rad([MOTIONS[motion][1][1], 0.0, 0.0])
+            freq[1, 0] = 0.15
         q[side], qd[side], qdd[side] = _sines(t, centre, amplitude, freq, phase)
         shoulder = np.array([0.0, sign * 0.18, spine - 0.03])
         elbow, wrist = arm_fk(q[side], upper_arm_length, forearm_length)
@@ -145,6 +166,8 @@ def synthetic_recording(
             points[f"{name}_{side}"] = shoulder + mirror(p, side)
         robot = arm_model(upper_arm_length, forearm_length, lengths["hand"], body_mass, sex, hand_load)
         tau[side] = arm_torques(robot, q[side], qd[side], qdd[side], mirror(gravity, side))
+        # the truth in the ISB form (elevation in [0, pi]; changes only "through_singular")
+        q[side], qd[side], qdd[side], tau[side] = canonical_angles(q[side], qd[side], qdd[side], tau[side])
     names = JOINTS
     world = np.stack([base + np.einsum("tij,tj->ti", trunk, points[n]) for n in names], 1)  # (T, J, 3)
     pose = camera_pose() if camera is None else np.asarray(camera, float)

@@ -9,8 +9,9 @@ name               DoF   notes
 ``sawyer``         7     standard DH, base 0.316 m above the world frame
 ``wam4``           4     standard DH, tool d = 0.35 m; closed-form IK in
                          :mod:`lfd.robots.analytic`
-``human_arm``      4     right arm, base frame at the shoulder; segment lengths,
-                         body mass and sex are options
+``human_arm``      4     right arm, base frame at the shoulder, ISB shoulder angles
+                         (plane of elevation, elevation, axial rotation) and elbow
+                         flexion; segment lengths, body mass and sex are options
 =================  ====  ==========================================================
 
 Where the thesis gives no inertia, links are solid cylinders of their mass along the
@@ -150,14 +151,17 @@ def _human_arm(
 ) -> RobotSpec:
     """Right human arm, base frame at the shoulder centre: x forward, y left, z up.
 
-    Joints: shoulder abduction about -x (positive raises the arm sideways), flexion
-    about y (negative raises it forwards), rotation about the upper-arm axis
-    (positive = internal rotation), elbow flexion about -y (positive bends the
-    forearm forwards); all zero = arm hanging straight down. The tool frame is the
-    wrist; the hand is rigidly attached to the forearm. Segment masses are de Leva
-    fractions of ``body_mass``; centres of mass at 57.7 % (upper arm) and 45.7 %
-    (forearm) of the segment from the proximal joint, the hand's at half its length
-    beyond the wrist (assumed); inertias are solid cylinders of radius 0.15 x length.
+    Joints (the ISB shoulder, Wu et al. 2005, a Y-X-Y sequence of the humerus relative to the
+    thorax, whose X, Y, Z are our x, z, -y): plane of elevation about z (0 = the frontal
+    plane, 90 deg = forward flexion), elevation about the moved -x (positive raises the arm,
+    0 = hanging, 180 deg = straight up), axial rotation about the upper-arm axis (positive =
+    internal rotation), elbow flexion about -y of the upper arm (positive bends the forearm
+    forwards); all zero = arm hanging straight down. The position limits are a nominal
+    range of motion for sampling and the URDF, not a clamp on measured poses. The tool frame
+    is the wrist; the hand is rigidly attached to the forearm. Segment masses are de Leva
+    fractions of ``body_mass``; centres of mass at 57.7 % (upper arm) and 45.7 % (forearm)
+    of the segment from the proximal joint, the hand's at half its length beyond the wrist
+    (assumed); inertias are solid cylinders of radius 0.15 x length.
     """
     lengths = {"upper_arm": upper_arm_length, "forearm": forearm_length, "hand": hand_length}
     for key, value in [*((f"{k}_length", v) for k, v in lengths.items()), ("body_mass", body_mass)]:
@@ -181,13 +185,18 @@ def _human_arm(
     inertials = [zero, zero, upper, lower]
     return RobotSpec(
         name="human_arm",
-        joint_names=("shoulder_abduction", "shoulder_flexion", "shoulder_rotation", "elbow_flexion"),
-        link_names=("shoulder_abduction_link", "shoulder_flexion_link", "upper_arm", "forearm"),
+        joint_names=(
+            "shoulder_plane_of_elevation",
+            "shoulder_elevation",
+            "shoulder_axial_rotation",
+            "elbow_flexion",
+        ),
+        link_names=("shoulder_plane_link", "shoulder_elevation_link", "upper_arm", "forearm"),
         joint_xyz=[(0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), upper_arm_length * down],
         joint_rpy=np.zeros((4, 3)),
-        joint_axis=[(-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, -1.0, 0.0)],
-        lower=np.array([-90.0, -130.0, -90.0, 0.0]) * _DEG,
-        upper=np.array([90.0, 45.0, 90.0, 150.0]) * _DEG,
+        joint_axis=[(0.0, 0.0, 1.0), (-1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, -1.0, 0.0)],
+        lower=np.array([-100.0, 0.0, -90.0, 0.0]) * _DEG,
+        upper=np.array([160.0, 180.0, 90.0, 150.0]) * _DEG,
         continuous=np.zeros(4, bool),
         velocity_limits=[10.0, 10.0, 10.0, 10.0],
         effort_limits=[80.0, 80.0, 50.0, 70.0],

@@ -37,11 +37,13 @@ def test_chosen_order_is_stable_and_best_on_held_out_files(name):
     for order, other in results.items():
         # the arm geometry changes little between orders: median elbow/wrist difference < 3 cm ...
         assert np.nanmedian(np.linalg.norm(other.positions - ref.positions, axis=-1)) < 0.03
-        # ... and so do the well-conditioned angles (abduction, flexion, elbow: < 6 deg RMS; the
-        # rotation about a nearly straight arm is ill-conditioned and differs more)
+        # ... and so do the well-conditioned angles (elbow < 6 deg RMS; elevation < 8.5 deg, the
+        # thesis's bound of 6 deg on each of abduction and flexion, combined; the plane of
+        # elevation of a nearly hanging arm and the rotation about a nearly straight arm are
+        # ill-conditioned and differ more; the axial rotation there absorbs the plane's ambiguity)
         rms = np.rad2deg(np.sqrt(np.nanmean((other.q - ref.q) ** 2, axis=0)))
-        assert np.all(rms[[0, 1, 3]] < 6.0), (order, rms)
-        assert rms[2] < 20.0, (order, rms)
+        assert rms[1] < 8.5 and rms[3] < 6.0, (order, rms)
+        assert np.all(rms[[0, 2]] < 30.0), (order, rms)
         # raw bone lengths do not depend on the order; after filtering they differ by < 0.1 %
         assert other.segment_lengths == pytest.approx(ref.segment_lengths, rel=1e-3)
     motion = {o: _static_motion(read_skeleton(_path(name), euler_order=o)) for o in ORDERS}
