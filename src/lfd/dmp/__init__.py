@@ -17,6 +17,10 @@ Public API (numpy + torch only)::
     CartesianDMP(n_basis=20, ..., formulation="pastor", ridge=1e-12, orientation="log" | "ude")
         .fit(t (T,), pose (T, 7) | (B, T, 7))        # [x, y, z, qw, qx, qy, qz]
         .rollout(t=None, start=None, goal=None, tau=None, weights=None) -> (T, 7) | (B, T, 7)
+    DualCartesianDMP(n_basis=20, ..., formulation="pastor")     # two arms, Ude orientation
+        .fit(t (T,), pose (T, 14) | (B, T, 14))       # [left x y z qw qx qy qz, right ...]
+        .rollout(t=None, start=None, goal=None, tau=None, weights=None,
+                 coupling=RelativePoseCoupling(desired (7,), leader_follower=(1, 1), k, c1, c2))
     FinalVelocityDMP(n_basis=20, alpha_z=25.0, beta_z=None, alpha_s=None, overlap=0.8, ridge=1e-12)
         .fit(t (T,), y (T, D) | (B, T, D))        # hitting: reaches goal_ with goal_velocity_ at tau
         .rollout(t=None, y0=None, goal=None, goal_velocity=None, tau=None, weights=None,
@@ -91,6 +95,7 @@ from .cartesian import CartesianDMP
 from .coupling import JointLimits, ObstacleAvoidance
 from .discrete import DMP, FIT_METHODS
 from .distribution import DMPDistribution
+from .dual_cartesian import DualCartesianDMP, RelativePoseCoupling
 from .final_velocity import FinalVelocityDMP
 from .fitting import DEFAULT_RIDGE
 from .formulation import DEFAULT_FORMULATION, FORMULATIONS
@@ -113,11 +118,13 @@ __all__ = [
     "DMPRunner",
     "DMPState",
     "DiscreteGains",
+    "DualCartesianDMP",
     "FinalVelocityDMP",
     "Gains",
     "JointLimits",
     "ObstacleAvoidance",
     "ProMP",
+    "RelativePoseCoupling",
     "RhythmicDMP",
     "RolloutOperator",
     "clear_caches",
