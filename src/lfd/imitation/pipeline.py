@@ -1,28 +1,30 @@
-"""The stages of learning a robot skill from a video of a person, callable one by one.
+"""The stages of turning a demonstration into a robot skill, callable one by one.
 
 Like Pose2Sim's ``Pose2Sim.calibration()``, ``Pose2Sim.poseEstimation()``, ..., each stage
 is a function of the configuration (``configs/imitate.yaml``, any object with attribute
-access such as an OmegaConf ``DictConfig``) and of the previous stages' results:
+access such as an OmegaConf ``DictConfig``) and of the previous stages' results. The source
+(:mod:`lfd.imitation.sources`) decides the first stages:
 
-1. :func:`estimate_pose`: MediaPipe keypoints of the video (``keypoints.csv``/``.npz``);
-2. :func:`analyse`: arm angles and torques (:func:`lfd.human.analyze_arm`; ``arm.csv``/
-   ``.mot``/``.json``);
-3. :func:`retarget`: the robot joint trajectory (:mod:`lfd.human.retarget`: WAM posture or
-   7-DoF wrist path + IK), missing frames interpolated;
-4. :func:`fit_dmp`: a DMP fitted to it and time-scaled so its rollout keeps the velocity
+1. a video: :func:`estimate_pose` (MediaPipe keypoints, ``keypoints.csv``/``.npz``), then
+   :func:`analyse`; a skeleton file: :func:`analyse_skeleton` (arm angles and torques,
+   ``arm.csv``/``.mot``/``.json``); then :func:`retarget` (WAM posture or 7-DoF wrist path + IK);
+   a robot recording (teach export, bag, joint CSV) skips these:
+   :func:`lfd.imitation.sources.load_robot_source`;
+2. :func:`fit_dmp`: a DMP fitted to the joints and time-scaled so its rollout keeps the velocity
    limits (``dmp.json``, read by ``lfd.dmp.DMP.load``);
-5. :func:`execute`: the DMP rollout run in PyBullet (the one tracker,
+3. :func:`refine` (with ``refine.task``): policy search for a task (:mod:`lfd.imitation.refine`);
+4. :func:`execute`: the DMP (or refined) rollout run in PyBullet (the one tracker,
    :func:`lfd.sim.tracking.track_resampled`) and, with ``goal``, rolled out towards the IK
    solution of that tool position and run as well;
-6. :func:`write_outputs`: ``robot_trajectory.csv``, ``side_by_side.mp4``/``.gif``,
-   ``summary.json``.
+5. outputs (:mod:`lfd.imitation.outputs`): ``robot_trajectory.csv``, ``robot_trajectory.bag``
+   (``trajectory_msgs/JointTrajectory``), ``refinement.png``, ``summary.json``; for a video also
+   ``side_by_side.mp4``/``.gif`` (:func:`write_outputs`).
 
 :func:`run` chains them. Units: s, rad, m.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,13 +36,16 @@ __all__ = [
     "DMPFit",
     "Execution",
     "analyse",
+    "analyse_skeleton",
     "check_config",
     "estimate_pose",
     "execute",
     "fill_missing",
     "fit_dmp",
+    "refine",
     "retarget",
     "run",
+    "source_of",
     "write_outputs",
 ]
 
@@ -49,29 +54,62 @@ ROBOTS = ("wam4", "sawyer", "pr2_right_arm")
 
 
 def check_config(cfg: Any) -> None:
-    """Raise ``ValueError`` for a robot not in :data:`ROBOTS` or a side not left/right."""
+    """Raise ``ValueError`` (one line naming the field) for a robot not in :data:`ROBOTS`, a side not
+    left/right, an unknown ``source_type``, or bad ``refine`` options; before any file is read."""
+    from .refine import METHODS
+    from .sources import SOURCE_TYPES
+
     if cfg.robot not in ROBOTS:
         raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {cfg.robot!r}")
     if cfg.side not in ("left", "right"):
         raise ValueError(f"side must be 'left' or 'right', got {cfg.side!r}")
+    kind = cfg.get("source_type")
+    if kind is not None and kind not in SOURCE_TYPES:
+        raise ValueError(
+            f"source_type must be one of {', '.join(SOURCE_TYPES)} (or null: detected), got {kind!r}"
+        )
+    refine = cfg.get("refine")
+    if refine is not None and refine.get("task") is not None:
+        from lfd.rl.skill import SKILL_TASKS
+
+        if refine.task not in SKILL_TASKS:
+            raise ValueError(
+                f"refine.task must be one of {', '.join(SKILL_TASKS)} (or null), got {refine.task!r}"
+            )
+        if refine.method not in METHODS:
+            raise ValueError(f"refine.method must be one of {', '.join(METHODS)}, got {refine.method!r}")
+        target = refine.get("target")
+        values = list(target) if target is not None and not isinstance(target, str) else []
+        if len(values) != 3 or not all(isinstance(v, int | float) and np.isfinite(v) for v in values):
+            raise ValueError(f"refine.target must be a tool position [x, y, z] in metres, got {target}")
+
+
+def source_of(cfg: Any) -> str:
+    """The demonstration path: ``cfg.source``, or ``cfg.video`` (the older name for a video source)."""
+    source = cfg.get("source") or cfg.get("video")
+    if source is None:
+        raise ValueError("source: give the demonstration, e.g. source=person.mp4 or source=arm.bag")
+    return str(source)
 
 
 def estimate_pose(cfg: Any, out: Path):
     """Stage 1: :class:`lfd.human.video.VideoKeypoints` of ``cfg.video`` (``cfg.pose``:
-    width, stride, max_frames), written to ``out/keypoints.csv`` and ``keypoints.npz``.
+    model, heavy_model, width, stride, max_frames), written to ``out/keypoints.csv`` and ``keypoints.npz``.
 
     Raises:
         FileNotFoundError, ValueError: from :func:`lfd.human.video.estimate_keypoints`
-            (missing or undecodable video).
+            (missing or undecodable video, ``pose.model`` not full/heavy, heavy model missing).
     """
     from lfd.human.video import estimate_keypoints
 
     kp = estimate_keypoints(
-        Path(str(cfg.video)),
+        Path(source_of(cfg)),
         width=cfg.pose.width,
         stride=int(cfg.pose.stride),
         max_frames=cfg.pose.max_frames,
         progress=True,
+        model=str(cfg.pose.get("model", "full")),
+        heavy_model=cfg.pose.get("heavy_model"),
     )
     kp.to_csv(out / "keypoints.csv")
     kp.save(out / "keypoints.npz")
@@ -88,6 +126,27 @@ def analyse(cfg: Any, kp, out: Path):
     repair = bool(cfg.pose.get("repair_flips", True))
     analysis = analyze_arm(
         kp.to_skeleton(float(cfg.pose.min_visibility), repair),
+        side=cfg.side,
+        body_mass=float(a.body_mass),
+        sex=a.sex,
+        filter=a.filter,
+        cutoff=float(a.cutoff),
+        max_gap=float(a.max_gap),
+    )
+    analysis.save(out, stem="arm", plots=False)
+    return analysis
+
+
+def analyse_skeleton(cfg: Any, path: str, out: Path):
+    """Stage 2 for a skeleton file: :func:`lfd.human.read_skeleton` (``cfg.units``; the plausibility checks of
+    :mod:`lfd.human.plausibility`) then :func:`lfd.human.analyze_arm` with ``cfg.analysis``; saved as
+    ``out/arm.*`` (no plots)."""
+    from lfd.human import analyze_arm, read_skeleton
+
+    a = cfg.analysis
+    skeleton = read_skeleton(path, units=cfg.get("units"))
+    analysis = analyze_arm(
+        skeleton,
         side=cfg.side,
         body_mass=float(a.body_mass),
         sex=a.sex,
@@ -175,10 +234,20 @@ class Execution:
     goal: dict | None
 
 
-def execute(cfg: Any, robot, base_rotation: np.ndarray, fit: DMPFit, q_start: np.ndarray) -> Execution:
-    """Stage 5: run ``fit.q_dmp`` on the arm alone in PyBullet (``cfg.sim``: physics ``rate``
-    Hz, position/velocity gains, ``image_size``; base 1 m up, oriented by ``base_rotation``:
-    the simulation's world frame is the person's trunk frame). With ``cfg.goal`` (tool
+def execute(
+    cfg: Any,
+    robot,
+    base_rotation: np.ndarray,
+    fit: DMPFit,
+    q_start: np.ndarray,
+    q_plan: np.ndarray | None = None,
+    render: bool | None = None,
+) -> Execution:
+    """Stage 5: run ``q_plan (T, n)`` (default ``fit.q_dmp``) at ``fit.t_robot`` on the arm alone in
+    PyBullet (``cfg.sim``: physics ``rate`` Hz, position/velocity gains, ``image_size``; base 1 m up,
+    oriented by ``base_rotation``: the simulation's world frame is the person's trunk frame; identity
+    for robot sources). Robot renders are taken only when ``render`` (default: ``cfg.outputs`` asks
+    for a video or GIF). With ``cfg.goal`` (tool
     position, m, robot base frame) the DMP is also rolled out towards the IK solution
     (position only, started at ``q_start``) and run in the same world.
 
@@ -203,7 +272,9 @@ def execute(cfg: Any, robot, base_rotation: np.ndarray, fit: DMPFit, q_start: np
         image_size=tuple(cfg.sim.image_size),
     ) as world:
         want = cfg.outputs.video or cfg.outputs.gif
-        q_exec, images = track_resampled(world, t_robot, fit.q_dmp, rate, t_robot if want else None)
+        q_plan = fit.q_dmp if q_plan is None else q_plan
+        want = want if render is None else render
+        q_exec, images = track_resampled(world, t_robot, q_plan, rate, t_robot if want else None)
         goal_result = None
         if cfg.goal is not None:
             goal = np.asarray(list(cfg.goal), float)
@@ -223,34 +294,59 @@ def execute(cfg: Any, robot, base_rotation: np.ndarray, fit: DMPFit, q_start: np
     return Execution(q_exec, images, goal_result)
 
 
-def write_outputs(cfg: Any, out: Path, kp, robot, t: np.ndarray, rt, fit: DMPFit, run: Execution) -> dict:
-    """Stage 6: ``out/robot_trajectory.csv`` (robot and video time, retargeted, DMP and
-    executed joints), the side-by-side video/GIF (``cfg.outputs``) and ``summary.json``
-    (returned as a dict)."""
-    from lfd.io.files import write_text_atomic
+def refine(cfg: Any, robot, fit: DMPFit):
+    """Stage 4b (with ``cfg.refine.task``): :func:`lfd.imitation.refine.refine_skill` of ``fit.dmp`` and its
+    rollout on ``fit.t_robot``; returns ``(refinement, q_plan (T, n))`` or ``(None, fit.q_dmp)``."""
+    from .refine import refine_skill
 
+    r = cfg.get("refine")
+    if r is None or r.get("task") is None:
+        return None, fit.q_dmp
+    result = refine_skill(
+        robot,
+        fit.dmp,
+        task=str(r.task),
+        target=[float(v) for v in r.target],
+        method=str(r.method),
+        tol=float(r.tol),
+        max_rollouts=int(r.max_rollouts),
+        shape_weight=float(r.shape_weight),
+        t_via=None if r.get("t_via") is None else float(r.t_via) * fit.factor,
+        radius=float(r.radius),
+        goal_init=str(r.get("goal_init", "demo")),
+        seed=int(r.seed),
+    )
+    s_grid = np.linspace(0.0, 1.0, len(result.t))
+    s_robot = (fit.t_robot - fit.t_robot[0]) / (fit.t_robot[-1] - fit.t_robot[0])
+    q_plan = np.stack([np.interp(s_robot, s_grid, col) for col in result.trajectory.T], axis=1)
+    return result, np.clip(q_plan, robot.lower.numpy(), robot.upper.numpy())
+
+
+def write_outputs(
+    cfg: Any,
+    out: Path,
+    kp,
+    robot,
+    t: np.ndarray,
+    rt,
+    fit: DMPFit,
+    run: Execution,
+    refinement=None,
+    q_plan=None,
+) -> dict:
+    """Stage 6 for a video: the side-by-side video/GIF (``cfg.outputs``) and the outputs of
+    :func:`lfd.imitation.outputs.write_common_outputs` with the video's own summary entries
+    (returned as a dict)."""
+    from .outputs import write_common_outputs
     from .side_by_side import write_side_by_side
 
     repair = bool(cfg.pose.get("repair_flips", True))
     lo, hi = robot.lower.numpy(), robot.upper.numpy()
     q_exec, q_dmp = run.q_exec, fit.q_dmp
-    rmse = float(np.sqrt(np.mean((q_exec - rt.q) ** 2)))
-    cols = {"time_s": fit.t_robot, "video_time_s": t}
-    for j, name in enumerate(robot.joint_names):
-        cols[f"{name}_retargeted"] = rt.q[:, j]
-        cols[f"{name}_dmp"] = q_dmp[:, j]
-        cols[f"{name}_executed"] = q_exec[:, j]
-    data = np.column_stack(list(cols.values()))
-    write_text_atomic(
-        out / "robot_trajectory.csv",
-        "\n".join([",".join(cols)] + [",".join(f"{v:.6g}" for v in r) for r in data]) + "\n",
-    )
-    video = Path(str(cfg.video))
-    summary = {
+    video = Path(source_of(cfg))
+    extra = {
         "video": str(video),
-        "robot": cfg.robot,
         "side": cfg.side,
-        "frames": kp.n_frames,
         "frames_with_person": int(kp.detected.sum()),
         "frames_other_person": int(kp.other_person.sum()),
         "pose_fps": kp.fps,
@@ -261,7 +357,7 @@ def write_outputs(cfg: Any, out: Path, kp, robot, t: np.ndarray, rt, fit: DMPFit
         "clamped_frames": int(rt.clamped.sum()),
         "retarget_error_max": float(rt.error.max()),
         "dmp_rmse_rad": float(np.sqrt(np.mean((q_dmp - rt.q) ** 2))),
-        "executed_rmse_rad": rmse,
+        "executed_rmse_rad": float(np.sqrt(np.mean((q_exec - rt.q) ** 2))),
         "executed_within_limits": bool(((q_exec >= lo - 1e-3) & (q_exec <= hi + 1e-3)).all()),
         "goal": run.goal,
     }
@@ -278,34 +374,77 @@ def write_outputs(cfg: Any, out: Path, kp, robot, t: np.ndarray, rt, fit: DMPFit
             len(t) / max(t[-1] - t[0], 1e-6),
             int(cfg.outputs.gif_frames),
         )
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=1) + "\n")
-    return summary
+    return write_common_outputs(
+        cfg, out, robot, source=str(video), source_type="video", t_source=t, q_reference=rt.q, fit=fit,
+        q_commanded=q_dmp if q_plan is None else q_plan, q_exec=q_exec, refinement=refinement, extra=extra,
+    )  # fmt: skip
 
 
 def run(cfg: Any, out_dir: str | Path) -> dict:
-    """The whole chain for ``cfg.video`` writing into ``out_dir``; returns the summary dict.
+    """The whole chain for the demonstration ``cfg.source`` (:mod:`lfd.imitation.sources`) writing into
+    ``out_dir``; returns the summary dict.
+
+    Human sources (a video, a skeleton file) go through the arm analysis and retargeting; robot sources
+    (a teach export, a bag, a joint CSV) carry the robot's joints and skip them. Then: DMP fitted and
+    time-scaled to the limits, refined when ``cfg.refine.task`` is set, executed in PyBullet, outputs written.
 
     Raises:
-        ValueError: unknown robot or side, undecodable video, too few frames with the arm,
-            a malformed goal.
-        FileNotFoundError: no video at ``cfg.video``.
+        ValueError: unknown robot, side, source type or refine option (before any file is read); an
+            undecodable video, a recording without the robot's joints or the arm's, too few frames, an
+            unreachable refinement target, a malformed goal.
+        FileNotFoundError: nothing at the source path.
     """
     from lfd.robots import load_robot
 
+    from .outputs import write_common_outputs
+    from .sources import HUMAN_SOURCES, detect_source_type, load_robot_source
+
+    check_config(cfg)
+    source = source_of(cfg)
+    kind = cfg.get("source_type") or detect_source_type(source)
+    robot = load_robot(cfg.robot)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    check_config(cfg)
-    kp = estimate_pose(cfg, out)
-    analysis = analyse(cfg, kp, out)
-    t, rt = retarget(cfg, analysis)
-    robot = load_robot(cfg.robot)
-    fit = fit_dmp(cfg, robot, t, rt.q, out)
-    executed = execute(cfg, robot, rt.base_rotation, fit, rt.q[-1])
-    summary = write_outputs(cfg, out, kp, robot, t, rt, fit, executed)
-    rmse = summary["executed_rmse_rad"]
+    if kind == "video":
+        kp = estimate_pose(cfg, out)
+        analysis = analyse(cfg, kp, out)
+    elif kind in HUMAN_SOURCES:
+        analysis = analyse_skeleton(cfg, source, out)
+    if kind in HUMAN_SOURCES:
+        t, rt = retarget(cfg, analysis)
+        q_reference, base_rotation = rt.q, rt.base_rotation
+    else:
+        demo = load_robot_source(
+            source, kind, robot, topic=cfg.get("topic"), joint_names=cfg.get("joint_names")
+        )
+        t, q_reference, base_rotation = demo.t, demo.q, np.eye(3)
+    fit = fit_dmp(cfg, robot, t, q_reference, out)
+    refinement, q_plan = refine(cfg, robot, fit)
+    executed = execute(cfg, robot, base_rotation, fit, q_reference[-1], q_plan, render=kind == "video")
+    if kind == "video":
+        summary = write_outputs(cfg, out, kp, robot, t, rt, fit, executed, refinement, q_plan)
+    else:
+        extra = {"side": cfg.side} if kind in HUMAN_SOURCES else {"recording": demo.detail}
+        if kind in HUMAN_SOURCES:
+            extra.update(
+                clamped_frames=int(rt.clamped.sum()), base_rotation=np.asarray(base_rotation).tolist()
+            )
+        extra["goal"] = executed.goal
+        summary = write_common_outputs(
+            cfg, out, robot, source=source, source_type=kind, t_source=t, q_reference=q_reference, fit=fit,
+            q_commanded=q_plan, q_exec=executed.q_exec, refinement=refinement, extra=extra,
+        )  # fmt: skip
+    refined = (
+        ""
+        if refinement is None
+        else (
+            f"; refined ({refinement.method}, {refinement.task}) in {refinement.rollouts} rollouts to "
+            f"{100 * refinement.task_error_m:.2f} cm, shape RMSE {refinement.shape_rmse_rad:.3f} rad"
+        )
+    )
     print(
-        f"[lfd] {Path(str(cfg.video))}: {kp.detected.sum()}/{kp.n_frames} frames with the person ({kp.fps:.1f} fps); "
-        f"{cfg.robot}: time scaled x{fit.factor:.2f}, executed DMP RMSE {np.degrees(rmse):.2f} deg; "
-        f"outputs in {out}"
+        f"[lfd] {source} ({kind}, {summary['frames']} samples) -> {cfg.robot}: time scaled x{fit.factor:.2f}, "
+        f"executed vs commanded RMSE {np.degrees(summary['executed_vs_dmp_rmse_rad']):.2f} deg, "
+        f"{summary['limit_violations']} limit violations{refined}; outputs in {out}"
     )
     return summary

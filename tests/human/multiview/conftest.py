@@ -1,7 +1,9 @@
 """Fixtures of the lfd.human.multiview tests: MediaPipe (full model) on the first frames of the four
-synchronised Pose2Sim demo views, run once per session."""
+synchronised Pose2Sim demo views, run once per session; Pose2Sim's multi-person demo (same wheel)."""
 
 from __future__ import annotations
+
+import zipfile
 
 import numpy as np
 import pytest
@@ -19,3 +21,18 @@ def pose2sim_views(pose2sim_demo, mediapipe_ok):
         for n in calib.names
     ]
     return calib, np.stack([k.pixels for k in kps]), np.stack([k.visibility for k in kps])
+
+
+@pytest.fixture(scope="session")
+def pose2sim_multiperson(pose2sim_demo, tmp_path_factory):
+    """Pose2Sim's Demo_MultiPerson (four views, two people), extracted from the wheel the
+    single-person demo came from (``pose2sim_demo`` fetched it)."""
+    folder = next(p for p in pose2sim_demo.parents if p.name.startswith("pose2sim-"))
+    wheel = folder.parent / f"{folder.name}.whl"
+    root = tmp_path_factory.mktemp("pose2sim_multiperson")
+    prefix = "Pose2Sim/Demo_MultiPerson/"
+    with zipfile.ZipFile(wheel) as zf:
+        for name in zf.namelist():
+            if name.startswith(prefix) and (name.endswith(".mp4") or name.endswith(".qca.txt")):
+                zf.extract(name, root)
+    return root / prefix

@@ -82,24 +82,54 @@ def test_triangulation_exact_and_rejects_a_wrong_view(pose2sim_demo):
         triangulate(calib, px[:2], conf[:2])
 
 
-@pytest.mark.slow
-def test_monocular_vs_four_views_on_the_pose2sim_demo(pose2sim_demo, mediapipe_ok, tmp_path):
+def run_benchmark(*args: str) -> dict:
     proc = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "benchmarks" / "video_multiview.py"),
-            "--demo",
-            str(pose2sim_demo),
-            "--cache",
-            str(tmp_path),
-        ],
+        [sys.executable, str(ROOT / "benchmarks" / "video_multiview.py"), *args],
         capture_output=True,
         text=True,
-        timeout=900,
+        timeout=1200,
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
-    out = json.loads(proc.stdout[proc.stdout.index("{") :])
-    # Measured (docs/video.md): 8.9 px reprojection, 12.9 deg median RMSE; the issue's targets
-    # (5 px, 6 deg) are not met. These bounds guard against regressions.
-    assert out["reprojection_px_median_arm"] < 12.0
-    assert out["median_rmse_deg"] < 16.0
+    return json.loads(proc.stdout[proc.stdout.index("{") :])
+
+
+@pytest.mark.slow
+def test_full_and_heavy_against_four_views_on_the_pose2sim_demo(pose2sim_demo, mediapipe_ok, tmp_path):
+    out = run_benchmark("--demo", str(pose2sim_demo), "--cache", str(tmp_path), "--models", "full,heavy")
+    as_given = run_benchmark("--demo", str(pose2sim_demo), "--cache", str(tmp_path), "--models", "full,heavy",
+                             "--no-reconcile")  # fmt: skip
+    full, heavy = out["full"], out["heavy"]
+    # Measured (docs/video.md): full flips cam02's labels front/back in 45 of 100 frames, heavy in none.
+    assert full["flips"]["cam02"] > 20 and heavy["flips"]["cam02"] <= 2
+    # The honest targets of issue 33 with heavy: <= 10 px, <= 11 px with every view kept (10.5).
+    assert heavy["reprojection_px_median_arm"] <= 10.0
+    assert heavy["reprojection_px_median_arm_all_views"] <= 11.0
+    assert full["reprojection_px_median_arm"] <= 10.0
+    # Reconciling cam02's labels brings full's all-views error from 15.7 px to 11.6 px.
+    assert (
+        full["reprojection_px_median_arm_all_views"]
+        < as_given["full"]["reprojection_px_median_arm_all_views"] - 2
+    )
+    assert full["relabelled_frames"]["cam02"] > 10 and heavy["relabelled_frames"]["cam02"] <= 2
+    for model in (full, heavy):
+        assert set(model["arms"]) == {"left", "right"} and all(
+            v.startswith("measured") for v in model["arms"].values()
+        )
+        # Shoulder elevation from one camera: 7 deg (heavy), 9.5 deg (full); elbow flexion 14-16 deg
+        # (target 12 deg not met, docs/video.md). Bounds against regressions.
+        assert model["monocular_median_abs_deg"]["shoulder_elevation"] < 12.0
+        assert model["monocular_median_abs_deg"]["elbow_flexion"] < 20.0
+
+
+@pytest.mark.slow
+def test_two_people_seen_by_two_views_each_do_not_abort(pose2sim_multiperson, mediapipe_ok, tmp_path):
+    # MediaPipe follows one person in cam01/cam02 and another in cam03/cam04: the views showing the
+    # other person are left out, the arms are still measured, nothing aborts.
+    out = run_benchmark("--demo", str(pose2sim_multiperson), "--cache", str(tmp_path), "--models", "full")[
+        "full"
+    ]
+    others = sorted(out["other_person_frames"].values())
+    assert others[:2] == [0, 0] and others[2] >= 90
+    assert out["reprojection_px_median_arm"] < 10 and out["reprojection_px_median_arm_all_views"] > 100
+    assert all(isinstance(v, str) for v in out["arms"].values())
+    assert any(v.startswith("measured") for v in out["arms"].values())

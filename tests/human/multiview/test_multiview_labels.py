@@ -59,7 +59,7 @@ def test_mediapipe_views_with_labels_swapped_are_reconciled(pose2sim_views):
     truth = np.zeros((4, T), bool)
     truth[1, 2:7] = truth[3, 4:9] = True  # frames 4-6: two of the four views swapped
     bad_px, bad_conf = swap(px, conf, truth, PAIRS)
-    for groups in ([PAIRS], LEFT_RIGHT_GROUPS):  # the whole body together, or trunk, arms, legs
+    for groups in ([PAIRS], LEFT_RIGHT_GROUPS):  # the whole body together, or upper body and legs
         labels = reconcile_left_right(calib, bad_px, bad_conf, PAIRS, groups=groups)
         assert (labels.swapped == truth[..., None]).all()
         joints = [j for group in groups for pair in group for j in pair]

@@ -28,16 +28,18 @@ TRUNK_RIGHT = [MEDIAPIPE_LANDMARKS.index(MEDIAPIPE_LANDMARKS[i].replace("left", 
 ALL_LEFT = [i for i, n in enumerate(MEDIAPIPE_LANDMARKS) if "left" in n]
 ALL_RIGHT = [MEDIAPIPE_LANDMARKS.index(MEDIAPIPE_LANDMARKS[i].replace("left", "right")) for i in ALL_LEFT]
 #: Left/right pairs decided together when a multi-view recording's labels are reconciled
-#: (:func:`lfd.human.multiview.reconcile_left_right`): trunk (shoulders, hips; the anchor that
-#: also decides which views show the person), arms, legs. The face's pairs are left as given: its
-#: points lie too close together (and are guessed in back views) for reprojection to tell them apart.
+#: (:func:`lfd.human.multiview.reconcile_left_right`): the upper body (shoulders, hips, arms; the
+#: anchor that also decides which views show the person) and the legs. The arms are not decided on
+#: their own: seen by two views only (the Pose2Sim multi-person demo), an arm group alone swapped
+#: an occluded arm wrongly (right elbow 80 px instead of 10 px). The face's pairs are left as
+#: given: its points lie too close together (and are guessed in back views) for reprojection to
+#: tell them apart.
 _PAIR = {n[5:]: (i, MEDIAPIPE_LANDMARKS.index(n.replace("left", "right")))
          for i, n in enumerate(MEDIAPIPE_LANDMARKS) if n.startswith("left_")}  # fmt: skip
 LEFT_RIGHT_GROUPS = tuple(
     tuple(_PAIR[n] for n in names)
     for names in (
-        ("shoulder", "hip"),
-        ("elbow", "wrist", "pinky", "index", "thumb"),
+        ("shoulder", "hip", "elbow", "wrist", "pinky", "index", "thumb"),
         ("knee", "ankle", "heel", "foot_index"),
     )
 )
