@@ -82,5 +82,5 @@ def test_imitate_input_errors(tmp_path):
         script.run(_cfg([f"video={junk}", "robot=ur5"]), tmp_path)
     with pytest.raises(ValueError, match="cannot be decoded"):
         script.run(_cfg([f"video={junk}"]), tmp_path)
-    with pytest.raises(FileNotFoundError, match="video file not found"):
+    with pytest.raises(FileNotFoundError, match="source: nothing at"):
         script.run(_cfg([f"video={tmp_path / 'none.mp4'}"]), tmp_path)

@@ -3,20 +3,14 @@ read back in the robot's joint order; JointTrajectory bags read back with rosbag
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
-from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
-from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
 from lfd.io.rosbag import is_bag, read_joint_states, write_joint_trajectory
 
 NAMES = ["j0", "j1", "j2", "j3"]
-STATE = "sensor_msgs/msg/JointState"
 
 
 def _trajectory():
@@ -24,52 +18,12 @@ def _trajectory():
     return t, np.stack([np.sin(t), np.cos(t), 0.3 * t, -0.2 * t**2], axis=1)
 
 
-def _joint_state(store, stamp: float, q_row, order):
-    """A message holding the robot's joints in another order, plus a head pan and a gripper."""
-    types = store.types
-    header = types["std_msgs/msg/Header"]
-    sec = int(stamp)
-    kwargs = dict(
-        stamp=types["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((stamp - sec) * 1e9)))
-    )
-    kwargs["frame_id"] = ""
-    if "seq" in header.__dataclass_fields__:
-        kwargs["seq"] = 0
-    names = [NAMES[i] if isinstance(i, int) else i for i in order]
-    position = np.array([q_row[i] if isinstance(i, int) else 0.25 for i in order])
-    return types[STATE](
-        header=header(**kwargs), name=names, position=position, velocity=np.zeros(0), effort=np.zeros(0)
-    )
-
-
-def write_joint_state_bag(path: Path, kind: str, t, q, topic="/joint_states", t0=100.0) -> Path:
-    """A JointState bag of ``q (T, 4)`` stamped ``t0 + t``, joints in the order 3, head_pan, 0, 2, gripper, 1."""
-    order = [3, "head_pan", 0, 2, "gripper", 1]
-    if kind == "ros1":
-        store = get_typestore(Stores.ROS1_NOETIC)
-        with Writer1(path) as writer:
-            conn = writer.add_connection(topic, STATE, typestore=store)
-            for k in range(len(t)):
-                msg = _joint_state(store, t0 + t[k], q[k], order)
-                writer.write(conn, int((t0 + t[k]) * 1e9), store.serialize_ros1(msg, STATE))
-        return path
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
-    with Writer2(path, version=9, storage_plugin=plugin) as writer:
-        conn = writer.add_connection(topic, STATE, typestore=store)
-        for k in range(len(t)):
-            writer.write(
-                conn,
-                int((t0 + t[k]) * 1e9),
-                store.serialize_cdr(_joint_state(store, t0 + t[k], q[k], order), STATE),
-            )
-    return path
-
-
 @pytest.mark.parametrize("kind", ["ros1", "ros2", "mcap"])
-def test_joint_states_are_read_in_the_robots_order_timed_by_header_stamps(tmp_path, kind):
+def test_joint_states_are_read_in_the_robots_order_timed_by_header_stamps(
+    tmp_path, kind, write_joint_state_bag
+):
     t, q = _trajectory()
-    bag = write_joint_state_bag(tmp_path / ("arm.bag" if kind == "ros1" else "arm"), kind, t, q)
+    bag = write_joint_state_bag(tmp_path / ("arm.bag" if kind == "ros1" else "arm"), kind, t, q, NAMES)
     assert is_bag(bag)
     rec = read_joint_states(bag, joint_names=NAMES)
     np.testing.assert_array_equal(rec.q, q)  # head pan and gripper ignored, order matched by name
@@ -80,9 +34,9 @@ def test_joint_states_are_read_in_the_robots_order_timed_by_header_stamps(tmp_pa
         np.testing.assert_array_equal(read_joint_states(mcap, joint_names=NAMES).q, q)
 
 
-def test_bad_topics_and_names_are_one_line_listing_what_the_bag_has(tmp_path):
+def test_bad_topics_and_names_are_one_line_listing_what_the_bag_has(tmp_path, write_joint_state_bag):
     t, q = _trajectory()
-    bag = write_joint_state_bag(tmp_path / "arm.bag", "ros1", t, q, topic="/robot/joint_states")
+    bag = write_joint_state_bag(tmp_path / "arm.bag", "ros1", t, q, NAMES, topic="/robot/joint_states")
     with pytest.raises(
         ValueError, match=r"topic '/joint_states' is not in the bag; the bag has: /robot/joint_states"
     ):

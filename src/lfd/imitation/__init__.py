@@ -1,11 +1,12 @@
-"""Imitation from people: learn a robot skill from a video of a person (docs/video.md).
+"""Imitation: from any demonstration (a video or skeleton file of a person, a teach export, a robot bag or
+joint CSV) to a robot skill, refined by policy search and executed (docs/imitation.md).
 
 The pipeline's stages are functions callable from the package, each taking the
 configuration (``configs/imitate.yaml``) and the previous stages' results
-(:mod:`lfd.imitation.pipeline`): :func:`estimate_pose` -> :func:`analyse` ->
-:func:`retarget` -> :func:`fit_dmp` -> :func:`execute` (PyBullet, optionally towards a new
-goal) -> :func:`write_outputs`; :func:`run` chains them. ``scripts/imitate.py`` is the Hydra
-entry point.
+(:mod:`lfd.imitation.pipeline`): :func:`estimate_pose` -> :func:`analyse` (or
+:func:`analyse_skeleton`) -> :func:`retarget` -> :func:`fit_dmp` -> :func:`refine` -> :func:`execute`
+(PyBullet, optionally towards a new goal) -> outputs; :func:`run` chains them. ``scripts/imitate.py``
+is the Hydra entry point.
 
 Example (needs MediaPipe and a video)::
 
@@ -24,13 +25,16 @@ from .pipeline import (
     DMPFit,
     Execution,
     analyse,
+    analyse_skeleton,
     check_config,
     estimate_pose,
     execute,
     fill_missing,
     fit_dmp,
+    refine,
     retarget,
     run,
+    source_of,
     write_outputs,
 )
 from .side_by_side import write_side_by_side
@@ -40,13 +44,16 @@ __all__ = [
     "DMPFit",
     "Execution",
     "analyse",
+    "analyse_skeleton",
     "check_config",
     "estimate_pose",
     "execute",
     "fill_missing",
     "fit_dmp",
+    "refine",
     "retarget",
     "run",
+    "source_of",
     "write_outputs",
     "write_side_by_side",
 ]
