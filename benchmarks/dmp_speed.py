@@ -11,6 +11,11 @@ samples over 2 s, K = 20 and 50 basis functions). Measured per configuration:
   extrapolated (the output says so).
 - reproduction error: RMSE and end-point error relative to the largest per-DoF range.
 
+Then 1000 rollouts against this machine's limits measured in the same process, with 1 and 2
+torch threads: the write bandwidth (filling a warm buffer) and the float64 GEMM throughput (a
+1024^3 product); a batch of rollouts is one GEMM writing ``B T D`` floats, so its lower bound
+is the larger of the two times, and the table prints which applies and the fraction reached.
+
 Plus ``DMPLayer`` forward + backward for B = 256, T = 100, D = 7, K = 20 (median of many
 runs). Timings are wall-clock medians with torch's default thread count; the load average
 is printed because co-tenant processes on a small machine distort them (with OpenMP's
@@ -167,6 +172,58 @@ def bench_layer(repeats: int, device: str) -> float:
     return median_time(step, repeats)
 
 
+def machine_limits(repeats: int) -> tuple[float, float]:
+    """This machine's write bandwidth (bytes/s: filling a warm 64 MB float64 buffer) and float64
+    GEMM throughput (flop/s: 1024 x 1024 x 1024 into a warm output), at torch's current thread count."""
+    buffer = torch.empty(8 << 20, dtype=torch.float64)
+    fill = median_time(lambda: buffer.fill_(1.0), repeats)
+    a, b = torch.randn(1024, 1024, dtype=torch.float64), torch.randn(1024, 1024, dtype=torch.float64)
+    out = torch.empty(1024, 1024, dtype=torch.float64)
+    gemm = median_time(lambda: torch.mm(a, b, out=out), repeats)
+    return buffer.numel() * 8 / fill, 2 * 1024**3 / gemm
+
+
+def roofline(repeats: int) -> list[str]:
+    """1000 rollouts against the machine's limits, with 1 and 2 torch threads.
+
+    A rollout batch writes ``B T D`` floats (``(B, T, D)`` float64 output) and is one GEMM of
+    ``(B D, K + 2)`` inputs (start, goal, weights) by ``(K + 2, T)`` operator rows:
+    ``2 B D (K + 2) T`` flops. Its lower bound is the larger of the write time at the measured
+    bandwidth and the GEMM time at the measured throughput; the fraction is bound / measured.
+    """
+    lines = []
+    default_threads = torch.get_num_threads()
+    rng = np.random.default_rng(2)
+    for threads in (1, 2):
+        torch.set_num_threads(threads)
+        bandwidth, throughput = machine_limits(repeats)
+        lines.append(
+            f"\n{threads} thread(s): write bandwidth {bandwidth / 1e9:.1f} GB/s, "
+            f"float64 GEMM {throughput / 1e9:.1f} GFLOP/s (1024^3)\n"
+        )
+        lines.append(
+            "| T | K | 1000 rollouts [ms] | written [GB/s] | GEMM [GFLOP/s] | bound | bound [ms] | fraction |"
+        )
+        lines.append("|---|---|---|---|---|---|---|---|")
+        for n_steps in (100, 1000):
+            t, y = demonstration(n_steps)
+            for n_basis in (20, 50):
+                dmp = DMP(n_basis).fit(t, y)
+                weights = dmp.weights_ + rng.normal(size=(BATCH, N_DIMS, n_basis))
+                elapsed = median_time(lambda dmp=dmp, weights=weights: dmp.rollout(weights=weights), repeats)
+                written = BATCH * n_steps * N_DIMS * 8
+                flops = 2 * BATCH * N_DIMS * (n_basis + 2) * n_steps
+                bounds = {"memory": written / bandwidth, "GEMM": flops / throughput}
+                kind = max(bounds, key=bounds.get)
+                lines.append(
+                    f"| {n_steps} | {n_basis} | {elapsed * 1e3:.2f} | {written / elapsed / 1e9:.2f} | "
+                    f"{flops / elapsed / 1e9:.1f} | {kind} | {bounds[kind] * 1e3:.2f} | "
+                    f"{bounds[kind] / elapsed:.2f} |"
+                )
+    torch.set_num_threads(default_threads)
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -230,6 +287,11 @@ def main() -> None:
             f"DMPLayer forward + backward, same sizes, CUDA ({torch.cuda.get_device_name()}): "
             f"{bench_layer(layer_repeats, 'cuda') * 1e3:.2f} ms (median of {layer_repeats})"
         )
+    print(
+        "\n1000 rollouts against this machine's measured limits (fraction = lower bound / measured "
+        "time; target >= 0.33, i.e. within 3x):"
+    )
+    print("\n".join(roofline(5 if args.quick else 15)))
     print(f"load average {os.getloadavg()[0]:.1f} at end")
 
 
