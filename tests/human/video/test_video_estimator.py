@@ -4,7 +4,10 @@ MediaPipe's module folder or a passed file, checked by its published checksum, a
 from __future__ import annotations
 
 import hashlib
+import subprocess
+import sys
 import urllib.request
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,6 +32,18 @@ def test_installed_heavy_model_is_the_published_file(installed_heavy):
     assert len(data) == 27_709_200
     assert hashlib.sha256(data).hexdigest() == est.HEAVY_MODEL_SHA256
     assert est.install_heavy_model() == installed_heavy
+
+
+def test_provisioning_script_finds_the_installed_model(installed_heavy):
+    root = Path(__file__).resolve().parents[3]
+    proc = subprocess.run(
+        [sys.executable, str(root / "scripts" / "get_pose_model.py")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr[-1000:]
+    assert f"already installed, verified: {installed_heavy}" in proc.stdout
 
 
 def test_bad_model_names_and_missing_or_wrong_heavy_files(tmp_path, monkeypatch, mediapipe_ok):

@@ -39,6 +39,8 @@ __all__ = ["LabelReconciliation", "reconcile_left_right"]
 #: Most views searched: 2^C patterns (3^C with ``other_person_px``).
 MAX_VIEWS = 8
 MAX_VIEWS_WITH_OFF = 6
+#: Entries of the per-state DLT rows held at once (frames are processed in chunks).
+CHUNK = 2_000_000
 
 
 @dataclasses.dataclass
@@ -209,7 +211,14 @@ def reconcile_left_right(
         rows, used = dlt_rows(calib, px, out_conf, min_confidence)
         left, right = [a for a, _ in group], [b for _, b in group]
         off = other_person_px or np.inf
-        cost = _costs(calib, rows, used, px, left, right, states, cap_px, off)
+        step = max(1, CHUNK // (len(states) * C * 2 * len(group)))  # frames per chunk, bounded memory
+        cost = np.concatenate(
+            [
+                _costs(calib, rows[:, t : t + step], used[:, t : t + step], px[:, t : t + step], left, right,
+                       states, cap_px, off)
+                for t in range(0, T, step)
+            ], axis=1,
+        )  # fmt: skip
         change = np.array([[0.0, switch_px, off], [switch_px, 0.0, off], [off, off, 0.0]])[:k, :k]
         state = _viterbi(cost, C, change)
         seen = used[:, :, left + right].any(2)  # (C, T)
