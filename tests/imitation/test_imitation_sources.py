@@ -112,6 +112,7 @@ def test_joint_csv_and_teach_export_sources(tmp_path):
         ("ui_prmd/Kinect/Positions/m07_s02_e01_positions.txt.gz", "wam4"),
         ("ui_prmd/Kinect/Positions/m07_s02_e01_positions.txt.gz", "sawyer"),
         ("kimore_ex1_excerpt.csv.gz", "wam4"),
+        ("kimore_ex1_excerpt.csv.gz", "sawyer"),  # an IK restart once jumped branches here (3.7 rad)
     ],
 )
 def test_real_skeleton_recordings_to_robots(tmp_path, recording, robot):

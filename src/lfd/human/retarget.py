@@ -273,6 +273,7 @@ def retarget_wrist_path(
     iters: int = 20,
     elbow_weight: float = 0.1,
     tol: float = 1e-4,
+    max_jump: float = 0.5,
 ) -> RetargetResult:
     """Joint trajectory of a 7-DoF arm whose tool follows the person's scaled wrist path.
 
@@ -283,6 +284,8 @@ def retarget_wrist_path(
         iters: damped least-squares iterations per frame (warm-started from the last frame).
         elbow_weight: gain of the null-space elbow hint (0 = none).
         tol: m, stop iterating a frame once the tool is this close.
+        max_jump: rad, largest joint change from the previous frame a restarted IK solution may make (a
+            farther one is another IK branch: the frame keeps the warm-started solution and its error).
 
     Returns:
         :class:`RetargetResult` with ``q`` (T, n) rad; ``error`` is the tool-to-target distance (m).
@@ -330,7 +333,9 @@ def retarget_wrist_path(
             sol = solve_ik(
                 model, torch.from_numpy(target[t][None]), qt[None], position_only=True, tol_pos=tol
             )
-            if sol.pos_error[0] < miss:
+            # keep the arm on its branch: a restart that lands farther than max_jump from the last frame
+            # would be a jump the robot cannot make between two frames
+            if sol.pos_error[0] < miss and (t == 0 or np.abs(sol.q[0].numpy() - current).max() <= max_jump):
                 qt = sol.q[0]
                 miss = float(sol.pos_error[0])
         current = qt.numpy()
