@@ -272,7 +272,11 @@ class Robot:
             return _blockwise(self._fk_all_links, q)
         if q.requires_grad and torch.is_grad_enabled():
             return _blockwise(self._fk_tool, q)
-        out = q.new_empty(q.shape[0], 4, 4)
+        if q.device.type == "cpu" and q.dtype in (torch.float32, torch.float64):
+            # NumPy asks for huge pages: no first-touch page fault per 4 kB of a large output
+            out = torch.from_numpy(np.empty((q.shape[0], 4, 4), dtype=str(q.dtype).removeprefix("torch.")))
+        else:
+            out = q.new_empty(q.shape[0], 4, 4)
         with torch.no_grad():
             self._program.tool_into(q, out)
         return out
