@@ -1,18 +1,24 @@
-"""Learn a robot skill from a video of a person (docs/video.md): the Hydra entry point.
+"""From a demonstration to a robot skill (docs/imitation.md): the Hydra entry point.
 
 Usage::
 
-    python scripts/imitate.py video=person.mp4 robot=wam4 side=right
-    python scripts/imitate.py video=person.mp4 robot=sawyer goal=[0.6,-0.1,0.5]
+    python scripts/imitate.py source=person.mp4 robot=wam4 side=right
+    python scripts/imitate.py source=recording.csv robot=sawyer side=left         # a skeleton file
+    python scripts/imitate.py source=arm.bag robot=wam4 topic=/joint_states        # a ROS 1/2 bag or .mcap
+    python scripts/imitate.py source=outputs/teach/export/demo-20261205-101500 robot=wam4
+    python scripts/imitate.py source=arm.bag robot=wam4 refine.task=reach refine.target=[0.4,0.2,0.1]
 
-Composes ``configs/imitate.yaml`` and runs :func:`lfd.imitation.run` (video -> pose -> arm
-angles -> retargeting -> time-scaled DMP -> PyBullet -> side-by-side video) in the Hydra run
-directory: ``keypoints.csv`` (+ ``.npz``), ``arm.csv``/``arm.mot``/``arm.json``, ``dmp.json``,
-``robot_trajectory.csv``, ``summary.json``, ``side_by_side.mp4`` and ``side_by_side.gif``.
+Composes ``configs/imitate.yaml`` and runs :func:`lfd.imitation.run` (source -> arm analysis and
+retargeting for people -> time-scaled DMP -> optional policy-search refinement -> PyBullet) in the
+Hydra run directory: ``dmp.json``, ``robot_trajectory.csv``, ``robot_trajectory.bag``,
+``summary.json``, ``refinement.png`` when refining; for people ``arm.csv``/``arm.mot``/``arm.json``;
+for a video ``keypoints.csv`` (+ ``.npz``) and ``side_by_side.mp4``/``.gif``. Bad input is one line on
+stderr and exit status 2.
 """
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import hydra
@@ -29,7 +35,11 @@ __all__ = ["main", "run"]
 def main(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
-    run(cfg, HydraConfig.get().runtime.output_dir)
+    try:
+        run(cfg, HydraConfig.get().runtime.output_dir)
+    except (ValueError, FileNotFoundError, FileExistsError) as e:
+        print(f"imitate: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
 
 
 if __name__ == "__main__":

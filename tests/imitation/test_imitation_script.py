@@ -84,3 +84,34 @@ def test_imitate_input_errors(tmp_path):
         script.run(_cfg([f"video={junk}"]), tmp_path)
     with pytest.raises(FileNotFoundError, match="source: nothing at"):
         script.run(_cfg([f"video={tmp_path / 'none.mp4'}"]), tmp_path)
+
+
+def test_entry_point_runs_a_bag_and_reports_bad_input_in_one_line(tmp_path, write_joint_state_bag):
+    import os
+    import subprocess
+    import sys
+
+    from lfd.robots import load_robot
+
+    robot = load_robot("wam4")
+    t = np.linspace(0.0, 1.5, 61)
+    q = robot.home.numpy() + np.outer(np.sin(0.5 * np.pi * t / t[-1]) ** 2, [0.3, 0.2, 0.1, 0.5])
+    bag = write_joint_state_bag(tmp_path / "arm.bag", "ros1", t, q, robot.joint_names)
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    base = [sys.executable, str(ROOT / "scripts" / "imitate.py"), f"source={bag}", "robot=wam4"]
+    good = subprocess.run(
+        [*base, f"hydra.run.dir={tmp_path}/good"], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert good.returncode == 0, good.stderr[-2000:]
+    summary = json.loads((tmp_path / "good" / "summary.json").read_text())
+    assert summary["source_type"] == "bag" and summary["limit_violations"] == 0
+    bad = subprocess.run(
+        [*base, "topic=/nope", f"hydra.run.dir={tmp_path}/bad"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    lines = [line for line in bad.stderr.splitlines() if line.startswith("imitate:")]
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr and len(lines) == 1
+    assert "topic '/nope' is not in the bag; the bag has: /joint_states" in lines[0]
