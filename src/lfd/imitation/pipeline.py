@@ -315,6 +315,7 @@ def refine(cfg: Any, robot, fit: DMPFit):
         radius=float(r.radius),
         goal_init=str(r.get("goal_init", "demo")),
         seed=int(r.seed),
+        progress=True,
     )
     s_grid = np.linspace(0.0, 1.0, len(result.t))
     s_robot = (fit.t_robot - fit.t_robot[0]) / (fit.t_robot[-1] - fit.t_robot[0])

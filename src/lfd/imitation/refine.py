@@ -105,6 +105,7 @@ def refine_skill(
     radius: float = 0.05,
     goal_init: str = "demo",
     seed: int = 0,
+    progress: bool = False,
     **search_options,
 ) -> Refinement:
     """Refine the fitted ``dmp`` of ``robot`` (``D`` joints) for ``task`` (:data:`lfd.rl.skill.SKILL_TASKS`).
@@ -121,6 +122,7 @@ def refine_skill(
             (a DMP ends at its goal, so this often meets ``tol`` at once; the search then only has to keep
             it there); ``"demo"`` starts from the demonstrated goal and lets the search move it.
         seed: exploration seed.
+        progress: show a progress bar over the rollouts (stderr).
         **search_options: further options of the search (``sigma``, ``n_rollouts``, ...).
 
     Returns:
@@ -151,7 +153,18 @@ def refine_skill(
         )
         if task == "reach" and goal_init == "ik":
             goal = q_target
-    reward = SkillReward(
+
+    class CountedReward(SkillReward):  # every call of the reward is one batch of rollouts
+        def __call__(self, trajectories):
+            bar.update(np.shape(trajectories)[0])
+            return super().__call__(trajectories)
+
+    from tqdm.auto import tqdm
+
+    bar = tqdm(
+        total=int(max_rollouts), desc=f"refine {task} ({method})", unit="rollout", disable=not progress
+    )
+    reward = CountedReward(
         robot, task, target, reference, t, t_via=t_via, radius=radius, shape_weight=shape_weight
     )
     lower, upper = _robot_limits(robot)
@@ -167,7 +180,10 @@ def refine_skill(
         options = dict(sigma=0.02, sigma_goal=0.02 if explore_goal else 0.0, n_rollouts=n_batch)
         options["max_iter"] = max(1, (int(max_rollouts) - 1) // n_batch)
         search = power if method == "power" else pibb
-    result = search(dmp, reward, **common, **{**options, **search_options})
+    try:
+        result = search(dmp, reward, **common, **{**options, **search_options})
+    finally:
+        bar.close()
     terms = reward.terms(result.trajectory[None])
     h = result.history
     history = [
