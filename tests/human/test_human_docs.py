@@ -7,7 +7,7 @@ import importlib
 
 import pytest
 
-MODULES = ["skeleton", "arm_ik", "thesis_angles", "synthetic", "analysis", "readers"]
+MODULES = ["skeleton", "arm_ik", "thesis_angles", "synthetic", "analysis", "readers", "readers.vicon"]
 
 
 @pytest.mark.parametrize("name", MODULES)

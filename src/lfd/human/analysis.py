@@ -95,11 +95,16 @@ class ArmAnalysis:
 
     # ------------------------------------------------------------------ summaries
     def summary(self) -> dict:
-        """Per ISB joint min, max, range of motion and mean (deg) and peak absolute torque (N m); min,
-        max, range of the derived thesis angles (deg); quality counts."""
+        """Per ISB joint min, max, range of motion and mean (deg) of the filtered per-frame angles ``q_ik``
+        and peak absolute torque (N m); min, max, range of the derived thesis angles (deg); quality counts.
+
+        The angle statistics are those of ``q_ik``, not of the fit ``q``: the fit exists for the
+        derivatives, and on short repetitions that hold the arm up a CV polynomial overshoots the
+        plateau (docs/human.md, validation against Vicon markers).
+        """
         out: dict = {"source": self.source, "side": self.side, "frames": int(len(self.t)),
                      "duration_s": float(self.t[-1] - self.t[0]) if len(self.t) else 0.0}  # fmt: skip
-        deg = np.rad2deg(self.q)
+        deg = np.rad2deg(self.q_ik)
         for j, name in enumerate(JOINT_NAMES):
             col = deg[:, j][np.isfinite(deg[:, j])]
             tau = np.abs(self.tau[:, j])[np.isfinite(self.tau[:, j])]

@@ -1,6 +1,8 @@
 """Skeleton file readers, one module per format: Kinect v2 CSV (KIMORE, :mod:`.kinect_csv`),
 NTU RGB+D ``.skeleton`` (:mod:`.ntu`), UI-PRMD (:mod:`.uiprmd`), OpenSim ``.trc`` (:mod:`.trc`) and
-generic CSV (:mod:`.generic_csv`); format sniffing and dispatch in :mod:`.dispatch`.
+generic CSV (:mod:`.generic_csv`); format sniffing and dispatch in :mod:`.dispatch`. UI-PRMD's Vicon
+marker files (39 Plug-in Gait markers, mm, z up) are read by :func:`read_uiprmd_vicon`
+(:mod:`.vicon`, called explicitly: their names are those of the Kinect files).
 
 :func:`read_skeleton` infers the format from the name and first line where that is
 unambiguous; ``.gz`` files are read transparently. Every reader returns a
@@ -39,14 +41,17 @@ Example::
 from .common import SkeletonFormatError
 from .dispatch import FORMATS, NATIVE_UNITS, iter_skeleton_files, read_skeleton
 from .uiprmd import UIPRMD_JOINTS, UIPRMD_PARENTS, uiprmd_global_positions
+from .vicon import PLUG_IN_GAIT_MARKERS, read_uiprmd_vicon
 
 __all__ = [
     "FORMATS",
     "NATIVE_UNITS",
+    "PLUG_IN_GAIT_MARKERS",
     "UIPRMD_JOINTS",
     "UIPRMD_PARENTS",
     "SkeletonFormatError",
     "iter_skeleton_files",
     "read_skeleton",
+    "read_uiprmd_vicon",
     "uiprmd_global_positions",
 ]
