@@ -67,18 +67,27 @@ def timed(fn: Callable[[], object], repeats: int, inner: int = 1) -> Timing:
 def paired_ratio(ours: Callable[[], object], theirs: Callable[[], object], repeats: int, scale: float = 1.0):
     """Run ``ours`` and ``theirs`` alternately ``repeats`` times (both see the same load).
 
-    Returns the median wall times (s) of both and the sorted per-pair ratios ``theirs * scale / ours``.
+    Returns the median wall times (s) of both, the sorted per-pair wall ratios
+    ``theirs * scale / ours`` and the sorted per-pair process-CPU-time ratios.
     """
     ours(), theirs()
     pairs = []
     for _ in range(repeats):
-        start = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         ours()
-        middle = time.perf_counter()
+        wall_mid, cpu_mid = time.perf_counter(), time.process_time()
         theirs()
-        pairs.append((middle - start, (time.perf_counter() - middle) * scale))
-    ratios = sorted(t / o for o, t in pairs)
-    return statistics.median(o for o, _ in pairs), statistics.median(t for _, t in pairs), ratios
+        pairs.append(
+            (
+                wall_mid - wall,
+                (time.perf_counter() - wall_mid) * scale,
+                cpu_mid - cpu,
+                (time.process_time() - cpu_mid) * scale,
+            )
+        )
+    ratios = sorted(p[1] / p[0] for p in pairs)
+    cpu_ratios = sorted(p[3] / p[2] for p in pairs)
+    return statistics.median(p[0] for p in pairs), statistics.median(p[1] for p in pairs), ratios, cpu_ratios
 
 
 def pin_fk_loop(model, data, frame: int, qs: np.ndarray) -> None:
@@ -182,7 +191,7 @@ def main() -> None:
     )
     note = f"success lfd {min(ik_success):.1%}, pin {pin_success[0].mean():.1%} (DLS loop from home, no restarts)"
     rows.append(("IK, 1000 poses (f64)", 1000, ik, pin_ik.scaled(pin_rows), note))
-    fk_ours, fk_pin, fk_ratios = paired_ratio(
+    fk_ours, fk_pin, fk_ratios, fk_cpu_ratios = paired_ratio(
         lambda: robot.fk(q_big),
         lambda: pin_fk_loop(model, data, frame, np_big[:n_pin]),
         2 * repeats + 1,
@@ -206,7 +215,9 @@ def main() -> None:
     fk_ratio = statistics.median(fk_ratios)
     print(f"- FK of 100k configurations >= 6x Pinocchio's loop (f64, {len(fk_ratios)} alternating pairs): "
           f"lfd {fk_ours * 1e3:.1f} ms, Pinocchio {fk_pin * 1e3:.1f} ms, ratio median {fk_ratio:.2f}x "
-          f"(range {fk_ratios[0]:.2f}-{fk_ratios[-1]:.2f}x, {verdict[fk_ratio >= 6]})")  # fmt: skip
+          f"(range {fk_ratios[0]:.2f}-{fk_ratios[-1]:.2f}x, {verdict[fk_ratio >= 6]}); process CPU time "
+          f"ratio median {statistics.median(fk_cpu_ratios):.2f}x "
+          f"(range {fk_cpu_ratios[0]:.2f}-{fk_cpu_ratios[-1]:.2f}x)")  # fmt: skip
     ratio = rne.wall / rnea_par.wall
     print(f"- inverse dynamics within 3x rneaInParallel: {ratio:.2f}x ({verdict[ratio <= 3]})")
     print(
