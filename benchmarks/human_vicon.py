@@ -13,6 +13,7 @@ moves more, in each recording separately).
     PYTHONPATH=src python benchmarks/human_vicon.py                       # table of docs/human.md
     PYTHONPATH=src python benchmarks/human_vicon.py --variants            # + filter/fit variants
     PYTHONPATH=src python benchmarks/human_vicon.py --variants --noise 0.02   # + 2 cm of added noise
+    PYTHONPATH=src python benchmarks/human_vicon.py --shoulder acromion   # marker humerus from the acromion
     PYTHONPATH=src python benchmarks/human_vicon.py --root ../shared/data/human/ui_prmd --subjects s02 s03
 
 s02-s05 are the subjects with Vicon files: they are validation data (every default of lfd.human
@@ -61,7 +62,12 @@ def subject_shape(vicon_path: Path):
 
 
 def compare_trial(
-    vicon_path: Path, kinect_path: Path, noise: float = 0.0, use_fit: bool = False, **options
+    vicon_path: Path,
+    kinect_path: Path,
+    noise: float = 0.0,
+    use_fit: bool = False,
+    shoulder: str = "gh",
+    **options,
 ) -> dict:
     """Summaries of one trial: ``{"vicon": ..., "lfd": ..., "raw": ..., "side_vicon", "side_kinect"}``; lfd's
     from the filtered per-frame angles (as ``ArmAnalysis.summary``) or, with ``use_fit``, from the fit;
@@ -80,7 +86,10 @@ def compare_trial(
     return {
         "vicon": trial_summary(
             marker_arm_angles(
-                markers, side_v, shape=shape if shape is not None else subject_shape(vicon_path)
+                markers,
+                side_v,
+                shape=shape if shape is not None else subject_shape(vicon_path),
+                shoulder=shoulder,
             )
         ),
         "lfd": trial_summary(result.q if use_fit else result.q_ik),
@@ -135,12 +144,13 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--noise", type=float, default=0.0, help="m of white noise added to the Kinect joints"
     )
+    parser.add_argument("--shoulder", choices=("gh", "acromion"), default="gh", help="marker humerus origin")
     args = parser.parse_args(argv)
     found = trials(args.root, args.subjects, args.episodes)
     if not found:
         print(f"no Vicon/Kinect trial pairs under {args.root}", file=sys.stderr)
         return 1
-    results = {name: compare_trial(v, k, noise=args.noise) for name, v, k in found}
+    results = {name: compare_trial(v, k, noise=args.noise, shoulder=args.shoulder) for name, v, k in found}
     noise = f", {args.noise * 100:g} cm of white noise added to the Kinect joints" if args.noise else ""
     print(
         f"{len(found)} trials ({', '.join(args.subjects)}; validation data, no held-out Vicon exists){noise}\n"
@@ -161,7 +171,9 @@ def main(argv=None) -> int:
             res = (
                 results
                 if not options
-                else {n: compare_trial(v, k, args.noise, **options) for n, v, k in found}
+                else {
+                    n: compare_trial(v, k, args.noise, shoulder=args.shoulder, **options) for n, v, k in found
+                }
             )
             err = [np.mean([abs(r["lfd"][k] - r["vicon"][k]) for r in res.values()]) for k in SUMMARY_KEYS]
             print(f"| {label} | " + " | ".join(f"{e:.1f}°" for e in err) + " |")
