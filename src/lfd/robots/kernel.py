@@ -39,6 +39,7 @@ BLOCK_ROWS = 8192
 _SNAP = 4 * np.finfo(np.float64).eps
 
 Terms = tuple[tuple[int, float], ...]  # (column index 0..2, coefficient) of a linear combination
+_IDENTITY: tuple[Terms, Terms, Terms] = (((0, 1.0),), ((1, 1.0),), ((2, 1.0),))
 
 
 def _terms(vector: np.ndarray) -> Terms:
@@ -136,14 +137,22 @@ class ChainProgram:
             if staging is None or staging.shape[-1] != b:
                 staging = q.new_zeros(4, 4, b)  # (rows, columns, b) of the homogeneous matrices
                 staging[3, 3] = 1.0
-            cols, position = self._tool(*self._joints(block_angles, None))
+            cols, position = self._tool(*self._joints(block_angles, None, staging[:3]), staging[:3, 3])
             for j, (tensor, coefficient) in enumerate(cols):
-                torch.mul(tensor.expand(3, b), coefficient, out=staging[:3, j])
-            staging[:3, 3] = position
+                if tensor.data_ptr() != staging[:3, j].data_ptr():  # not already written in place
+                    torch.mul(tensor.expand(3, b), coefficient, out=staging[:3, j])
+            if position.data_ptr() != staging[:3, 3].data_ptr():
+                staging[:3, 3] = position
             out[start : start + b].permute(1, 2, 0).copy_(staging)
 
-    def _joints(self, angles: Tensor, frames: list[Tensor] | None) -> tuple[tuple[_Column, ...], Tensor]:
-        """Columns and position of the last joint frame for ``angles`` ``(n, B)`` (joints first)."""
+    def _joints(
+        self, angles: Tensor, frames: list[Tensor] | None, target: Tensor | None = None
+    ) -> tuple[tuple[_Column, ...], Tensor]:
+        """Columns and position of the last joint frame for ``angles`` ``(n, B)`` (joints first).
+
+        With ``target`` ``(3, 4, B)`` (no autograd) and a tool without rotation, the last joint
+        writes its ``x``, ``y`` columns and, when the tool has no offset, the position there.
+        """
         batch = angles.shape[1]
         cos, sin = torch.cos(angles).unbind(0), torch.sin(angles).unbind(0)
         scaled: dict[tuple[int, bool, float], Tensor] = {}
@@ -165,14 +174,26 @@ class ChainProgram:
         cols, position = self._start[key]
         for i, step in enumerate(self.steps):
             (tu, cu), (tv, cv), w = (_combine(cols, terms) for terms in step.rotation)
-            position = _moved(position, _combine(cols, step.translation))
-            x = torch.addcmul(tu * trig(i, False, cu), tv, trig(i, True, cv))
-            y = torch.addcmul(tv * trig(i, False, cv), tu, trig(i, True, cu), value=-1.0)
+            last = target is not None and i == len(self.steps) - 1 and self.tool.rotation == _IDENTITY
+            moved = _combine(cols, step.translation)
+            if last and not self.tool.translation and moved is not None:
+                position = torch.add(position, moved[0], alpha=moved[1], out=target[:, 3])
+            else:
+                position = _moved(position, moved)
+            outs = (target[:, 0], target[:, 1]) if last else (None, None)
+            x = torch.addcmul(tu * trig(i, False, cu), tv, trig(i, True, cv), out=outs[0])
+            y = torch.addcmul(tv * trig(i, False, cv), tu, trig(i, True, cu), value=-1.0, out=outs[1])
             cols = ((x, 1.0), (y, 1.0), w)
             if frames is not None:
                 frames.append(torch.stack((x, y, _value(w).expand(3, batch), position.expand(3, batch))))
         return cols, position
 
-    def _tool(self, cols: tuple[_Column, ...], position: Tensor) -> tuple[tuple[_Column, ...], Tensor]:
+    def _tool(
+        self, cols: tuple[_Column, ...], position: Tensor, target: Tensor | None = None
+    ) -> tuple[tuple[_Column, ...], Tensor]:
+        """Columns and position of the tool frame (the position written into ``target`` if given)."""
         tool_cols = tuple(_combine(cols, terms) for terms in self.tool.rotation)
-        return tool_cols, _moved(position, _combine(cols, self.tool.translation))
+        moved = _combine(cols, self.tool.translation)
+        if target is not None and moved is not None:
+            return tool_cols, torch.add(position, moved[0], alpha=moved[1], out=target)
+        return tool_cols, _moved(position, moved)
