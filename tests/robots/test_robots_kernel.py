@@ -35,9 +35,12 @@ def _random_arm() -> Robot:
     )
 
 
-@pytest.mark.parametrize("name", [*available_robots(), "random"])
+@pytest.mark.parametrize("name", [*available_robots(), "random", "no_tool"])
 def test_tool_pose_equals_pinocchio_on_every_path(name, monkeypatch, pin_configuration):
-    robot = _random_arm() if name == "random" else load_robot(name)
+    if name == "no_tool":  # identity tool: the last joint writes its columns and position in place
+        robot = Robot(dataclasses.replace(load_robot("sawyer").spec, tool_transform=np.eye(4)))
+    else:
+        robot = _random_arm() if name == "random" else load_robot(name)
     model = pin.buildModelFromXML(robot.to_urdf())
     data = model.createData()
     frame = model.getFrameId("tool_link")
