@@ -1,0 +1,134 @@
+"""The imitation pipeline on real skeleton recordings and its policy-search refinement, measured.
+
+Part 1 (``--skeletons DIR``): every UI-PRMD Kinect file of subjects s06-s10 (e01, movements m07-m10) and the
+KIMORE exercises found under ``DIR`` (e.g. ``../shared/data/human``), each to the WAM and to the Sawyer
+through :func:`lfd.imitation.run`; per robot: files, limit violations, DMP vs reference RMSE and executed vs
+DMP RMSE (rad), worst and median.
+
+Part 2: refinement of a scripted WAM reach (the demonstration the tests use) to targets 10 cm from its end
+point in 10 seeded random directions, and through via points 5 cm off its middle, with each policy search;
+the median rollouts to 1 cm, successes, and the median shape RMSE.
+
+    python benchmarks/imitation_sources.py --skeletons ../shared/data/human
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import torch
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _cfg(overrides):
+    from hydra import compose, initialize_config_dir
+
+    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
+        return compose(config_name="imitate", overrides=overrides)
+
+
+def skeleton_files(root: Path) -> list[Path]:
+    uiprmd = root / "ui_prmd" / "Kinect" / "Positions"
+    files = [uiprmd / f"m{m:02d}_s{s:02d}_e01_positions.txt.gz" for m in (7, 8, 9, 10) for s in range(6, 11)]
+    files += sorted((root / "kimore").glob("JointPositionExercise*.csv"))
+    return [f for f in files if f.is_file()]
+
+
+def part_skeletons(root: Path) -> None:
+    import lfd.imitation
+
+    files = skeleton_files(root)
+    print(f"## Real skeleton recordings -> robots ({len(files)} files)\n")
+    print("| robot | files | with limit violations | DMP vs reference RMSE median / max (rad) | "
+          "executed vs DMP median / max (rad) | time scale median |")  # fmt: skip
+    print("|---|---:|---:|---|---|---:|")
+    for robot in ("wam4", "sawyer"):
+        rows = []
+        for path in files:
+            with tempfile.TemporaryDirectory() as out:
+                overrides = [f"source={path}", f"robot={robot}", "side=right", "outputs.video=false"]
+                summary = lfd.imitation.run(_cfg([*overrides, "outputs.gif=false", "outputs.bag=null"]), out)
+            rows.append(summary)
+            print(f"  {robot} {path.name}: {summary['limit_violations']} violations, "
+                  f"DMP {summary['dmp_vs_reference_rmse_rad']:.4f}, executed {summary['executed_vs_dmp_rmse_rad']:.4f}",
+                  file=sys.stderr)  # fmt: skip
+        dmp = [r["dmp_vs_reference_rmse_rad"] for r in rows]
+        exe = [r["executed_vs_dmp_rmse_rad"] for r in rows]
+        print(
+            f"| {robot} | {len(rows)} | {sum(r['limit_violations'] > 0 for r in rows)} | "
+            f"{statistics.median(dmp):.4f} / {max(dmp):.4f} | {statistics.median(exe):.4f} / {max(exe):.4f} | "
+            f"{statistics.median(r['time_scale'] for r in rows):.2f} |"
+        )
+
+
+def _demo():
+    from lfd.dmp import DMP
+    from lfd.robots import load_robot
+
+    robot = load_robot("wam4")
+    t = np.linspace(0.0, 2.0, 200)
+    s = t / t[-1]
+    q = robot.home.numpy() + np.outer(10 * s**3 - 15 * s**4 + 6 * s**5, [0.4, 0.3, 0.2, 0.8])
+    return robot, DMP(n_basis=20).fit(t, q), q
+
+
+def part_refinement(seeds: int) -> None:
+    from lfd.imitation.refine import refine_skill
+
+    robot, dmp, q = _demo()
+    tool = robot.fk(torch.from_numpy(q))[:, :3, 3].numpy()
+    print(
+        f"\n## Refinement of a WAM reach, {seeds} seeds (targets 10 cm from the end, via points 5 cm off the middle)\n"
+    )
+    print("| task | method | start | converged | median rollouts | max rollouts | median shape RMSE (rad) |")
+    print("|---|---|---|---:|---:|---:|---:|")
+    for task in ("reach", "via_point"):
+        for method in ("power", "pibb", "cmaes"):
+            for init in ("demo", "ik") if task == "reach" else ("demo",):
+                results = []
+                for seed in range(seeds):
+                    rng = np.random.default_rng(100 + seed)
+                    direction = rng.normal(size=3)
+                    direction /= np.linalg.norm(direction)
+                    if task == "reach":
+                        target, t_via = tool[-1] + 0.1 * direction, None
+                    else:
+                        target, t_via = tool[100] + 0.05 * direction, float(np.linspace(0, 2, 200)[100])
+                    try:
+                        options = dict(goal_init=init, t_via=t_via, seed=seed, max_rollouts=1000)
+                        results.append(
+                            refine_skill(robot, dmp, task=task, target=target, method=method, **options)
+                        )
+                    except ValueError as e:  # out of reach
+                        print(f"  seed {seed}: {e}", file=sys.stderr)
+                ok = [r for r in results if r.converged]
+                rollouts = [r.rollouts for r in ok]
+                print(
+                    f"| {task} | {method} | {init} | {len(ok)}/{len(results)} | "
+                    f"{statistics.median(rollouts) if rollouts else float('nan'):.0f} | "
+                    f"{max(rollouts) if rollouts else float('nan'):.0f} | "
+                    f"{statistics.median(r.shape_rmse_rad for r in ok) if ok else float('nan'):.3f} |"
+                )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--skeletons", type=Path, help="folder with ui_prmd/ and kimore/ (../shared/data/human)"
+    )
+    parser.add_argument("--seeds", type=int, default=10)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    if args.skeletons:
+        part_skeletons(args.skeletons)
+    part_refinement(args.seeds)
+
+
+if __name__ == "__main__":
+    main()
