@@ -8,7 +8,7 @@ import pytest
 import torch
 from scipy.spatial.transform import Rotation
 
-from lfd.human.arm_ik import arm_fk, arm_frames, arm_ik, canonical_angles, mirror
+from lfd.human.arm_ik import arm_fk, arm_frames, arm_ik, canonical_angles, forearm_pronation, mirror
 from lfd.human.thesis_angles import THESIS_RANGE, thesis_fk, thesis_ik
 from lfd.robots import load_robot
 
@@ -201,6 +201,27 @@ def test_thesis_angles_round_trip_and_gimbal_lock():
     # the thesis's gimbal lock is the arm pointing forwards (ISB: plane 90, elevation 90): flagged
     e, w = arm_fk(np.array([[90 * DEG, 90 * DEG, 0.0, 1.0]]), L1, L2)
     assert thesis_ik(np.zeros((1, 3)), e, w).gimbal_lock[0]
+
+
+def test_forearm_pronation_by_hand():
+    # arm hanging, elbow bent 90 deg forwards: thumb up = mid-position, medial = pronation, lateral = supination
+    s, e = np.zeros((4, 3)), np.tile([0.0, 0.0, -L1], (4, 1))
+    w = e + [L2, 0.0, 0.0]
+    thumb = w + 0.05 * np.array([[0, 0, 1], [0, 1, 0], [0, -1, 0], [0, -0.5, 0.5]])  # right arm: medial = +y
+    angle, interpolated = forearm_pronation(s, e, w, thumb)
+    np.testing.assert_allclose(np.rad2deg(angle), [0, 90, -90, -45], atol=1e-9)
+    assert not interpolated.any()
+    left, _ = forearm_pronation(*(mirror(x, "left") for x in (s, e, w, thumb)), side="left")
+    np.testing.assert_allclose(left, angle, atol=1e-12)  # the same anatomical sign on either side
+    # a straightening elbow: the reference is undefined there, the angle is held and flagged
+    bend = np.deg2rad([60, 30, 5, 2, 30])
+    w = e[:1] + L2 * np.stack([np.sin(bend), 0 * bend, -np.cos(bend)], 1)
+    f = (w - e[:1]) / L2
+    up = np.stack([-np.cos(bend), 0 * bend, -np.sin(bend)], 1) * -1  # -u minus its forearm component, unit
+    thumb = w + 0.05 * np.cross(up, f)  # pronated 90 deg throughout
+    angle, interpolated = forearm_pronation(np.zeros((5, 3)), np.tile(e[:1], (5, 1)), w, thumb)
+    assert interpolated.tolist() == [False, False, True, True, False]
+    np.testing.assert_allclose(np.rad2deg(angle), 90.0, atol=1e-9)
 
 
 def test_bad_input():

@@ -169,6 +169,17 @@ def test_outputs(tmp_path):
     assert summary["abduction_rom_deg"] > 5  # the thesis's angles, derived
 
 
+def test_forearm_pronation_where_the_skeleton_has_a_thumb(fixtures):
+    # KIMORE (Kinect v2, 25 joints) has thumbs: a pronation angle per frame where the arm is seen
+    skeleton = read_skeleton(fixtures / "kimore_ex1_excerpt.csv.gz")
+    for side in ("right", "left"):
+        result = analyze_arm(skeleton, side=side)
+        seen = np.isfinite(result.q_ik).all(1)
+        assert np.isfinite(result.pronation[seen]).all() and seen.mean() > 0.5
+        assert np.all(np.abs(result.pronation[seen]) < np.pi)
+        assert 0 < result.summary()["forearm_pronation_rom_deg"] < 180
+
+
 def test_plots_and_gif(tmp_path):
     rec = synthetic_recording(duration=2.0, seed=6, noise=0.01)
     paths = analyze_arm(rec.skeleton).plot(tmp_path, gif_frames=12)

@@ -1,4 +1,4 @@
-"""The arm-analysis pipeline (docs/human.md) and its result type :class:`ArmAnalysis`.
+"""The arm-analysis pipeline (docs/human.md); its result type :class:`ArmAnalysis` is in :mod:`lfd.human.result`.
 
 skeleton -> left/right swap repair -> (Hampel) -> bone-length outliers -> short-gap
 interpolation -> filter (Butterworth or median) -> trunk frame -> closed-form IK in the ISB
@@ -20,205 +20,26 @@ Example (runnable)::
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
-from pathlib import Path
 
 import numpy as np
 
-from lfd.io.files import write_text_atomic
-
-from .arm_ik import arm_fk, arm_ik, canonical_angles, mirror
+from .arm_ik import arm_fk, arm_ik, canonical_angles, forearm_pronation, mirror
 from .cleaning import fill_gaps, repair_swaps
 from .dynamics import arm_model, arm_torques
 from .filters import FILTERS, filter_positions, hampel_filter
 from .fit import FITS, fit_derivatives
 from .plausibility import check_body_mass
 from .readers import read_skeleton
+from .result import JOINT_NAMES, THESIS_NAMES, ArmAnalysis
 from .skeleton import Skeleton
 from .thesis_angles import thesis_ik
 from .trunk import to_trunk, trunk_frames
 
 __all__ = ["JOINT_NAMES", "THESIS_NAMES", "ArmAnalysis", "analyze_arm"]
 
-JOINT_NAMES = ("plane_of_elevation", "elevation", "axial_rotation", "elbow_flexion")
-THESIS_NAMES = ("abduction", "flexion", "rotation")
-_FLAGS = ("shoulder_singular", "elbow_singular", "thesis_gimbal_lock", "thesis_outside_range")
 _GRAVITY = 9.81
 _DEFAULT_HAND_LENGTH = {"male": 0.19, "female": 0.18}
-
-
-@dataclasses.dataclass(eq=False)
-class ArmAnalysis:
-    """Result of :func:`analyze_arm` for one arm.
-
-    Attributes:
-        t: (T,) s.
-        q: (T, 4) rad, fitted joint angles (``JOINT_NAMES``: ISB plane of elevation, elevation,
-            axial rotation, then elbow flexion; plane and rotation unwrapped, see :mod:`lfd.human.arm_ik`).
-        qd: (T, 4) rad/s. qdd: (T, 4) rad/s^2 (derivatives of the fit).
-        tau: (T, 4) N m, joint torques (Newton-Euler, gravity in the trunk frame).
-        q_ik: (T, 4) rad, the per-frame IK solution before the fit.
-        positions: (T, 3, 3) m, filtered shoulder, elbow, wrist in the trunk frame.
-        raw_positions: (T, 3, 3) m, the same joints as read (after swap repair), trunk frame.
-        reconstructed: (T, 3, 3) m, shoulder, elbow, wrist of the model at ``q`` (FK).
-        gravity: (T, 3) m/s^2, gravity in the trunk frame.
-        segment_lengths: upper_arm, forearm, hand (m; median bone lengths of the data).
-        quality: counts and frame lists: gaps filled / left, swaps repaired, singular frames,
-            outliers.
-        side, subject (body_mass, sex, hand_load), settings, source.
-        thesis: (T, 3) rad, the thesis's abduction, flexion, rotation of the fitted pose
-            (derived; gimbal lock with the upper arm along x, see :mod:`lfd.human.thesis_angles`).
-        flags: per-frame (T,) bool arrays: ``shoulder_singular`` (arm hanging or straight up,
-            plane interpolated), ``elbow_singular`` (straight elbow, rotation interpolated),
-            ``thesis_gimbal_lock``, ``thesis_outside_range`` (thesis angles beyond the thesis's range).
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    qdd: np.ndarray
-    tau: np.ndarray
-    q_ik: np.ndarray
-    positions: np.ndarray
-    raw_positions: np.ndarray
-    reconstructed: np.ndarray
-    gravity: np.ndarray
-    segment_lengths: dict
-    quality: dict
-    side: str
-    subject: dict
-    settings: dict
-    source: str = ""
-    thesis: np.ndarray | None = None
-    flags: dict = dataclasses.field(default_factory=dict)
-
-    # ------------------------------------------------------------------ summaries
-    def summary(self) -> dict:
-        """Per ISB joint min, max, range of motion and mean (deg) of the filtered per-frame angles ``q_ik``
-        and peak absolute torque (N m); min, max, range of the derived thesis angles (deg); quality counts.
-
-        The angle statistics are those of ``q_ik``, not of the fit ``q``: the fit exists for the
-        derivatives, and on short repetitions that hold the arm up a CV polynomial overshoots the
-        plateau (docs/human.md, validation against Vicon markers).
-        """
-        out: dict = {"source": self.source, "side": self.side, "frames": int(len(self.t)),
-                     "duration_s": float(self.t[-1] - self.t[0]) if len(self.t) else 0.0}  # fmt: skip
-        deg = np.rad2deg(self.q_ik)
-        for j, name in enumerate(JOINT_NAMES):
-            col = deg[:, j][np.isfinite(deg[:, j])]
-            tau = np.abs(self.tau[:, j])[np.isfinite(self.tau[:, j])]
-            out[f"{name}_min_deg"] = float(col.min()) if col.size else float("nan")
-            out[f"{name}_max_deg"] = float(col.max()) if col.size else float("nan")
-            out[f"{name}_rom_deg"] = float(col.max() - col.min()) if col.size else float("nan")
-            out[f"{name}_mean_deg"] = float(col.mean()) if col.size else float("nan")
-            out[f"{name}_peak_torque_Nm"] = float(tau.max()) if tau.size else float("nan")
-        thesis = np.rad2deg(self._thesis())
-        for j, name in enumerate(THESIS_NAMES):
-            col = thesis[:, j][np.isfinite(thesis[:, j])]
-            out[f"{name}_min_deg"] = float(col.min()) if col.size else float("nan")
-            out[f"{name}_max_deg"] = float(col.max()) if col.size else float("nan")
-            out[f"{name}_rom_deg"] = float(col.max() - col.min()) if col.size else float("nan")
-        for key in ("gaps_filled", "gaps_left", "swap_frames", "elbow_singular_frames", "shoulder_singular_frames",
-                    "thesis_gimbal_lock_frames", "outliers", "missing_frames"):  # fmt: skip
-            out[key] = self.quality.get(key)
-        return out
-
-    def _thesis(self) -> np.ndarray:
-        return np.full((len(self.t), 3), np.nan) if self.thesis is None else self.thesis
-
-    def table(self) -> dict[str, np.ndarray]:
-        """Per-frame columns (degrees at this edge): ISB angles, velocities, accelerations, torques, the
-        derived thesis angles, the singular-pose flags (0/1) and positions."""
-        cols: dict[str, np.ndarray] = {"time_s": self.t}
-        for j, name in enumerate(JOINT_NAMES):
-            cols[f"{name}_deg"] = np.rad2deg(self.q[:, j])
-        for j, name in enumerate(JOINT_NAMES):
-            cols[f"{name}_vel_deg_s"] = np.rad2deg(self.qd[:, j])
-        for j, name in enumerate(JOINT_NAMES):
-            cols[f"{name}_acc_deg_s2"] = np.rad2deg(self.qdd[:, j])
-        for j, name in enumerate(JOINT_NAMES):
-            cols[f"{name}_torque_Nm"] = self.tau[:, j]
-        for j, name in enumerate(THESIS_NAMES):
-            cols[f"thesis_{name}_deg"] = np.rad2deg(self._thesis()[:, j])
-        for name in _FLAGS:
-            cols[name] = np.asarray(self.flags.get(name, np.zeros(len(self.t), bool)), float)
-        for i, joint in enumerate(("shoulder", "elbow", "wrist")):
-            for k, axis in enumerate("xyz"):
-                cols[f"{joint}_{axis}_m"] = self.positions[:, i, k]
-        return cols
-
-    # ------------------------------------------------------------------ files
-    def to_csv(self, path: str | os.PathLike) -> Path:
-        """Write :meth:`table` as CSV (header line, one row per frame, NaN as empty). Returns the path."""
-        cols = self.table()
-        lines = [",".join(cols)]
-        data = np.column_stack(list(cols.values()))
-        for row in data:
-            lines.append(",".join("" if not np.isfinite(v) else f"{v:.6g}" for v in row))
-        return write_text_atomic(path, "\n".join(lines) + "\n")
-
-    def to_mot(self, path: str | os.PathLike) -> Path:
-        """Write an OpenSim motion file: time, the four ISB angles (deg) and the joint moments (N m)."""
-        names = [f"{self.side}_{n}" for n in JOINT_NAMES] + [f"{self.side}_{n}_moment" for n in JOINT_NAMES]
-        data = np.column_stack([self.t, np.rad2deg(self.q), self.tau])
-        header = [Path(path).stem, "version=1", f"nRows={len(data)}", f"nColumns={data.shape[1]}",
-                  "inDegrees=yes", "endheader", "\t".join(["time", *names])]  # fmt: skip
-        rows = ["\t".join("nan" if not np.isfinite(v) else f"{v:.8g}" for v in row) for row in data]
-        return write_text_atomic(path, "\n".join(header + rows) + "\n")
-
-    def to_json(self, path: str | os.PathLike) -> Path:
-        """Write summary, segment lengths, quality, settings and the per-frame table as JSON."""
-
-        def clean(x):
-            if isinstance(x, dict):
-                return {k: clean(v) for k, v in x.items()}
-            if isinstance(x, (list, tuple)):
-                return [clean(v) for v in x]
-            if isinstance(x, np.ndarray):
-                return clean(x.tolist())
-            if isinstance(x, (float, np.floating)):
-                return float(x) if np.isfinite(x) else None
-            if isinstance(x, (np.integer, np.bool_)):
-                return x.item()
-            return x
-
-        doc = {
-            "summary": self.summary(),
-            "segment_lengths_m": self.segment_lengths,
-            "subject": self.subject,
-            "settings": self.settings,
-            "quality": self.quality,
-            "units": {
-                "angles": "deg",
-                "velocities": "deg/s",
-                "accelerations": "deg/s^2",
-                "torques": "N m",
-                "positions": "m, trunk frame (x forward, y left, z up, origin spine_shoulder)",
-            },
-            "frames": self.table(),
-        }
-        return write_text_atomic(path, json.dumps(clean(doc), indent=1) + "\n")
-
-    def plot(self, out_dir: str | os.PathLike, gif: bool = True, gif_frames: int = 150) -> list[Path]:
-        """Figures like the thesis' 3.6-3.9 (positions, angles, velocities, accelerations, torques) and a
-        stick-figure GIF of at most ``gif_frames`` frames (see :mod:`lfd.human.plots`)."""
-        from .plots import plot_analysis
-
-        return plot_analysis(self, out_dir, gif=gif, max_gif_frames=gif_frames)
-
-    def save(self, out_dir: str | os.PathLike, stem: str = "arm", plots: bool = True, gif: bool = True,
-             gif_frames: int = 150) -> list[Path]:  # fmt: skip
-        """All outputs (CSV, MOT, JSON, and figures) into ``out_dir``; returns the paths."""
-        out = Path(out_dir)
-        paths = [
-            self.to_csv(out / f"{stem}.csv"),
-            self.to_mot(out / f"{stem}.mot"),
-            self.to_json(out / f"{stem}.json"),
-        ]
-        if plots:
-            paths += self.plot(out, gif=gif, gif_frames=gif_frames)
-        return paths
 
 
 def _bone_outliers(pos: np.ndarray, names: tuple[str, ...], side: str, tolerance: float) -> np.ndarray:
@@ -405,6 +226,12 @@ def analyze_arm(
              "thesis_gimbal_lock": np.zeros(len(t), bool), "thesis_outside_range": np.zeros(len(t), bool)}  # fmt: skip
     flags["thesis_gimbal_lock"][fitted_ok] = derived.gimbal_lock
     flags["thesis_outside_range"][fitted_ok] = derived.outside_range
+    pronation = None
+    if skeleton.has(f"thumb_{side}"):  # Kinect v2's thumb: the radial side of the hand (noisy)
+        thumb = to_trunk(smooth[:, names.index(f"thumb_{side}")], rotation, origin)
+        pronation, flags["pronation_interpolated"] = forearm_pronation(
+            *positions.transpose(1, 0, 2), thumb, side
+        )
 
     quality.update(
         elbow_singular_frames=int(flags["elbow_singular"].sum()),
@@ -434,5 +261,5 @@ def analyze_arm(
         raw_positions=raw_positions,
         reconstructed=recon, gravity=mirror(g_trunk, side), segment_lengths=lengths, quality=quality, side=side,
         subject={"body_mass": body_mass, "sex": sex, "hand_load": hand_load}, settings=settings, source=skeleton.source,
-        thesis=thesis, flags=flags,
+        thesis=thesis, flags=flags, pronation=pronation,
     )  # fmt: skip

@@ -50,7 +50,16 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["ArmIKResult", "arm_fk", "arm_frames", "arm_ik", "canonical_angles", "mirror", "unwrap_finite"]
+__all__ = [
+    "ArmIKResult",
+    "arm_fk",
+    "arm_frames",
+    "arm_ik",
+    "canonical_angles",
+    "forearm_pronation",
+    "mirror",
+    "unwrap_finite",
+]
 
 _MIRROR = np.array([1.0, -1.0, 1.0])
 
@@ -286,3 +295,57 @@ def canonical_angles(
             x[:, 1] = np.where(flip, -x[:, 1], x[:, 1])
         out.append(x)
     return tuple(out)
+
+
+def forearm_pronation(
+    shoulder: np.ndarray,
+    elbow: np.ndarray,
+    wrist: np.ndarray,
+    thumb: np.ndarray,
+    side: str = "right",
+    *,
+    singular_deg: float = 10.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Forearm pronation (T,) rad from a thumb (radial-side) point, and the frames where it is interpolated.
+
+    The angle is that of the wrist -> thumb direction about the forearm axis, measured from the
+    upper arm's side of the elbow's flexion plane (the component of the elbow -> shoulder
+    direction perpendicular to the forearm): 0 = mid-position (thumb towards the shoulder side,
+    e.g. thumb up with the arm hanging and the elbow bent 90 deg), positive = pronation (thumb
+    turning medially, palm down), negative = supination; ISB's anatomical position (palm
+    forward) is about -90 deg on this scale. With the elbow within ``singular_deg`` of straight
+    the reference is undefined: those frames are interpolated in time (held at the ends) and
+    flagged. The series is unwrapped (:func:`unwrap_finite`).
+
+    Args:
+        shoulder, elbow, wrist, thumb: (T, 3) m in the trunk frame (x forward, y left, z up).
+        side: ``"right"`` or ``"left"`` (mirror image, the same anatomical sign).
+
+    Returns:
+        ``(pronation (T,) rad, interpolated (T,) bool)``; NaN where a point is missing.
+
+    Raises:
+        ValueError: a point array not of shape (T, 3) or shapes that differ; a bad side.
+    """
+    pts = []
+    for name, x in (("shoulder", shoulder), ("elbow", elbow), ("wrist", wrist), ("thumb", thumb)):
+        if np.ndim(x) != 2 or np.shape(x)[1] != 3:
+            raise ValueError(f"{name} must have shape (T, 3), got {np.shape(x)}")
+        pts.append(mirror(np.asarray(x, dtype=float), side))
+    if len({p.shape for p in pts}) != 1:
+        raise ValueError(
+            f"shoulder, elbow, wrist and thumb must have the same shape, got {[p.shape for p in pts]}"
+        )
+    s, e, w, th = pts
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = (e - s) / np.linalg.norm(e - s, axis=1, keepdims=True)
+        f = (w - e) / np.linalg.norm(w - e, axis=1, keepdims=True)
+        up = -u - (-u * f).sum(1, keepdims=True) * f  # the shoulder side, perpendicular to the forearm
+        straight = np.linalg.norm(up, axis=1) < np.sin(np.deg2rad(singular_deg))
+        up = up / np.linalg.norm(up, axis=1, keepdims=True)
+    medial = np.cross(up, f)  # right arm: towards +y (medial) when up = z, f = x
+    t = th - w
+    angle = np.where(straight, np.nan, np.arctan2((t * medial).sum(1), (t * up).sum(1)))
+    valid = np.isfinite(t).all(1) & np.isfinite(u).all(1) & np.isfinite(f).all(1)
+    angle = _interpolate_over(unwrap_finite(angle), straight & valid)
+    return np.where(valid, angle, np.nan), straight & valid
