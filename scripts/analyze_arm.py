@@ -83,8 +83,8 @@ def run(cfg: DictConfig, out_dir: str | Path) -> Path:
     if source.is_file():
         s = analyze_file(source, out, **save_options(cfg)).summary()
         print(
-            f"[lfd] {source}: {s['frames']} frames, {cfg.side} arm; elevation {s['elevation_min_deg']:.0f}-"
-            f"{s['elevation_max_deg']:.0f} deg (plane of elevation {s['plane_of_elevation_min_deg']:.0f}-"
+            f"[lfd] {source}: {s['frames']} frames, {cfg.side} arm; elevation {s['elevation_min_deg']:.0f} to "
+            f"{s['elevation_max_deg']:.0f} deg (plane of elevation {s['plane_of_elevation_min_deg']:.0f} to "
             f"{s['plane_of_elevation_max_deg']:.0f} deg), elbow {s['elbow_flexion_rom_deg']:.0f} deg ROM; "
             f"peak shoulder elevation torque {s['elevation_peak_torque_Nm']:.1f} N m"
         )

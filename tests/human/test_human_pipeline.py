@@ -187,6 +187,7 @@ def test_plots_and_gif(tmp_path):
     for expected in (
         "positions.png",
         "angles.png",
+        "thesis_angles.png",
         "velocities.png",
         "accelerations.png",
         "torques.png",
