@@ -134,6 +134,18 @@ def test_through_straight_up_and_plane_change_at_hanging():
     np.testing.assert_allclose(arm_fk(res.q, L1, L2)[0], elbow, atol=0.3 * L1 * np.sin(10 * DEG))
 
 
+def test_missing_frames_before_a_singular_zone():
+    # raised to 95 deg, lost for a while, seen again hanging, then raised to 30 deg: exact elevations
+    elev = np.deg2rad([95, 95, 0, 0, 5, 3, 20, 30])
+    q = np.stack([np.full(8, 0.5), elev, np.full(8, 0.2), np.full(8, 1.0)], 1)
+    elbow, wrist = arm_fk(q, L1, L2)
+    elbow[2:4] = np.nan
+    res = arm_ik(np.zeros_like(elbow), elbow, wrist)
+    assert np.isnan(res.q[2:4]).all() and res.shoulder_singular[4:6].all()
+    keep = np.isfinite(res.q[:, 1])
+    np.testing.assert_allclose(res.q[keep, 1], elev[keep], atol=1e-9)
+
+
 def test_rotation_with_the_arm_hanging():
     # internal/external rotation with the upper arm at the side (UI-PRMD m09): plane undefined the
     # whole time, held at 0, so the axial rotation carries the forearm's swing

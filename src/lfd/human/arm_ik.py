@@ -252,7 +252,8 @@ def _continuous_elevation(elevation: np.ndarray, good: np.ndarray, singular: np.
         left, right = np.flatnonzero(good[:start]), np.flatnonzero(good[stop:])
         ends = [out[left[-1]]] if len(left) else []
         ends += [out[stop + right[0]]] if len(right) else []
-        k = int(np.round(ends[0] / np.pi)) if ends else 0
+        parity = int(np.mean(magnitude[start:stop]) > np.pi / 2)  # 0: near hanging, 1: near straight up
+        k = parity + 2 * int(np.round((ends[0] / np.pi - parity) / 2)) if ends else parity
         sides = [1.0 if v - k * np.pi >= 0 else -1.0 for v in ends] or [1.0]
         distance = magnitude[start:stop] if k % 2 == 0 else np.pi - magnitude[start:stop]
         side = np.full(stop - start, sides[0])
