@@ -105,6 +105,18 @@ def test_uncoupled_equals_two_cartesian_dmps(fitted, free):
     np.testing.assert_allclose(batch.rollout(t=early)[1], free[:11], atol=1e-12)
 
 
+def test_coupled_batch_equals_single_rollouts(fitted):
+    coupling = RelativePoseCoupling(desired=[0.0, -0.2, 0.0, 1.0, 0.0, 0.0, 0.0], c1=0.5)
+    early = np.linspace(0.0, 0.1, 11)
+    goals = np.stack([fitted.goal_, fitted.goal_ + np.r_[0.1, 0, 0, 0, 0, 0, 0, 0, 0.1, 0, 0, 0, 0, 0]])
+    batch = fitted.rollout(t=early, goal=goals, coupling=coupling)
+    assert batch.shape == (2, 11, 14)
+    for k in range(2):
+        np.testing.assert_allclose(
+            batch[k], fitted.rollout(t=early, goal=goals[k], coupling=coupling), atol=1e-13
+        )
+
+
 @pytest.mark.slow
 def test_reference_velocity_coupling_depends_on_its_step(fitted):
     """movement_primitives adds c1's velocity term to its state once per Euler step: halving
