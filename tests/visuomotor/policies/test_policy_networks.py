@@ -282,7 +282,12 @@ def test_mode_heads_follow_the_demonstrated_mode_in_training_and_the_logit_at_ru
 
 
 def test_kinds_and_item_modes():
-    assert {k: c.item_mode for k, c in POLICIES.items()} == {"cnn_dmp": "dmp", "velocity": "velocity"}
+    assert {k: c.item_mode for k, c in POLICIES.items()} == {
+        "cnn_dmp": "dmp",
+        "velocity": "velocity",
+        "act": "velocity",
+        "diffusion": "velocity",
+    }
     vel = VelocityPolicy(name="velocity", **SMALL)
     assert vel.hparams.kind == "velocity"
     with pytest.raises(ValueError, match="holds 'cnn_dmp' policies"):

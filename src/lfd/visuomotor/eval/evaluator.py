@@ -51,9 +51,14 @@ from lfd.visuomotor.policies import POLICIES, load_policy
 from lfd.visuomotor.protocols import Controller, EpisodeReport, Observation
 
 #: Checkpoint config key per policy kind (``python evaluate.py ckpt_dmp=... ckpt_velocity=...``).
-CKPT_KEYS = {"cnn_dmp": "ckpt_dmp", "velocity": "ckpt_velocity"}
+CKPT_KEYS = {
+    "cnn_dmp": "ckpt_dmp",
+    "velocity": "ckpt_velocity",
+    "act": "ckpt_act",
+    "diffusion": "ckpt_diffusion",
+}
 #: Training command per policy kind, quoted when a checkpoint is missing.
-TRAIN_COMMANDS = {"cnn_dmp": "python train.py model=cnn_dmp", "velocity": "python train.py model=velocity"}
+TRAIN_COMMANDS = {kind: f"python train.py model={kind}" for kind in CKPT_KEYS}
 
 
 class ReachEvaluator:

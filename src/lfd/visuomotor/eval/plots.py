@@ -14,8 +14,13 @@ import numpy as np
 from PIL import Image
 
 #: Colour per method in every figure.
-METHOD_COLOURS = {"cnn_dmp": "tab:blue", "velocity": "tab:orange"}
-METHOD_LABELS = {"cnn_dmp": "CNN -> DMP", "velocity": "velocity CNN"}
+METHOD_COLOURS = {"cnn_dmp": "tab:blue", "velocity": "tab:orange", "act": "tab:green", "diffusion": "tab:red"}
+METHOD_LABELS = {
+    "cnn_dmp": "CNN -> DMP",
+    "velocity": "velocity CNN",
+    "act": "ACT",
+    "diffusion": "Diffusion Policy",
+}
 
 
 def _colour(method: str) -> str:

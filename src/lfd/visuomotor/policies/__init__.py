@@ -1,4 +1,5 @@
-"""Visuomotor policies (LightningModules): CNN -> DMP and the velocity CNN, their vision parts,
+"""Visuomotor policies (LightningModules): CNN -> DMP, the velocity CNN, ACT and Diffusion Policy
+(action chunking, :mod:`~lfd.visuomotor.policies.chunking`), their vision parts,
 and the factory that loads any of them from a checkpoint.
 
 Every policy has one inference interface: :meth:`VisuomotorPolicy.controller` returns a
@@ -14,15 +15,21 @@ Example (closed loop from a checkpoint)::
 
 from __future__ import annotations
 
+from lfd.visuomotor.policies.act import ACTPolicy
 from lfd.visuomotor.policies.base import VisuomotorPolicy
+from lfd.visuomotor.policies.chunking import ChunkPolicy
 from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
+from lfd.visuomotor.policies.diffusion import DiffusionPolicy
 from lfd.visuomotor.policies.factory import POLICIES, checkpoint_kind, load_policy
 from lfd.visuomotor.policies.velocity import VelocityPolicy
 from lfd.visuomotor.policies.vision import KeypointEncoder, SpatialSoftmax, image_to_tensor
 
 __all__ = [
     "POLICIES",
+    "ACTPolicy",
     "CNNDMPPolicy",
+    "ChunkPolicy",
+    "DiffusionPolicy",
     "KeypointEncoder",
     "SpatialSoftmax",
     "VelocityPolicy",

@@ -12,6 +12,10 @@ kind, returned by :meth:`lfd.visuomotor.policies.VisuomotorPolicy.controller`.
   demonstrations' joint motion per period, ``(q[t+1] - q[t]) / dt``
   (:func:`lfd.visuomotor.data.datasets.command_velocities`); commanding the labels reproduces a
   demonstration (``tests/visuomotor/eval/test_eval_velocity_labels.py``).
+* :class:`ChunkController` (ACT, Diffusion Policy): ``policy.act_chunk(image, joints)`` every
+  ``replan_every`` steps (receding horizon), each chunk tracked like a plan (position control
+  with velocity feed-forward); with ``ensemble_m`` the commands of every stored chunk that
+  covers the step are averaged with ACT's temporal-ensembling weights.
 
 A controller reads from its policy only the closed-loop method and the input it was built
 for (``input_channels``, ``depth_encoding``).
@@ -26,7 +30,7 @@ import numpy as np
 
 from lfd.visuomotor.protocols import Observation
 
-__all__ = ["PlanController", "VelocityController"]
+__all__ = ["ChunkController", "PlanController", "VelocityController"]
 
 
 class _PolicyController:
@@ -94,3 +98,77 @@ class VelocityController(_PolicyController):
         qd = np.asarray(self.policy.act(obs.image, obs.joints, obs.time), dtype=np.float64)
         latencies.append((time.perf_counter() - t0) * 1e3)
         return obs.joints + qd * self.dt, qd
+
+
+class ChunkController(_PolicyController):
+    """Runs an action-chunking policy (``act_chunk(image, joints) -> (k, n)`` rad, sample ``i``
+    the position target of the command ``i`` steps after the query) in closed loop.
+
+    Args:
+        policy: the policy (``act_chunk``, ``input_channels``, ``depth_encoding``).
+        dt: control period, s.
+        replan_every: query the policy every this many steps (Diffusion Policy's action
+            horizon; None: the chunk length, i.e. each chunk is executed to its end).
+        ensemble_m: temporal ensembling (ACT, Zhao et al. 2023, Sec. 3.3): query every
+            ``replan_every`` steps (1 in the paper) and command, at step ``s``, the weighted mean
+            of the targets for ``s`` of every chunk that covers it, ``w_i = exp(-m i)`` with
+            ``i = 0`` the *oldest* chunk; None: the newest chunk alone.
+
+    Each chunk ``c`` queried at step ``s0`` on joints ``q0`` gives at step ``s`` the position
+    target ``c[s - s0]`` and the velocity feed-forward ``np.gradient([q0, c...], dt)[s - s0 + 1]``
+    (as :class:`PlanController`'s plan); with ensembling both are averaged with the same weights.
+    Past the end of every stored chunk the last target is held at zero velocity.
+    """
+
+    def __init__(
+        self, policy, dt: float, replan_every: int | None = None, ensemble_m: float | None = None
+    ) -> None:
+        super().__init__(policy, dt)
+        if replan_every is not None and not (int(replan_every) == replan_every and replan_every >= 1):
+            raise ValueError(
+                f"ChunkController.replan_every: expected an int >= 1 or None, got {replan_every!r}"
+            )
+        if ensemble_m is not None and not (np.isfinite(ensemble_m) and ensemble_m >= 0):
+            raise ValueError(
+                f"ChunkController.ensemble_m: expected a number >= 0 or None, got {ensemble_m!r}"
+            )
+        self.replan_every = None if replan_every is None else int(replan_every)
+        self.ensemble_m = None if ensemble_m is None else float(ensemble_m)
+        self.chunks: list[tuple[int, np.ndarray, np.ndarray]] = []  # (start step, targets, velocities)
+        self._next_query = self._step = 0
+
+    def start(self, steps: int | None = None) -> None:
+        """A new episode: forget the stored chunks and query at the first step."""
+        self.chunks = []
+        self._next_query = self._step = 0
+
+    @property
+    def needs_image(self) -> bool:
+        """Whether the next :meth:`command` queries the policy (and so looks at the image)."""
+        return self._step >= self._next_query
+
+    def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
+        """Joint position and velocity targets ``(n,)`` for control step ``step`` (0-based)."""
+        if step >= self._next_query:
+            t0 = time.perf_counter()
+            chunk = np.asarray(self.policy.act_chunk(obs.image, obs.joints), dtype=np.float64)
+            latencies.append((time.perf_counter() - t0) * 1e3)
+            path = np.concatenate([np.asarray(obs.joints, dtype=np.float64)[None], chunk])
+            self.chunks.append((step, chunk, np.gradient(path, self.dt, axis=0)[1:]))
+            self._next_query = step + (self.replan_every or len(chunk))
+            if self.ensemble_m is None:
+                self.chunks = self.chunks[-1:]
+        self._step = step + 1
+        live = [(s0, c, v) for s0, c, v in self.chunks if step - s0 < len(c)]
+        self.chunks = live or self.chunks[-1:]
+        if not live:
+            s0, c, _ = self.chunks[-1]
+            return c[-1].copy(), np.zeros_like(c[-1])
+        if self.ensemble_m is None:
+            s0, c, v = live[-1]
+            return c[step - s0].copy(), v[step - s0].copy()
+        w = np.exp(-self.ensemble_m * np.arange(len(live)))
+        w = w / w.sum()
+        q = sum(wi * c[step - s0] for wi, (s0, c, _) in zip(w, live))
+        qd = sum(wi * v[step - s0] for wi, (s0, _, v) in zip(w, live))
+        return q, qd

@@ -18,14 +18,18 @@ from pathlib import Path
 import torch
 
 from lfd.training import CheckpointError, checkpoint_kind, read_checkpoint
+from lfd.visuomotor.policies.act import ACTPolicy
 from lfd.visuomotor.policies.base import VisuomotorPolicy
 from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
+from lfd.visuomotor.policies.diffusion import DiffusionPolicy
 from lfd.visuomotor.policies.velocity import VelocityPolicy
 
 __all__ = ["POLICIES", "checkpoint_kind", "load_policy"]
 
 #: Policy kind (``Policy.kind``, stored in the checkpoint's hyper-parameters) -> class.
-POLICIES: dict[str, type[VisuomotorPolicy]] = {cls.kind: cls for cls in (CNNDMPPolicy, VelocityPolicy)}
+POLICIES: dict[str, type[VisuomotorPolicy]] = {
+    cls.kind: cls for cls in (CNNDMPPolicy, VelocityPolicy, ACTPolicy, DiffusionPolicy)
+}
 
 
 def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> VisuomotorPolicy:
