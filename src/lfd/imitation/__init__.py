@@ -35,9 +35,8 @@ from .pipeline import (
     retarget,
     run,
     source_of,
-    write_outputs,
 )
-from .side_by_side import write_side_by_side
+from .side_by_side import write_outputs, write_side_by_side
 
 __all__ = [
     "ROBOTS",

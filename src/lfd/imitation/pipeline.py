@@ -6,7 +6,9 @@ access such as an OmegaConf ``DictConfig``) and of the previous stages' results.
 (:mod:`lfd.imitation.sources`) decides the first stages:
 
 1. a video: :func:`estimate_pose` (MediaPipe keypoints, ``keypoints.csv``/``.npz``), then
-   :func:`analyse`; a skeleton file: :func:`analyse_skeleton` (arm angles and torques,
+   :func:`analyse`; several calibrated videos (a list): :func:`lfd.imitation.multiview.estimate_multiview`
+   (triangulated skeleton), then :func:`analyse_skeleton`; a skeleton file: :func:`analyse_skeleton`
+   (arm angles and torques,
    ``arm.csv``/``.mot``/``.json``); then :func:`retarget` (WAM posture or 7-DoF wrist path + IK);
    a robot recording (teach export, bag, joint CSV) skips these:
    :func:`lfd.imitation.sources.load_robot_source`;
@@ -46,7 +48,6 @@ __all__ = [
     "retarget",
     "run",
     "source_of",
-    "write_outputs",
 ]
 
 #: Robots a person's arm is retargeted to.
@@ -84,12 +85,15 @@ def check_config(cfg: Any) -> None:
             raise ValueError(f"refine.target must be a tool position [x, y, z] in metres, got {target}")
 
 
-def source_of(cfg: Any) -> str:
-    """The demonstration path: ``cfg.source``, or ``cfg.video`` (the older name for a video source)."""
+def source_of(cfg: Any) -> str | list[str]:
+    """The demonstration path: ``cfg.source``, or ``cfg.video`` (the older name for a video source); a
+    list of paths (several calibrated videos) as a ``list[str]``."""
+    from .sources import is_path_list
+
     source = cfg.get("source") or cfg.get("video")
     if source is None:
         raise ValueError("source: give the demonstration, e.g. source=person.mp4 or source=arm.bag")
-    return str(source)
+    return [str(s) for s in source] if is_path_list(source) else str(source)
 
 
 def estimate_pose(cfg: Any, out: Path):
@@ -137,14 +141,14 @@ def analyse(cfg: Any, kp, out: Path):
     return analysis
 
 
-def analyse_skeleton(cfg: Any, path: str, out: Path):
+def analyse_skeleton(cfg: Any, path, out: Path):
     """Stage 2 for a skeleton file: :func:`lfd.human.read_skeleton` (``cfg.units``; the plausibility checks of
-    :mod:`lfd.human.plausibility`) then :func:`lfd.human.analyze_arm` with ``cfg.analysis``; saved as
-    ``out/arm.*`` (no plots)."""
-    from lfd.human import analyze_arm, read_skeleton
+    :mod:`lfd.human.plausibility`), or a :class:`lfd.human.Skeleton` given as ``path`` (the multiview
+    source), then :func:`lfd.human.analyze_arm` with ``cfg.analysis``; saved as ``out/arm.*`` (no plots)."""
+    from lfd.human import Skeleton, analyze_arm, read_skeleton
 
     a = cfg.analysis
-    skeleton = read_skeleton(path, units=cfg.get("units"))
+    skeleton = path if isinstance(path, Skeleton) else read_skeleton(path, units=cfg.get("units"))
     analysis = analyze_arm(
         skeleton,
         side=cfg.side,
@@ -323,71 +327,14 @@ def refine(cfg: Any, robot, fit: DMPFit):
     return result, np.clip(q_plan, robot.lower.numpy(), robot.upper.numpy())
 
 
-def write_outputs(
-    cfg: Any,
-    out: Path,
-    kp,
-    robot,
-    t: np.ndarray,
-    rt,
-    fit: DMPFit,
-    run: Execution,
-    refinement=None,
-    q_plan=None,
-) -> dict:
-    """Stage 6 for a video: the side-by-side video/GIF (``cfg.outputs``) and the outputs of
-    :func:`lfd.imitation.outputs.write_common_outputs` with the video's own summary entries
-    (returned as a dict)."""
-    from .outputs import write_common_outputs
-    from .side_by_side import write_side_by_side
-
-    repair = bool(cfg.pose.get("repair_flips", True))
-    lo, hi = robot.lower.numpy(), robot.upper.numpy()
-    q_exec, q_dmp = run.q_exec, fit.q_dmp
-    video = Path(source_of(cfg))
-    extra = {
-        "video": str(video),
-        "side": cfg.side,
-        "frames_with_person": int(kp.detected.sum()),
-        "frames_other_person": int(kp.other_person.sum()),
-        "pose_fps": kp.fps,
-        "time_scale_factor": fit.factor,
-        "time_scale_factor_retargeted_samples": fit.factor_retargeted,
-        "front_back_flips_repaired": int(kp.front_back_flips().sum()) if repair else 0,
-        "base_rotation": np.asarray(rt.base_rotation).tolist(),
-        "clamped_frames": int(rt.clamped.sum()),
-        "retarget_error_max": float(rt.error.max()),
-        "dmp_rmse_rad": float(np.sqrt(np.mean((q_dmp - rt.q) ** 2))),
-        "executed_rmse_rad": float(np.sqrt(np.mean((q_exec - rt.q) ** 2))),
-        "executed_within_limits": bool(((q_exec >= lo - 1e-3) & (q_exec <= hi + 1e-3)).all()),
-        "goal": run.goal,
-    }
-    if cfg.outputs.video or cfg.outputs.gif:
-        frame_of = kp.frame_index[np.searchsorted(kp.t, t)]
-        write_side_by_side(
-            out / "side_by_side.mp4" if cfg.outputs.video else None,
-            out / "side_by_side.gif" if cfg.outputs.gif else None,
-            video,
-            kp,
-            cfg.side,
-            run.images,
-            frame_of,
-            len(t) / max(t[-1] - t[0], 1e-6),
-            int(cfg.outputs.gif_frames),
-        )
-    return write_common_outputs(
-        cfg, out, robot, source=str(video), source_type="video", t_source=t, q_reference=rt.q, fit=fit,
-        q_commanded=q_dmp if q_plan is None else q_plan, q_exec=q_exec, refinement=refinement, extra=extra,
-    )  # fmt: skip
-
-
 def run(cfg: Any, out_dir: str | Path) -> dict:
     """The whole chain for the demonstration ``cfg.source`` (:mod:`lfd.imitation.sources`) writing into
     ``out_dir``; returns the summary dict.
 
-    Human sources (a video, a skeleton file) go through the arm analysis and retargeting; robot sources
-    (a teach export, a bag, a joint CSV) carry the robot's joints and skip them. Then: DMP fitted and
-    time-scaled to the limits, refined when ``cfg.refine.task`` is set, executed in PyBullet, outputs written.
+    Human sources (a video, several calibrated videos, a skeleton file) go through the arm analysis and
+    retargeting; robot sources (a teach export, a bag, a joint CSV) carry the robot's joints and skip them.
+    Then: DMP fitted and time-scaled to the limits, refined when ``cfg.refine.task`` is set, executed in
+    PyBullet, outputs written.
 
     Raises:
         ValueError: unknown robot, side, source type or refine option (before any file is read); an
@@ -403,12 +350,19 @@ def run(cfg: Any, out_dir: str | Path) -> dict:
     check_config(cfg)
     source = source_of(cfg)
     kind = cfg.get("source_type") or detect_source_type(source)
+    if isinstance(source, list) and kind != "multiview":
+        raise ValueError(f"source: a list of paths is a multiview source (several videos), not {kind!r}")
     robot = load_robot(cfg.robot)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if kind == "video":
         kp = estimate_pose(cfg, out)
         analysis = analyse(cfg, kp, out)
+    elif kind == "multiview":
+        from .multiview import estimate_multiview
+
+        skeleton, views = estimate_multiview(cfg, source if isinstance(source, list) else [source], out)
+        analysis = analyse_skeleton(cfg, skeleton, out)
     elif kind in HUMAN_SOURCES:
         analysis = analyse_skeleton(cfg, source, out)
     if kind in HUMAN_SOURCES:
@@ -423,6 +377,8 @@ def run(cfg: Any, out_dir: str | Path) -> dict:
     refinement, q_plan = refine(cfg, robot, fit)
     executed = execute(cfg, robot, base_rotation, fit, q_reference[-1], q_plan, render=kind == "video")
     if kind == "video":
+        from .side_by_side import write_outputs
+
         summary = write_outputs(cfg, out, kp, robot, t, rt, fit, executed, refinement, q_plan)
     else:
         extra = {"side": cfg.side} if kind in HUMAN_SOURCES else {"recording": demo.detail}
@@ -430,6 +386,8 @@ def run(cfg: Any, out_dir: str | Path) -> dict:
             extra.update(
                 clamped_frames=int(rt.clamped.sum()), base_rotation=np.asarray(base_rotation).tolist()
             )
+        if kind == "multiview":
+            extra["multiview"] = views
         extra["goal"] = executed.goal
         summary = write_common_outputs(
             cfg, out, robot, source=source, source_type=kind, t_source=t, q_reference=q_reference, fit=fit,

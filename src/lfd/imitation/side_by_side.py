@@ -8,10 +8,14 @@ robot render, both halves ``height`` px tall.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-__all__ = ["write_side_by_side"]
+if TYPE_CHECKING:
+    from .pipeline import DMPFit, Execution
+
+__all__ = ["write_outputs", "write_side_by_side"]
 
 
 def _draw(rgb: np.ndarray, pixels: np.ndarray, scale: float, side: str) -> np.ndarray:
@@ -88,3 +92,61 @@ def write_side_by_side(
         images[0].save(path_gif, save_all=True, append_images=images[1:], duration=int(1000 * step), loop=0)
         paths.append(Path(path_gif))
     return paths
+
+
+def write_outputs(
+    cfg: Any,
+    out: Path,
+    kp,
+    robot,
+    t: np.ndarray,
+    rt,
+    fit: DMPFit,
+    run: Execution,
+    refinement=None,
+    q_plan=None,
+) -> dict:
+    """Stage 6 for a video: the side-by-side video/GIF (``cfg.outputs``) and the outputs of
+    :func:`lfd.imitation.outputs.write_common_outputs` with the video's own summary entries
+    (returned as a dict)."""
+    from .outputs import write_common_outputs
+    from .pipeline import source_of
+
+    repair = bool(cfg.pose.get("repair_flips", True))
+    lo, hi = robot.lower.numpy(), robot.upper.numpy()
+    q_exec, q_dmp = run.q_exec, fit.q_dmp
+    video = Path(source_of(cfg))
+    extra = {
+        "video": str(video),
+        "side": cfg.side,
+        "frames_with_person": int(kp.detected.sum()),
+        "frames_other_person": int(kp.other_person.sum()),
+        "pose_fps": kp.fps,
+        "time_scale_factor": fit.factor,
+        "time_scale_factor_retargeted_samples": fit.factor_retargeted,
+        "front_back_flips_repaired": int(kp.front_back_flips().sum()) if repair else 0,
+        "base_rotation": np.asarray(rt.base_rotation).tolist(),
+        "clamped_frames": int(rt.clamped.sum()),
+        "retarget_error_max": float(rt.error.max()),
+        "dmp_rmse_rad": float(np.sqrt(np.mean((q_dmp - rt.q) ** 2))),
+        "executed_rmse_rad": float(np.sqrt(np.mean((q_exec - rt.q) ** 2))),
+        "executed_within_limits": bool(((q_exec >= lo - 1e-3) & (q_exec <= hi + 1e-3)).all()),
+        "goal": run.goal,
+    }
+    if cfg.outputs.video or cfg.outputs.gif:
+        frame_of = kp.frame_index[np.searchsorted(kp.t, t)]
+        write_side_by_side(
+            out / "side_by_side.mp4" if cfg.outputs.video else None,
+            out / "side_by_side.gif" if cfg.outputs.gif else None,
+            video,
+            kp,
+            cfg.side,
+            run.images,
+            frame_of,
+            len(t) / max(t[-1] - t[0], 1e-6),
+            int(cfg.outputs.gif_frames),
+        )
+    return write_common_outputs(
+        cfg, out, robot, source=str(video), source_type="video", t_source=t, q_reference=rt.q, fit=fit,
+        q_commanded=q_dmp if q_plan is None else q_plan, q_exec=q_exec, refinement=refinement, extra=extra,
+    )  # fmt: skip

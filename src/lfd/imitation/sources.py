@@ -2,6 +2,8 @@
 
 - ``video``: a video of one person (``.mp4``, ``.avi``, ``.mov``, ``.mkv``, ``.webm``): MediaPipe keypoints,
   then the person's arm;
+- ``multiview``: a list of synchronised videos of one person with ``calibration=`` (the source is a list):
+  keypoints per view, triangulated (:mod:`lfd.imitation.multiview`), then the arm;
 - ``skeleton``: any file :func:`lfd.human.read_skeleton` reads (Kinect CSV, NTU, UI-PRMD, TRC, CSV): the arm;
 - ``teach``: a teach export folder (``demo.json`` of format ``lfd-teach-demonstration``): robot joints;
 - ``bag``: a ROS 1 ``.bag``, a ROS 2 bag folder or an ``.mcap`` file with ``sensor_msgs/JointState``: robot
@@ -31,10 +33,11 @@ __all__ = [
     "SOURCE_TYPES",
     "RobotDemonstration",
     "detect_source_type",
+    "is_path_list",
     "load_robot_source",
 ]
 
-HUMAN_SOURCES = ("video", "skeleton")
+HUMAN_SOURCES = ("video", "multiview", "skeleton")
 ROBOT_SOURCES = ("teach", "bag", "joint_csv")
 SOURCE_TYPES = HUMAN_SOURCES + ROBOT_SOURCES
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v")
@@ -56,14 +59,31 @@ def _joint_csv_header(path: Path) -> list[str] | None:
     return [h.strip() for h in header]
 
 
+def is_path_list(source: Any) -> bool:
+    """Whether ``source`` is a list of paths (a list, tuple or OmegaConf ``ListConfig``), not one path."""
+    return isinstance(source, Sequence) and not isinstance(source, str | bytes | os.PathLike)
+
+
 def detect_source_type(source: Any) -> str:
-    """The source type (:data:`SOURCE_TYPES`) of ``source`` from its name, and for folders and ``.csv``
-    files from their content.
+    """The source type (:data:`SOURCE_TYPES`) of ``source``: ``multiview`` for a list of videos; else from
+    the path's name, and for folders and ``.csv`` files from their content.
 
     Raises:
-        FileNotFoundError: nothing at ``source``.
-        ValueError: a path of no known type (the message lists the types and ``source_type=``).
+        FileNotFoundError: nothing at ``source`` (or at one of the listed videos).
+        ValueError: a path of no known type (the message lists the types and ``source_type=``); a list
+            holding something other than videos.
     """
+    if is_path_list(source):
+        for item in source:
+            path = Path(str(item))
+            if not path.is_file():
+                raise FileNotFoundError(f"source: no video at {path}")
+            if path.suffix.lower() not in VIDEO_SUFFIXES:
+                raise ValueError(
+                    f"source: a list of sources is a multiview source and must hold videos "
+                    f"({' '.join(VIDEO_SUFFIXES)}), got {path}"
+                )
+        return "multiview"
     path = Path(str(source))
     if not (path.exists() or path.is_symlink()):
         raise FileNotFoundError(f"source: nothing at {path}")
