@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import csv
 import shutil
+from pathlib import Path
 
 import pytest
-from conftest import FIXTURES
 
 from lfd.human.batch import analyze_folder, skeleton_files, write_summary
+
+#: tests/fixtures/human (the human conftest's FIXTURES; conftest modules are not importable by name).
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "human"
 
 
 def test_folder_analysis_reports_bad_files_and_keeps_going(tmp_path):

@@ -11,10 +11,13 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import FIXTURES
 from hydra import compose, initialize_config_dir
 
 ROOT = Path(__file__).resolve().parents[2]
+
+
+#: tests/fixtures/human (the human conftest's FIXTURES; conftest modules are not importable by name).
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "human"
 
 
 def _script():
