@@ -29,7 +29,8 @@ from lfd.dmp import ProMP
 from lfd.human import read_skeleton
 from lfd.human.trunk import to_trunk, trunk_frames
 
-ROOT = Path("/work/shared/data/human/ui_prmd")
+#: The UI-PRMD folder of the shared data beside the repository (``--root`` to use another).
+ROOT = Path(__file__).resolve().parents[2] / "shared" / "data" / "human" / "ui_prmd"
 MOVEMENTS = ("m07", "m08", "m09", "m10")
 SUBJECTS = ("s02", "s03", "s04", "s05")
 VALIDATION = ("s02",)
