@@ -98,6 +98,8 @@ def test_act_closed_loop_interface():
         policy.act_chunk(np.zeros((24, 24, 3), np.uint8), np.zeros(7))
     with pytest.raises(ValueError, match="colour_tta"):
         policy.colour_tta = True
+    fig = policy.sample_figure(batch(k=5))  # the validation plot: predicted chunk vs target
+    assert fig.axes
 
 
 def test_act_bad_settings():

@@ -149,7 +149,8 @@ class ChunkPolicy(VisuomotorPolicy):
 
     def sample_figure(self, batch: dict[str, torch.Tensor]):
         """The first item's predicted chunk against its target."""
-        predicted = self.predict_chunk(batch["image"][:1], batch["joints"][:1])[0].cpu().numpy()
+        with torch.no_grad():
+            predicted = self.predict_chunk(batch["image"][:1], batch["joints"][:1])[0].cpu().numpy()
         target = self.chunk_targets(batch)[0].cpu().numpy()
         t = np.arange(1, len(target) + 1) * self.control_dt
         return joint_figure(t, predicted, target, f"{self.kind} chunk, item 0")

@@ -72,6 +72,9 @@ class DiffusionPolicy(ChunkPolicy):
         n_inference_steps: int = 10,
         **common,
     ) -> None:
+        saved = common.pop("chunk_size", horizon)  # a checkpoint's hyper-parameters repeat it
+        if saved != horizon:
+            raise ValueError(f"DiffusionPolicy.chunk_size: must equal horizon={horizon}, got {saved}")
         super().__init__(chunk_size=horizon, **common)
         if not (isinstance(n_action_steps, int) and 1 <= n_action_steps <= horizon):
             raise ValueError(

@@ -1,0 +1,124 @@
+"""ACT and Diffusion Policy through the entry points: ``train.py model=act|diffusion`` on a tiny
+generated dataset, checkpoints that load with ``weights_only=True``, and ``evaluate.py`` scoring
+them in the closed loop with the same keys as the other policies."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+import evaluate
+import train
+from lfd.training import read_checkpoint
+from lfd.visuomotor.policies import POLICIES, load_policy
+
+TINY_DATA = [
+    "data.name=tiny",
+    "data.n_train_objects=2",
+    "data.n_train_placements=3",
+    "data.val_fraction=0.34",
+    "data.n_test_objects=1",
+    "data.n_test_placements=2",
+    "data.depth=false",
+    "data.n_val_objects=4",
+    "data.n_val_object_placements=3",
+    "data.image_size=32",
+    "data.n_steps=30",
+    "data.batch_size=4",
+    "data.progress=false",
+]
+#: The networks shrunk to seconds of CPU (the trunk; ResNet-18 is covered in the unit tests).
+TINY_MODELS = {
+    "act": [
+        "model.backbone=trunk",
+        "model.channels=[4,4,8]",
+        "model.chunk_size=6",
+        "model.d_model=32",
+        "model.n_heads=4",
+        "model.dim_feedforward=64",
+        "model.n_encoder_layers=1",
+        "model.n_vae_layers=1",
+    ],
+    "diffusion": [
+        "model.backbone=trunk",
+        "model.channels=[4,4,8]",
+        "model.horizon=8",
+        "model.n_action_steps=4",
+        "model.down_dims=[16,32]",
+        "model.n_keypoints=8",
+        "model.image_feature_dim=16",
+        "model.step_embed_dim=16",
+        "model.n_inference_steps=4",
+    ],
+}
+
+
+@pytest.fixture(scope="module")
+def workspace(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("chunking")
+
+
+@pytest.fixture(scope="module")
+def checkpoints(compose, workspace) -> dict[str, Path]:
+    """Three optimiser steps of each chunking policy, as ``train.py model=...`` leaves them."""
+    out = {}
+    for model, overrides in TINY_MODELS.items():
+        run_dir = workspace / "outputs" / "train" / f"run-{model}"
+        cfg = compose(
+            "train",
+            f"paths.root_dir={workspace}",
+            *TINY_DATA,
+            f"model={model}",
+            *overrides,
+            "++trainer.max_steps=3",
+            "++trainer.limit_val_batches=1",
+            f"paths.output_dir={run_dir}",
+        )
+        assert cfg.data.mode == "velocity"
+        out[model] = Path(train.main(cfg))
+        assert out[model] == run_dir / "checkpoints" / "last.ckpt" and out[model].is_file()
+    return out
+
+
+def test_checkpoints_load_with_weights_only_and_run_alone(checkpoints, workspace):
+    from lfd.visuomotor.data.datasets import load_dataset
+
+    stats = load_dataset(workspace / "data" / "tiny").stats
+    frame = np.zeros((32, 32, 3), dtype=np.uint8)
+    for kind, path in checkpoints.items():
+        hp = read_checkpoint(path, keys=("hyper_parameters",))["hyper_parameters"]  # plain types only
+        assert hp["kind"] == kind and hp["backbone"] == "trunk"
+        policy = load_policy(path)
+        assert type(policy) is POLICIES[kind] and not policy.training
+        torch.testing.assert_close(policy.joints_mean, stats["joints"]["mean"])
+        assert policy._trajectories.numel() == 0  # the lookup table is not saved
+        chunk = policy.act_chunk(frame, stats["joints"]["mean"].numpy())
+        assert chunk.shape == (policy.hparams.chunk_size, 7) and np.all(np.isfinite(chunk))
+        again = POLICIES[kind].load_from_checkpoint(path, weights_only=True)
+        torch.testing.assert_close(again.state_dict(), policy.state_dict())
+    with pytest.raises(ValueError, match="holds 'act' policies"):
+        POLICIES["act"].load_from_checkpoint(checkpoints["diffusion"], weights_only=True)
+
+
+def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, compose, workspace):
+    """``python evaluate.py eval.methods=[act,diffusion]`` finds the newest checkpoint of each
+    kind under outputs/train and writes one metrics.json entry per kind."""
+    out_dir = workspace / "eval"
+    cfg = compose(
+        "evaluate",
+        f"paths.root_dir={workspace}",
+        *TINY_DATA,
+        "eval.colour_tta=[]",
+        "eval.methods=[act,diffusion]",
+        "eval.n_gifs=0",
+        "eval.max_steps=8",
+    )
+    evaluate.evaluate(cfg, out_dir)
+    saved = json.loads((out_dir / "metrics.json").read_text())
+    assert set(saved) == {"act", "diffusion"}
+    for kind, m in saved.items():
+        assert m["checkpoint"] == str(checkpoints[kind]) and m["episodes"] == 2
+        assert m["final_distance_m"]["mean"] > 0 and 0.0 <= m["success_5cm"] <= 1.0
+        assert m["joint_limit_violations"] >= 0 and m["latency_ms"]["median"] > 0
