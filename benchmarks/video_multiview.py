@@ -17,6 +17,10 @@ once with all views kept), and prints as JSON per model:
   upper arm and the trunk's downward axis, hips' midpoint minus shoulders' midpoint), both from 3-D
   keypoint geometry, after the same zero-phase Butterworth low-pass of both (``--cutoff`` Hz, 6 as
   ``analyze_arm``'s default; ``..._raw``: unfiltered); views showing someone else are left out of it;
+* ``monocular_lifted_median_abs_deg``: the same with the arms' depth lifted from bone lengths
+  (:func:`lfd.human.video.lifting.lift_arm_depth`), over all frames and over the first half
+  (``validation``: its length percentile was chosen there) and the second half (``test``);
+  ``monocular_halves_median_abs_deg``: the world landmarks' errors on the same halves;
 * ``arms``: per arm ``measured`` or why it cannot be analysed (the other arm is still measured);
 * ``pose_fps``: the estimator's frames/s per view (noisy on a shared machine: see video_speed.py).
 """
@@ -34,6 +38,7 @@ from lfd.human.filters import butterworth_filter
 from lfd.human.multiview import read_calibration, reconcile_left_right, triangulate
 from lfd.human.video import MEDIAPIPE_LANDMARKS, VideoKeypoints, estimate_keypoints
 from lfd.human.video.landmarks import ALL_LEFT, ALL_RIGHT, LEFT_RIGHT_GROUPS
+from lfd.human.video.lifting import lift_arm_depth
 
 SIDES = ("left", "right")
 #: px; a view fitting the others worse than this shows someone else (chosen on the single-person
@@ -115,6 +120,8 @@ def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
         return butterworth_filter(points, rate, args.cutoff) if args.cutoff > 0 else points
 
     out["arms"], out["rmse_deg"], errors, raw_errors = {}, {}, [], []
+    halves = {"world": [], "lifted": []}  # (abs error (N, 2), frame (N,)) per view and arm
+    lifted = [lift_arm_depth(k.pixels[:T], k.world[:T]) for k in kps]
     for side in SIDES:
         reference, reference_raw = arm_angles(smooth(tri.points), side), arm_angles(tri.points, side)
         ok_ref = np.isfinite(reference).all(1)
@@ -139,6 +146,11 @@ def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
                 continue
             diff = mono[ok] - reference[ok]
             errors.append(np.abs(diff))
+            frames = np.flatnonzero(ok)
+            halves["world"].append((np.abs(diff), frames))
+            lift = arm_angles(smooth(lifted[c]), side)
+            ok_l = ok & np.isfinite(lift).all(1)
+            halves["lifted"].append((np.abs(lift - reference)[ok_l], np.flatnonzero(ok_l)))
             rmse = np.sqrt(np.mean(diff**2, axis=0))
             out["rmse_deg"][f"{name}_{side}"] = {
                 "elbow_flexion": float(rmse[0]),
@@ -163,6 +175,20 @@ def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
             for k in ("elbow_flexion", "shoulder_elevation")
         ]
         out["median_rmse_deg"] = float(np.median(rms))
+        for variant, key in (
+            ("lifted", "monocular_lifted_median_abs_deg"),
+            ("world", "monocular_halves_median_abs_deg"),
+        ):
+            err = np.concatenate([e for e, _ in halves[variant]])
+            frame = np.concatenate([f for _, f in halves[variant]])
+            out[key] = {
+                part: dict(zip(("elbow_flexion", "shoulder_elevation"), np.median(err[sel], 0).tolist()))
+                for part, sel in (
+                    ("all", np.ones(len(frame), bool)),
+                    ("validation", frame < T // 2),
+                    ("test", frame >= T // 2),
+                )
+            }
     return out
 
 

@@ -16,6 +16,7 @@ from lfd.io.files import write_bytes_atomic, write_text_atomic
 from ..skeleton import Skeleton
 from .flips import front_back_flips, undo_flips
 from .landmarks import CANONICAL_NAMES, MEDIAPIPE_LANDMARKS
+from .lifting import lift_arm_depth
 
 __all__ = ["VideoKeypoints"]
 
@@ -75,14 +76,20 @@ class VideoKeypoints:
         )
         return dataclasses.replace(self, pixels=pixels, visibility=visibility, world=world)
 
-    def to_skeleton(self, min_visibility: float = 0.5, repair_flips: bool = False) -> Skeleton:
+    def to_skeleton(
+        self, min_visibility: float = 0.5, repair_flips: bool = False, lift_depth: bool = False
+    ) -> Skeleton:
         """A :class:`Skeleton` of the world landmarks with canonical joint names.
 
         Landmarks with visibility below ``min_visibility`` are marked untracked (treated as
         missing by :func:`~lfd.human.analyze_arm`); ``up`` is ``(0, -1, 0)`` (MediaPipe's y
         points down). With ``repair_flips`` the frames MediaPipe labelled back to front are
         repaired first (:meth:`repaired`; reliable for a person facing the camera, not for a
-        side view of a walk, where the global labelling is ambiguous). Raises ``ValueError`` when no frame has a person.
+        side view of a walk, where the global labelling is ambiguous). With ``lift_depth`` the
+        arms' x, y come from the pixels and their depth from bone lengths, the world landmarks
+        giving only its sign (:func:`~lfd.human.video.lifting.lift_arm_depth`; weak perspective,
+        an upright torso roughly parallel to the image; needs a clip in which each arm segment
+        lies at times parallel to the image). Raises ``ValueError`` when no frame has a person.
         """
         if not 0.0 <= min_visibility <= 1.0:
             raise ValueError(f"min_visibility must be in [0, 1], got {min_visibility!r}")
@@ -92,10 +99,14 @@ class VideoKeypoints:
             )
         kp = self.repaired() if repair_flips else self
         tracked = (kp.visibility >= min_visibility) & kp.detected[:, None]
+        world = kp.world
+        if lift_depth:  # as validated in benchmarks/video_multiview.py: every landmark given
+            world = lift_arm_depth(kp.pixels, kp.world)
+            tracked &= np.isfinite(world).all(-1)
         return Skeleton(
             kp.t,
             CANONICAL_NAMES,
-            kp.world,
+            world,
             tracked,
             source=f"{kp.source} (mediapipe)",
             up=np.array([0.0, -1.0, 0.0]),
