@@ -21,6 +21,9 @@ once with all views kept), and prints as JSON per model:
   (:func:`lfd.human.video.lifting.lift_arm_depth`), over all frames and over the first half
   (``validation``: its length percentile was chosen there) and the second half (``test``);
   ``monocular_halves_median_abs_deg``: the world landmarks' errors on the same halves;
+* ``depth_sign_agreement``: per view, upper arm and forearm (both arms), the fraction of frames in
+  which the world landmarks' depth difference along the segment has the sign of the triangulated
+  one in that camera's frame (where the latter exceeds 3 cm): lifting takes only this sign;
 * ``arms``: per arm ``measured`` or why it cannot be analysed (the other arm is still measured);
 * ``pose_fps``: the estimator's frames/s per view (noisy on a shared machine: see video_speed.py).
 """
@@ -122,6 +125,17 @@ def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
     out["arms"], out["rmse_deg"], errors, raw_errors = {}, {}, [], []
     halves = {"world": [], "lifted": []}  # (abs error (N, 2), frame (N,)) per view and arm
     lifted = [lift_arm_depth(k.pixels[:T], k.world[:T]) for k in kps]
+    out["depth_sign_agreement"] = {}
+    for c, (name, kp) in enumerate(zip(calib.names, kps)):
+        cam = tri.points @ calib.R[c].T + calib.t[c]  # the reference in camera c's frame
+        agree = {}
+        for seg, (a, b) in (("upper_arm", ("shoulder", "elbow")), ("forearm", ("elbow", "wrist"))):
+            ia, ib = [idx(f"{s}_{a}") for s in SIDES], [idx(f"{s}_{b}") for s in SIDES]
+            ref_dz, mono_dz = cam[:, ib, 2] - cam[:, ia, 2], kp.world[:T, ib, 2] - kp.world[:T, ia, 2]
+            with np.errstate(invalid="ignore"):
+                ok = (np.abs(ref_dz) > 0.03) & np.isfinite(mono_dz) & ~other[c][:, None]
+            agree[seg] = float(np.mean(np.sign(ref_dz[ok]) == np.sign(mono_dz[ok]))) if ok.any() else None
+        out["depth_sign_agreement"][name] = agree
     for side in SIDES:
         reference, reference_raw = arm_angles(smooth(tri.points), side), arm_angles(tri.points, side)
         ok_ref = np.isfinite(reference).all(1)
