@@ -263,6 +263,18 @@ def _shoulder_and_reach(robot) -> tuple[np.ndarray, float]:
     return shoulder, 0.8 * reach
 
 
+def _largest_scale(a: np.ndarray, b: np.ndarray, radius: float) -> float:
+    """Largest ``s`` with ``|a + s b_t| <= radius`` for every row ``b_t`` of ``b (T, 3)``; inf when ``a``
+    itself is not inside (no scale helps) or nothing moves."""
+    bb = np.einsum("ti,ti->t", b, b)
+    ab = b @ a
+    moving = bb > 1e-12
+    if not moving.any() or a @ a >= radius**2:
+        return np.inf
+    disc = ab[moving] ** 2 - bb[moving] * (a @ a - radius**2)
+    return float(np.min((-ab[moving] + np.sqrt(np.maximum(disc, 0.0))) / bb[moving]))
+
+
 def retarget_wrist_path(
     shoulder,
     elbow,
@@ -274,18 +286,29 @@ def retarget_wrist_path(
     elbow_weight: float = 0.1,
     tol: float = 1e-4,
     max_jump: float = 0.5,
+    within_reach: bool = True,
+    reach_fraction: float = 0.8,
 ) -> RetargetResult:
     """Joint trajectory of a 7-DoF arm whose tool follows the person's scaled wrist path.
+
+    The path is centred (its median wrist, relative to the shoulder) on the tool at the home pose and
+    scaled by ``scale``; with ``within_reach`` the scale is reduced, when needed, until every target
+    lies within ``reach_fraction`` x the robot's reach of its shoulder (the 95th percentile of the
+    tool's distance from the shoulder over sampled postures), so motions spanning the person's whole
+    reach (an arm raised above the head) stay inside the robot's workspace, shape kept.
 
     Args:
         shoulder, elbow, wrist: (T, 3) m in the trunk frame (x forward, y left, z up).
         robot: catalogue name (``sawyer``, ``pr2_right_arm``).
-        scale: human -> robot length factor; default ``0.8 * reach / (upper arm + forearm)``.
+        scale: human -> robot length factor; default the robot's comfortable reach over the person's
+            arm length (upper arm + forearm, median).
         iters: damped least-squares iterations per frame (warm-started from the last frame).
         elbow_weight: gain of the null-space elbow hint (0 = none).
         tol: m, stop iterating a frame once the tool is this close.
         max_jump: rad, largest joint change from the previous frame a restarted IK solution may make (a
             farther one is another IK branch: the frame keeps the warm-started solution and its error).
+        within_reach: shrink ``scale`` (given or default) so every target is within reach (above).
+        reach_fraction: the fraction of the robot's reach the targets must stay within.
 
     Returns:
         :class:`RetargetResult` with ``q`` (T, n) rad; ``error`` is the tool-to-target distance (m).
@@ -302,6 +325,8 @@ def retarget_wrist_path(
     # The path's centre (median wrist, relative to the shoulder) lands on the tool at the home pose.
     home_tool = model.fk(model.home[None])[0, :3, 3].numpy()
     centre = np.median(w - s, axis=0)
+    if within_reach:  # reach is 0.8 x the 95th percentile of the tool's distance from the shoulder
+        scale = min(scale, _largest_scale(home_tool - origin, w - s - centre, reach_fraction * reach / 0.8))
     target = home_tool + scale * (w - s - centre)
     elbow_target = home_tool + scale * (e - s - centre)
     lo, hi = model.lower.numpy(), model.upper.numpy()
