@@ -10,6 +10,8 @@ point in 10 seeded random directions, and through via points 5 cm off its middle
 the median rollouts to 1 cm, successes, and the median shape RMSE.
 
     python benchmarks/imitation_sources.py --skeletons ../shared/data/human
+    python benchmarks/imitation_sources.py --skeletons ../shared/data/human --split validation --no-refinement \\
+        [--override dmp.n_basis=30]      # the files the defaults were chosen on
 """
 
 from __future__ import annotations
@@ -33,38 +35,52 @@ def _cfg(overrides):
         return compose(config_name="imitate", overrides=overrides)
 
 
-def skeleton_files(root: Path) -> list[Path]:
+def skeleton_files(root: Path, split: str = "report") -> list[Path]:
+    """``report``: UI-PRMD subjects s06-s10 (e01, m07-m10) and every KIMORE recording; ``validation`` (where
+    the defaults were chosen): UI-PRMD subjects s02-s05 and KIMORE exercise 1."""
     uiprmd = root / "ui_prmd" / "Kinect" / "Positions"
-    files = [uiprmd / f"m{m:02d}_s{s:02d}_e01_positions.txt.gz" for m in (7, 8, 9, 10) for s in range(6, 11)]
-    files += sorted((root / "kimore").glob("JointPositionExercise*.csv"))
+    subjects = range(6, 11) if split == "report" else range(2, 6)
+    files = [uiprmd / f"m{m:02d}_s{s:02d}_e01_positions.txt.gz" for m in (7, 8, 9, 10) for s in subjects]
+    kimore = "JointPositionExercise*.csv" if split == "report" else "JointPositionExercise1.csv"
+    files += sorted((root / "kimore").glob(kimore))
     return [f for f in files if f.is_file()]
 
 
-def part_skeletons(root: Path) -> None:
+def part_skeletons(root: Path, split: str = "report", overrides: tuple[str, ...] = ()) -> None:
     import lfd.imitation
 
-    files = skeleton_files(root)
-    print(f"## Real skeleton recordings -> robots ({len(files)} files)\n")
-    print("| robot | files | with limit violations | DMP vs reference RMSE median / max (rad) | "
-          "executed vs DMP median / max (rad) | time scale median |")  # fmt: skip
-    print("|---|---:|---:|---|---|---:|")
+    files = skeleton_files(root, split)
+    print(
+        f"## Real skeleton recordings -> robots ({split} split, {len(files)} files) {' '.join(overrides)}\n"
+    )
+    print("| robot | files | with limit violations | DMP vs reference RMSE median / max (rad) | within 0.05 rad | "
+          "executed vs DMP median / max (rad) | time scale median / max |")  # fmt: skip
+    print("|---|---:|---:|---|---:|---|---|")
     for robot in ("wam4", "sawyer"):
         rows = []
         for path in files:
             with tempfile.TemporaryDirectory() as out:
-                overrides = [f"source={path}", f"robot={robot}", "side=right", "outputs.video=false"]
-                summary = lfd.imitation.run(_cfg([*overrides, "outputs.gif=false", "outputs.bag=null"]), out)
+                base = [f"source={path}", f"robot={robot}", "side=right", "outputs.video=false"]
+                cfg = _cfg([*base, "outputs.gif=false", "outputs.bag=null", *overrides])
+                summary = lfd.imitation.run(cfg, out)
             rows.append(summary)
             print(f"  {robot} {path.name}: {summary['limit_violations']} violations, "
-                  f"DMP {summary['dmp_vs_reference_rmse_rad']:.4f}, executed {summary['executed_vs_dmp_rmse_rad']:.4f}",
-                  file=sys.stderr)  # fmt: skip
+                  f"DMP {summary['dmp_vs_reference_rmse_rad']:.4f}, "
+                  f"executed {summary['executed_vs_dmp_rmse_rad']:.4f}, "
+                  f"x{summary['time_scale']:.2f}, {summary['dmp_n_basis']} bases", file=sys.stderr)  # fmt: skip
         dmp = [r["dmp_vs_reference_rmse_rad"] for r in rows]
         exe = [r["executed_vs_dmp_rmse_rad"] for r in rows]
         print(
             f"| {robot} | {len(rows)} | {sum(r['limit_violations'] > 0 for r in rows)} | "
-            f"{statistics.median(dmp):.4f} / {max(dmp):.4f} | {statistics.median(exe):.4f} / {max(exe):.4f} | "
-            f"{statistics.median(r['time_scale'] for r in rows):.2f} |"
+            f"{statistics.median(dmp):.4f} / {max(dmp):.4f} | {sum(d <= 0.05 for d in dmp)}/{len(dmp)} | "
+            f"{statistics.median(exe):.4f} / {max(exe):.4f} | "
+            f"{statistics.median(r['time_scale'] for r in rows):.2f} / {max(r['time_scale'] for r in rows):.2f} |"
         )
+        for r in rows:
+            if r["dmp_vs_reference_rmse_rad"] > 0.05:
+                print(
+                    f"  miss: {Path(r['source']).name} -> {robot}: {r['dmp_vs_reference_rmse_rad']:.3f} rad"
+                )
 
 
 def _demo():
@@ -123,11 +139,15 @@ def main() -> None:
         "--skeletons", type=Path, help="folder with ui_prmd/ and kimore/ (../shared/data/human)"
     )
     parser.add_argument("--seeds", type=int, default=10)
+    parser.add_argument("--split", choices=("report", "validation"), default="report", help="skeleton files")
+    parser.add_argument("--override", action="append", default=[], help="a configs/imitate.yaml override")
+    parser.add_argument("--no-refinement", action="store_true", help="skip part 2")
     args = parser.parse_args()
     torch.set_num_threads(1)
     if args.skeletons:
-        part_skeletons(args.skeletons)
-    part_refinement(args.seeds)
+        part_skeletons(args.skeletons, args.split, tuple(args.override))
+    if not args.no_refinement:
+        part_refinement(args.seeds)
 
 
 if __name__ == "__main__":

@@ -113,6 +113,7 @@ def write_common_outputs(
         "robot": robot.name,
         "frames": int(len(t_source)),
         "time_scale": float(fit.factor),
+        "dmp_n_basis": int(fit.dmp.n_basis),
         "end_tool_position_m": end.tolist(),
         "dmp_vs_reference_rmse_rad": float(np.sqrt(np.mean((fit.q_dmp - q_reference) ** 2))),
         "executed_vs_dmp_rmse_rad": float(np.sqrt(np.mean((q_exec - q_commanded) ** 2))),

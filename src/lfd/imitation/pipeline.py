@@ -39,6 +39,7 @@ __all__ = [
     "Execution",
     "analyse",
     "analyse_skeleton",
+    "basis_count",
     "check_config",
     "estimate_pose",
     "execute",
@@ -56,7 +57,8 @@ ROBOTS = ("wam4", "sawyer", "pr2_right_arm")
 
 def check_config(cfg: Any) -> None:
     """Raise ``ValueError`` (one line naming the field) for a robot not in :data:`ROBOTS`, a side not
-    left/right, an unknown ``source_type``, or bad ``refine`` options; before any file is read."""
+    left/right, an unknown ``source_type``, a bad ``dmp.n_basis`` or bad ``refine`` options; before any
+    file is read."""
     from .refine import METHODS
     from .sources import SOURCE_TYPES
 
@@ -69,6 +71,8 @@ def check_config(cfg: Any) -> None:
         raise ValueError(
             f"source_type must be one of {', '.join(SOURCE_TYPES)} (or null: detected), got {kind!r}"
         )
+    if cfg.get("dmp") is not None:
+        basis_count(cfg.dmp, 1.0)
     refine = cfg.get("refine")
     if refine is not None and refine.get("task") is not None:
         from lfd.rl.skill import SKILL_TASKS
@@ -192,6 +196,28 @@ def retarget(cfg: Any, analysis):
     return t, retarget_wrist_path(s, e, w, robot=cfg.robot)
 
 
+def basis_count(dmp_cfg: Any, duration: float) -> int:
+    """The DMP's basis functions for a demonstration of ``duration`` s: ``dmp_cfg.n_basis`` when it is an
+    integer; ``"auto"``: ``max(min_basis, ceil(basis_per_second * duration))`` (long recordings of several
+    repetitions get more, short clips keep ``min_basis``).
+
+    Raises:
+        ValueError: ``n_basis`` neither a positive integer nor ``"auto"``, or ``basis_per_second``/``min_basis``
+            not positive.
+    """
+    n = dmp_cfg.n_basis
+    if isinstance(n, str) and n == "auto":
+        rate, least = dmp_cfg.get("basis_per_second", 10.0), dmp_cfg.get("min_basis", 30)
+        if not (isinstance(rate, int | float) and rate > 0 and isinstance(least, int) and least > 0):
+            raise ValueError(
+                f"dmp.basis_per_second must be > 0 and dmp.min_basis a positive integer, got {rate!r}, {least!r}"
+            )
+        return max(int(least), int(np.ceil(float(rate) * max(duration, 0.0))))
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ValueError(f"dmp.n_basis must be a positive integer or 'auto', got {n!r}")
+    return int(n)
+
+
 @dataclass(frozen=True)
 class DMPFit:
     """Stage 4's result: the ``dmp`` fitted on robot time ``t_robot (T,)`` s, its rollout
@@ -206,7 +232,7 @@ class DMPFit:
 
 
 def fit_dmp(cfg: Any, robot, t: np.ndarray, q: np.ndarray, out: Path) -> DMPFit:
-    """Stage 4: fit a DMP (``cfg.dmp.n_basis``) to ``q (T, n)`` at ``t (T,)``, stretched in time
+    """Stage 4: fit a DMP (:func:`basis_count` of ``cfg.dmp``) to ``q (T, n)`` at ``t (T,)``, stretched in time
     so its rollout keeps ``robot``'s velocity limits; saved as ``out/dmp.json``.
 
     The robot executes the DMP, so its rollout (not the frame-to-frame retargeted samples,
@@ -217,7 +243,7 @@ def fit_dmp(cfg: Any, robot, t: np.ndarray, q: np.ndarray, out: Path) -> DMPFit:
     from lfd.human.retarget import time_scale
 
     lo, hi, vmax = robot.lower.numpy(), robot.upper.numpy(), robot.velocity_limits.numpy()
-    n_basis = int(cfg.dmp.n_basis)
+    n_basis = basis_count(cfg.dmp, float(t[-1] - t[0]))
     _, factor_retargeted = time_scale(t, q, vmax)
     q_video = np.clip(np.asarray(DMP(n_basis=n_basis).fit(t, q).rollout(t)), lo, hi)
     t_robot, factor = time_scale(t, q_video, vmax)
