@@ -48,7 +48,8 @@ class DiffusionPolicy(ChunkPolicy):
             (:class:`~lfd.visuomotor.policies.noise_schedule.NoiseSchedule`; the paper: 100,
             squared cosine, clipping at 1 of min-max-normalised actions; here the actions are
             z-scored, so the default clips at 5 standard deviations).
-        n_inference_steps: DDIM steps at inference (the paper's real-robot runs: 10 to 16).
+        n_inference_steps: DDIM steps at inference (the paper's real-robot runs: 10 to 16; here 8
+            and the smaller U-Net keep a query near 50 ms on 2 CPU cores, docs/policies.md).
         **common: :class:`~lfd.visuomotor.policies.chunking.ChunkPolicy` arguments.
     """
 
@@ -62,14 +63,14 @@ class DiffusionPolicy(ChunkPolicy):
         backbone: str = "resnet18",
         n_keypoints: int = 32,
         image_feature_dim: int = 64,
-        down_dims: tuple[int, ...] | list[int] = (64, 128, 256),
+        down_dims: tuple[int, ...] | list[int] = (32, 64, 128),
         step_embed_dim: int = 64,
         kernel_size: int = 5,
         n_groups: int = 8,
         n_train_steps: int = 100,
         schedule: str = "squaredcos_cap_v2",
         clip_sample: float | None = 5.0,
-        n_inference_steps: int = 10,
+        n_inference_steps: int = 8,
         **common,
     ) -> None:
         saved = common.pop("chunk_size", horizon)  # a checkpoint's hyper-parameters repeat it
