@@ -61,6 +61,9 @@ class ChunkPolicy(VisuomotorPolicy):
         self.register_buffer("joints_mean", torch.zeros(n))
         self.register_buffer("joints_std", torch.ones(n))
         self.n_aux = 0
+        self.bias_input.requires_grad_(
+            False
+        )  # the keypoint head's, unused here (DDP needs every trained one used)
         # episode index -> demonstrated joints (T, n); filled at fit time, not saved
         self.register_buffer("_trajectories", torch.zeros(0, self.hparams.n_steps, n), persistent=False)
 
