@@ -11,12 +11,13 @@ the median rollouts to 1 cm, successes, and the median shape RMSE.
 
     python benchmarks/imitation_sources.py --skeletons ../shared/data/human
     python benchmarks/imitation_sources.py --skeletons ../shared/data/human --split validation --no-refinement \\
-        [--override dmp.n_basis=30]      # the files the defaults were chosen on
+        [--override dmp.n_basis=30] [--choices]   # the files the defaults were chosen on, and the choices
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import statistics
 import sys
 import tempfile
@@ -62,7 +63,8 @@ def part_skeletons(root: Path, split: str = "report", overrides: tuple[str, ...]
             with tempfile.TemporaryDirectory() as out:
                 base = [f"source={path}", f"robot={robot}", "side=right", "outputs.video=false"]
                 cfg = _cfg([*base, "outputs.gif=false", "outputs.bag=null", *overrides])
-                summary = lfd.imitation.run(cfg, out)
+                with contextlib.redirect_stdout(sys.stderr):  # the run's one-line report, off the table
+                    summary = lfd.imitation.run(cfg, out)
             rows.append(summary)
             print(f"  {robot} {path.name}: {summary['limit_violations']} violations, "
                   f"DMP {summary['dmp_vs_reference_rmse_rad']:.4f}, "
@@ -81,6 +83,58 @@ def part_skeletons(root: Path, split: str = "report", overrides: tuple[str, ...]
                 print(
                     f"  miss: {Path(r['source']).name} -> {robot}: {r['dmp_vs_reference_rmse_rad']:.3f} rad"
                 )
+
+
+def _retargeted(path: Path, robot: str, **wrist_options):
+    """(t, retargeting result) of ``path``'s right arm for ``robot``, the pipeline's stages with default settings."""
+    import lfd.imitation
+    from lfd.human.retarget import retarget_wrist_path
+    from lfd.imitation.pipeline import fill_missing
+
+    cfg = _cfg([f"source={path}", f"robot={robot}", "side=right"])
+    with tempfile.TemporaryDirectory() as out:
+        analysis = lfd.imitation.analyse_skeleton(cfg, str(path), Path(out))
+    t, pos = fill_missing(analysis.t, analysis.positions)
+    if robot == "wam4" or not wrist_options:
+        return lfd.imitation.retarget(cfg, analysis)
+    return t, retarget_wrist_path(pos[:, 0], pos[:, 1], pos[:, 2], robot=robot, **wrist_options)
+
+
+def part_choices(root: Path, split: str) -> None:
+    """How the defaults were chosen: the Sawyer's tool error by reach fraction, and the DMP vs reference and
+    time scale by basis functions per second on the KIMORE recordings of the split."""
+    from lfd.dmp import DMP
+    from lfd.human.retarget import time_scale
+    from lfd.robots import load_robot
+
+    files = skeleton_files(root, split)
+    print(f"\n## Sawyer: max tool error (m) / scale by reach_fraction ({split} split, m07 and KIMORE)\n")
+    fractions = (None, 0.9, 0.8, 0.7)
+    print("| file | " + " | ".join("unbounded" if f is None else str(f) for f in fractions) + " |")
+    print("|---|" + "---:|" * len(fractions))
+    for path in (f for f in files if f.name.startswith("m07") or "Exercise" in f.name):
+        cells = []
+        for f in fractions:
+            options = {"within_reach": False} if f is None else {"reach_fraction": f}
+            _, rt = _retargeted(path, "sawyer", **options)
+            cells.append(f"{rt.error.max():.2f} / {rt.scale:.2f}")
+        print(f"| {path.name} | " + " | ".join(cells) + " |")
+    print(f"\n## DMP vs reference (rad) / time scale by basis functions per second ({split} split, KIMORE)\n")
+    rates = (2, 6, 8, 10, 15)
+    print("| file | robot | " + " | ".join(f"{r}/s" for r in rates) + " |")
+    print("|---|---|" + "---:|" * len(rates))
+    for path in (f for f in files if "Exercise" in f.name):
+        for name in ("wam4", "sawyer"):
+            robot = load_robot(name)
+            lo, hi, vmax = robot.lower.numpy(), robot.upper.numpy(), robot.velocity_limits.numpy()
+            t, rt = _retargeted(path, name)
+            cells = []
+            for rate in rates:
+                n = max(30, int(np.ceil(rate * (t[-1] - t[0]))))
+                q_dmp = np.clip(np.asarray(DMP(n_basis=n).fit(t, rt.q).rollout(t)), lo, hi)
+                rmse = float(np.sqrt(np.mean((q_dmp - rt.q) ** 2)))
+                cells.append(f"{rmse:.3f} / x{time_scale(t, q_dmp, vmax)[1]:.1f}")
+            print(f"| {path.name} | {name} | " + " | ".join(cells) + " |")
 
 
 def _demo():
@@ -142,10 +196,15 @@ def main() -> None:
     parser.add_argument("--split", choices=("report", "validation"), default="report", help="skeleton files")
     parser.add_argument("--override", action="append", default=[], help="a configs/imitate.yaml override")
     parser.add_argument("--no-refinement", action="store_true", help="skip part 2")
+    parser.add_argument(
+        "--choices", action="store_true", help="with --skeletons: reach fraction and bases/s tables"
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     if args.skeletons:
         part_skeletons(args.skeletons, args.split, tuple(args.override))
+        if args.choices:
+            part_choices(args.skeletons, args.split)
     if not args.no_refinement:
         part_refinement(args.seeds)
 

@@ -149,7 +149,9 @@ def test_bad_sources_are_one_line(tmp_path, write_joint_state_bag):
     robot, t, q = _wam_motion()
     odd = tmp_path / "notes.xyz"
     odd.write_text("hello")
-    with pytest.raises(ValueError, match="cannot tell what .* is; pass source_type= one of video, multiview, skeleton"):
+    with pytest.raises(
+        ValueError, match="cannot tell what .* is; pass source_type= one of video, multiview, skeleton"
+    ):
         _run(tmp_path, f"source={odd}")
     with pytest.raises(ValueError, match="source_type must be one of"):
         _run(tmp_path, f"source={odd}", "source_type=pdf")
