@@ -4,6 +4,7 @@ Usage::
 
     python scripts/imitate.py source=person.mp4 robot=wam4 side=right
     python scripts/imitate.py source=recording.csv robot=sawyer side=left         # a skeleton file
+    python scripts/imitate.py source=[cam01.mp4,cam02.mp4] calibration=Calib.qca.txt robot=wam4   # calibrated views
     python scripts/imitate.py source=arm.bag robot=wam4 topic=/joint_states        # a ROS 1/2 bag or .mcap
     python scripts/imitate.py source=outputs/teach/export/demo-20261205-101500 robot=wam4
     python scripts/imitate.py source=arm.bag robot=wam4 refine.task=reach refine.target=[0.4,0.2,0.1]
@@ -12,7 +13,8 @@ Composes ``configs/imitate.yaml`` and runs :func:`lfd.imitation.run` (source -> 
 retargeting for people -> time-scaled DMP -> optional policy-search refinement -> PyBullet) in the
 Hydra run directory: ``dmp.json``, ``robot_trajectory.csv``, ``robot_trajectory.bag``,
 ``summary.json``, ``refinement.png`` when refining; for people ``arm.csv``/``arm.mot``/``arm.json``;
-for a video ``keypoints.csv`` (+ ``.npz``) and ``side_by_side.mp4``/``.gif``. Bad input is one line on
+for a video ``keypoints.csv`` (+ ``.npz``) and ``side_by_side.mp4``/``.gif``; for calibrated views
+``keypoints_<camera>.npz``. Bad input is one line on
 stderr and exit status 2.
 """
 

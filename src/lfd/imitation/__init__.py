@@ -1,5 +1,5 @@
-"""Imitation: from any demonstration (a video or skeleton file of a person, a teach export, a robot bag or
-joint CSV) to a robot skill, refined by policy search and executed (docs/imitation.md).
+"""Imitation: from any demonstration (a video, several calibrated videos or a skeleton file of a person, a
+teach export, a robot bag or joint CSV) to a robot skill, refined by policy search and executed (docs/imitation.md).
 
 The pipeline's stages are functions callable from the package, each taking the
 configuration (``configs/imitate.yaml``) and the previous stages' results
