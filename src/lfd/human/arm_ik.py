@@ -136,6 +136,29 @@ class ArmIKResult:
     elbow_singular: np.ndarray
 
 
+def segment_directions(shoulder, elbow, wrist, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """Unit upper-arm and forearm directions ``(T, 3)`` of shoulder, elbow and wrist points ``(T, 3)``
+    (trunk frame), a left arm mirrored into a right one (:func:`mirror`); NaN where a point is missing.
+
+    Raises:
+        ValueError: a shape other than ``(T, 3)``, or the three of different lengths.
+    """
+    for name, x in (("shoulder", shoulder), ("elbow", elbow), ("wrist", wrist)):
+        if np.ndim(x) != 2 or np.shape(x)[1] != 3:
+            raise ValueError(f"{name} must have shape (T, 3), got {np.shape(x)}")
+    s, e, w = (mirror(np.asarray(x, dtype=float), side) for x in (shoulder, elbow, wrist))
+    if not (s.shape == e.shape == w.shape):
+        raise ValueError(
+            f"shoulder, elbow and wrist must have the same shape, got {s.shape}, {e.shape}, {w.shape}"
+        )
+    upper, fore = e - s, w - e
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (
+            upper / np.linalg.norm(upper, axis=1, keepdims=True),
+            fore / np.linalg.norm(fore, axis=1, keepdims=True),
+        )
+
+
 def arm_ik(
     shoulder: np.ndarray,
     elbow: np.ndarray,
@@ -174,21 +197,10 @@ def arm_ik(
         >>> np.allclose(arm_ik(np.zeros((1, 3)), e, w).q, q)
         True
     """
-    for name, x in (("shoulder", shoulder), ("elbow", elbow), ("wrist", wrist)):
-        if np.ndim(x) != 2 or np.shape(x)[1] != 3:
-            raise ValueError(f"{name} must have shape (T, 3), got {np.shape(x)}")
     if not (isinstance(singular_deg, (int, float)) and 0 < singular_deg < 45):
         raise ValueError(f"singular_deg must be a number of degrees in (0, 45), got {singular_deg!r}")
-    s, e, w = (mirror(np.asarray(x, dtype=float), side) for x in (shoulder, elbow, wrist))
-    if not (s.shape == e.shape == w.shape):
-        raise ValueError(
-            f"shoulder, elbow and wrist must have the same shape, got {s.shape}, {e.shape}, {w.shape}"
-        )
+    u, f = segment_directions(shoulder, elbow, wrist, side)
     eps = np.sin(np.deg2rad(singular_deg))
-    upper, fore = e - s, w - e
-    with np.errstate(invalid="ignore", divide="ignore"):
-        u = upper / np.linalg.norm(upper, axis=1, keepdims=True)
-        f = fore / np.linalg.norm(fore, axis=1, keepdims=True)
     elbow_flexion = np.arccos(np.clip((u * f).sum(1), -1.0, 1.0))
     elevation = np.arccos(np.clip(-u[:, 2], -1.0, 1.0))
     shoulder_singular = np.hypot(u[:, 0], u[:, 1]) < eps  # sin(elevation) small

@@ -38,7 +38,7 @@ import dataclasses
 
 import numpy as np
 
-from .arm_ik import mirror
+from .arm_ik import segment_directions
 
 __all__ = ["THESIS_RANGE", "ThesisAngles", "thesis_fk", "thesis_ik"]
 
@@ -186,19 +186,8 @@ def thesis_ik(
         >>> np.allclose(thesis_ik(np.zeros((1, 3)), e, w).q, q)
         True
     """
-    for name, x in (("shoulder", shoulder), ("elbow", elbow), ("wrist", wrist)):
-        if np.ndim(x) != 2 or np.shape(x)[1] != 3:
-            raise ValueError(f"{name} must have shape (T, 3), got {np.shape(x)}")
-    s, e, w = (mirror(np.asarray(x, dtype=float), side) for x in (shoulder, elbow, wrist))
-    if not (s.shape == e.shape == w.shape):
-        raise ValueError(
-            f"shoulder, elbow and wrist must have the same shape, got {s.shape}, {e.shape}, {w.shape}"
-        )
+    u, f = segment_directions(shoulder, elbow, wrist, side)
     eps = np.sin(np.deg2rad(singular_deg))
-    upper, fore = e - s, w - e
-    with np.errstate(invalid="ignore", divide="ignore"):
-        u = upper / np.linalg.norm(upper, axis=1, keepdims=True)
-        f = fore / np.linalg.norm(fore, axis=1, keepdims=True)
     q4 = np.arccos(np.clip((u * f).sum(1), -1.0, 1.0))
     elbow_singular = np.sin(q4) < eps
     shoulder_singular = np.hypot(u[:, 1], u[:, 2]) < eps  # |cos q2| small
