@@ -64,6 +64,8 @@ def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path)
     from lfd.human.video import estimate_keypoints
     from lfd.human.video.landmarks import ALL_LEFT, ALL_RIGHT, CANONICAL_NAMES, LEFT_RIGHT_GROUPS
 
+    from .pipeline import pose_options
+
     if cfg.get("calibration") is None:
         raise ValueError(
             "calibration: a multiview source needs the cameras' calibration file "
@@ -80,15 +82,7 @@ def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path)
         raise ValueError(f"multiview.up must be a non-zero vector [x, y, z], got {list(mv.up)}")
     kps = []
     for name, path in zip(calib.names, paths):
-        kp = estimate_keypoints(
-            path,
-            width=cfg.pose.width,
-            stride=int(cfg.pose.stride),
-            max_frames=cfg.pose.max_frames,
-            progress=True,
-            model=str(cfg.pose.get("model", "full")),
-            heavy_model=cfg.pose.get("heavy_model"),
-        )
+        kp = estimate_keypoints(path, **pose_options(cfg))
         kp.save(out / f"keypoints_{name}.npz")
         kps.append(kp)
     T = min(k.n_frames for k in kps)

@@ -100,6 +100,18 @@ def source_of(cfg: Any) -> str | list[str]:
     return [str(s) for s in source] if is_path_list(source) else str(source)
 
 
+def pose_options(cfg: Any) -> dict:
+    """Keyword arguments of :func:`lfd.human.video.estimate_keypoints` from ``cfg.pose`` (with a progress bar)."""
+    return dict(
+        width=cfg.pose.width,
+        stride=int(cfg.pose.stride),
+        max_frames=cfg.pose.max_frames,
+        progress=True,
+        model=str(cfg.pose.get("model", "full")),
+        heavy_model=cfg.pose.get("heavy_model"),
+    )
+
+
 def estimate_pose(cfg: Any, out: Path):
     """Stage 1: :class:`lfd.human.video.VideoKeypoints` of ``cfg.video`` (``cfg.pose``:
     model, heavy_model, width, stride, max_frames), written to ``out/keypoints.csv`` and ``keypoints.npz``.
@@ -110,15 +122,7 @@ def estimate_pose(cfg: Any, out: Path):
     """
     from lfd.human.video import estimate_keypoints
 
-    kp = estimate_keypoints(
-        Path(source_of(cfg)),
-        width=cfg.pose.width,
-        stride=int(cfg.pose.stride),
-        max_frames=cfg.pose.max_frames,
-        progress=True,
-        model=str(cfg.pose.get("model", "full")),
-        heavy_model=cfg.pose.get("heavy_model"),
-    )
+    kp = estimate_keypoints(Path(source_of(cfg)), **pose_options(cfg))
     kp.to_csv(out / "keypoints.csv")
     kp.save(out / "keypoints.npz")
     return kp
@@ -128,21 +132,8 @@ def analyse(cfg: Any, kp, out: Path):
     """Stage 2: :func:`lfd.human.analyze_arm` of the skeleton (visibility threshold
     ``cfg.pose.min_visibility``, front/back flips repaired with ``cfg.pose.repair_flips``),
     options ``cfg.analysis``; saved as ``out/arm.*`` (no plots)."""
-    from lfd.human import analyze_arm
-
-    a = cfg.analysis
     repair = bool(cfg.pose.get("repair_flips", True))
-    analysis = analyze_arm(
-        kp.to_skeleton(float(cfg.pose.min_visibility), repair),
-        side=cfg.side,
-        body_mass=float(a.body_mass),
-        sex=a.sex,
-        filter=a.filter,
-        cutoff=float(a.cutoff),
-        max_gap=float(a.max_gap),
-    )
-    analysis.save(out, stem="arm", plots=False)
-    return analysis
+    return analyse_skeleton(cfg, kp.to_skeleton(float(cfg.pose.min_visibility), repair), out)
 
 
 def analyse_skeleton(cfg: Any, path, out: Path):

@@ -130,8 +130,9 @@ class ChunkPolicy(VisuomotorPolicy):
 
     # ------------------------------------------------------------------ inference
     def predict_chunk(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
-        """Images ``(B, C, H, W)`` in [0, 1], joints ``(B, n)`` rad -> chunk ``(B, k, n)`` rad."""
-        raise NotImplementedError
+        """Images ``(B, C, H, W)`` in [0, 1], joints ``(B, n)`` rad -> chunk ``(B, k, n)`` rad (each chunking
+        policy, ACT and Diffusion Policy, defines it)."""
+        raise NotImplementedError(f"{type(self).__name__} defines no predict_chunk")
 
     def forward(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
         return self.predict_chunk(image, joints)
