@@ -131,9 +131,11 @@ def estimate_pose(cfg: Any, out: Path):
 def analyse(cfg: Any, kp, out: Path):
     """Stage 2: :func:`lfd.human.analyze_arm` of the skeleton (visibility threshold
     ``cfg.pose.min_visibility``, front/back flips repaired with ``cfg.pose.repair_flips``),
-    options ``cfg.analysis``; saved as ``out/arm.*`` (no plots)."""
+    arm depth lifted with ``cfg.pose.lift_depth``, options ``cfg.analysis``; saved as
+    ``out/arm.*`` (no plots)."""
     repair = bool(cfg.pose.get("repair_flips", True))
-    return analyse_skeleton(cfg, kp.to_skeleton(float(cfg.pose.min_visibility), repair), out)
+    lift = bool(cfg.pose.get("lift_depth", True))
+    return analyse_skeleton(cfg, kp.to_skeleton(float(cfg.pose.min_visibility), repair, lift), out)
 
 
 def analyse_skeleton(cfg: Any, path, out: Path):

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from lfd.human.video import MEDIAPIPE_LANDMARKS
+from lfd.human.video import lifting
 from lfd.human.video.lifting import lift_arm_depth
 
 I = {n: i for i, n in enumerate(MEDIAPIPE_LANDMARKS)}
@@ -57,7 +58,7 @@ def _flexion(p: np.ndarray, side: str) -> np.ndarray:
 def test_lifted_angles_match_the_true_arm_and_flattened_depth_does_not():
     truth = _body()
     world = truth * np.array([1.0, 1.0, 0.4])  # depth flattened, sign kept
-    lifted = lift_arm_depth(_project(truth), world)
+    lifted = lift_arm_depth(_project(truth), world, sign_margin=0.0)  # the plain sign: exact
     for side in ("left", "right"):
         true_flex = _flexion(truth, side)
         assert np.abs(_flexion(lifted, side) - true_flex).max() < 0.5
@@ -86,6 +87,50 @@ def test_depth_sign_follows_the_world_landmarks():
     np.testing.assert_array_equal(np.sign(a[moving, wr, 2] - a[moving, el, 2]), np.sign(true_dz))
     np.testing.assert_allclose(b[..., 2], -a[..., 2], atol=1e-12)
     np.testing.assert_allclose(_flexion(b, "right"), _flexion(a, "right"), atol=1e-9)
+
+
+def test_a_segment_never_parallel_to_the_image_keeps_its_world_depth(monkeypatch):
+    # The right upper arm points at the camera all clip long (its image length is at most 40 % of
+    # its length): the percentile cannot be its true length, so its world depth difference is kept.
+    truth = _body()
+    sh, el = I["right_shoulder"], I["right_elbow"]
+    T = len(truth)
+    tilt = np.radians(np.linspace(0.0, 20.0, T))
+    u = np.stack([np.zeros(T), np.sin(tilt), -np.cos(tilt)], 1)
+    shift = truth[:, sh] + UPPER * u - truth[:, el]
+    for j in ("elbow", "wrist", "pinky", "index", "thumb"):
+        truth[:, I[f"right_{j}"]] += shift
+    world = truth * np.array([1.0, 1.0, 0.4])
+    with pytest.warns(UserWarning, match="right_shoulder-right_elbow never lies parallel"):
+        lifted = lift_arm_depth(_project(truth), world, sign_margin=0.0)
+    np.testing.assert_allclose(lifted[:, el, 2] - lifted[:, sh, 2], world[:, el, 2] - world[:, sh, 2])
+    # Without the guard the 85th percentile of a foreshortened length would be taken as the bone
+    # and the depth difference would be rebuilt from it (the guard can fail).
+    monkeypatch.setattr(lifting, "MIN_LENGTH_RATIO", 0.0)
+    unguarded = lift_arm_depth(_project(truth), world, sign_margin=0.0)
+    assert np.abs((unguarded - lifted)[:, el, 2]).max() > 0.02
+    # The left arm, seen parallel to the image at times, is still lifted to the truth.
+    assert np.abs(_flexion(lifted, "left") - _flexion(truth, "left")).max() < 0.5
+
+
+def test_a_world_depth_wavering_around_zero_does_not_flip_the_lifted_depth():
+    # The right forearm is foreshortened throughout (true depth difference 0.15 m towards the
+    # camera) while the world landmarks' depth difference wavers +-1 cm around zero, as MediaPipe's
+    # does for a segment it sees nearly side-on. The plain sign flips the lifted depth between
+    # its full +- size every frame; the default margin (SIGN_MARGIN, 2 cm) halves those jumps.
+    truth = _body()
+    el, wr = I["right_elbow"], I["right_wrist"]
+    world = truth * np.array([1.0, 1.0, 0.4])
+    world[:, wr, 2] = world[:, el, 2] + 0.01 * np.where(np.arange(len(truth)) % 2, 1.0, -1.0)
+    pixels = _project(truth)
+    plain = lift_arm_depth(pixels, world, sign_margin=0.0)
+    soft = lift_arm_depth(pixels, world)
+    late = np.arange(len(truth)) > 60  # raised and flexed: the forearm is foreshortened
+    jump_plain = np.abs(np.diff((plain[:, wr, 2] - plain[:, el, 2])[late])).max()
+    jump_soft = np.abs(np.diff((soft[:, wr, 2] - soft[:, el, 2])[late])).max()
+    assert jump_plain > 0.15 and jump_soft < 0.6 * jump_plain
+    with pytest.raises(ValueError, match="sign_margin"):
+        lift_arm_depth(pixels, world, sign_margin=-0.01)
 
 
 def test_missing_landmarks_stay_missing_and_bad_input_is_refused():

@@ -77,7 +77,7 @@ class VideoKeypoints:
         return dataclasses.replace(self, pixels=pixels, visibility=visibility, world=world)
 
     def to_skeleton(
-        self, min_visibility: float = 0.5, repair_flips: bool = False, lift_depth: bool = False
+        self, min_visibility: float = 0.5, repair_flips: bool = False, lift_depth: bool = True
     ) -> Skeleton:
         """A :class:`Skeleton` of the world landmarks with canonical joint names.
 
@@ -85,11 +85,13 @@ class VideoKeypoints:
         missing by :func:`~lfd.human.analyze_arm`); ``up`` is ``(0, -1, 0)`` (MediaPipe's y
         points down). With ``repair_flips`` the frames MediaPipe labelled back to front are
         repaired first (:meth:`repaired`; reliable for a person facing the camera, not for a
-        side view of a walk, where the global labelling is ambiguous). With ``lift_depth`` the
-        arms' x, y come from the pixels and their depth from bone lengths, the world landmarks
-        giving only its sign (:func:`~lfd.human.video.lifting.lift_arm_depth`; weak perspective,
-        an upright torso roughly parallel to the image; needs a clip in which each arm segment
-        lies at times parallel to the image). Raises ``ValueError`` when no frame has a person.
+        side view of a walk, where the global labelling is ambiguous). With ``lift_depth`` (the
+        default, chosen on a validation split: docs/video.md) the arms' x, y come from the pixels
+        and their depth from bone lengths, the world landmarks giving only its sign
+        (:func:`~lfd.human.video.lifting.lift_arm_depth`; weak perspective, an upright torso
+        roughly parallel to the image; a segment never seen parallel to the image keeps its
+        world depth, with a warning); ``lift_depth=False`` gives MediaPipe's world landmarks
+        as they are. Raises ``ValueError`` when no frame has a person.
         """
         if not 0.0 <= min_visibility <= 1.0:
             raise ValueError(f"min_visibility must be in [0, 1], got {min_visibility!r}")
