@@ -7,8 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lfd.human.video import MEDIAPIPE_LANDMARKS
-from lfd.human.video import lifting
+from lfd.human.video import MEDIAPIPE_LANDMARKS, lifting
 from lfd.human.video.lifting import lift_arm_depth
 
 I = {n: i for i, n in enumerate(MEDIAPIPE_LANDMARKS)}

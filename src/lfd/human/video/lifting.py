@@ -10,7 +10,14 @@ import numpy as np
 
 from .landmarks import MEDIAPIPE_LANDMARKS
 
-__all__ = ["ARM_CHAINS", "LENGTH_PERCENTILE", "MIN_LENGTH_RATIO", "SIGN_MARGIN", "TORSO_FRACTION", "lift_arm_depth"]
+__all__ = [
+    "ARM_CHAINS",
+    "LENGTH_PERCENTILE",
+    "MIN_LENGTH_RATIO",
+    "SIGN_MARGIN",
+    "TORSO_FRACTION",
+    "lift_arm_depth",
+]
 
 
 def _i(name: str) -> int:
