@@ -34,10 +34,14 @@ def open_unit_float(name: str, value) -> float:
     return float(value)
 
 
-def finite_array(name: str, value, ndims: tuple[int, ...]) -> np.ndarray:
-    """``value`` as a new float64 array with one of ``ndims`` dimensions and no NaN/inf."""
+def finite_array(name: str, value, ndims: tuple[int, ...], *, copy: bool = True) -> np.ndarray:
+    """``value`` as a float64 array with one of ``ndims`` dimensions and no NaN/inf: a new one,
+    or with ``copy=False`` ``value`` itself when it already is a writeable float64 array (for
+    callers that only read it)."""
     try:
-        array = np.array(value, dtype=np.float64)
+        array = np.array(value, dtype=np.float64) if copy else np.asarray(value, dtype=np.float64)
+        if not array.flags.writeable:  # torch.from_numpy warns on read-only memory
+            array = array.copy()
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name} must be a numeric array, got {type(value).__name__}") from exc
     if array.ndim not in ndims:

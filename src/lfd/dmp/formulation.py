@@ -37,6 +37,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import torch
 from torch import Tensor
 
 __all__ = ["DEFAULT_FORMULATION", "FORMULATIONS", "check_formulation", "scale_weights", "unscale_weights"]
@@ -57,16 +58,24 @@ def check_formulation(formulation) -> str:
     return formulation
 
 
-def scale_weights(weights: Tensor, y0: Tensor, goal: Tensor, formulation: str, stiffness: float) -> Tensor:
+def scale_weights(
+    weights: Tensor, y0: Tensor, goal: Tensor, formulation: str, stiffness: float, *, out: Tensor | None = None
+) -> Tensor:
     """Amplitude-scaled weights ``v`` ``(B, D, K)`` fed to the rollout operator.
 
     Args:
-        weights: ``(B, D, K)`` forcing weights ``w``.
+        weights: ``(B, D, K)`` forcing weights ``w`` (tensors or numpy arrays).
         y0, goal: ``(B, D)`` start and goal (any of the three may have batch 1).
         formulation: one of :data:`FORMULATIONS`.
         stiffness: ``K = alpha_z * beta_z`` (used by ``"pastor"``).
+        out: tensors only, no autograd: a ``(B, D, K)`` tensor (e.g. a view into the
+            operator's input buffer) written in place and returned, saving an allocation.
     """
     displacement = (goal - y0)[..., None]
+    if out is not None:
+        if formulation == "ijspeert":
+            return torch.mul(weights, displacement, out=out)
+        return torch.sub(weights, displacement, out=out).mul_(stiffness)
     if formulation == "ijspeert":
         return weights * displacement
     return stiffness * (weights - displacement)

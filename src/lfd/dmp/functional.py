@@ -130,8 +130,8 @@ def discrete_scale(formulation: str, gains: DiscreteGains):
     :mod:`lfd.dmp.formulation`), as :func:`evaluate` expects."""
     stiffness = gains.alpha_z * gains.beta_z
 
-    def scale(weights: Tensor, y0: Tensor, goal: Tensor) -> Tensor:
-        return scale_weights(weights, y0, goal, formulation, stiffness)
+    def scale(weights: Tensor, y0: Tensor, goal: Tensor, out: Tensor | None = None) -> Tensor:
+        return scale_weights(weights, y0, goal, formulation, stiffness, out=out)
 
     return scale
 
@@ -214,8 +214,9 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
         t: ``(T,)`` validated float64 time grid in seconds.
         tau: float, or tensor ``()``/``(B,)`` in seconds.
         make_operator: ``(t, tau, n_basis, dtype, device) -> RolloutOperator``.
-        scale: ``(weights (B, D, K), y0 (B, D), goal (B, D)) -> v (B, D, K)``, the
-            amplitude-scaled weights fed to the operator.
+        scale: ``(weights (B, D, K), y0 (B, D), goal (B, D), out=None) -> v (B, D, K)``, the
+            amplitude-scaled weights fed to the operator (written into ``out`` when given:
+            the operator's input buffer, used when no input needs gradients).
         yd0: start velocity in units/s (``None``: at rest).
 
     Returns:
@@ -227,7 +228,8 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
     as_numpy = not any(isinstance(x, Tensor) for x, _ in (*named.values(), (tau, None)))
     if as_numpy:
         values = {
-            name: torch.from_numpy(check.finite_array(name, x, dims)) for name, (x, dims) in named.items()
+            name: torch.from_numpy(check.finite_array(name, x, dims, copy=False))
+            for name, (x, dims) in named.items()
         }
     else:
         reference = next(x for x in (weights, y0, goal, tau) if isinstance(x, Tensor))
@@ -242,9 +244,17 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
     values = {name: x if x.ndim == (3 if name == "weights" else 2) else x[None] for name, x in values.items()}
     weights = values["weights"]
     operator = make_operator(t, tau, weights.shape[-1], weights.dtype, weights.device)
-    v = scale(weights, values["y0"], values["goal"])
     z0 = None if yd0 is None else values["yd0"] * operator.tau[..., None]
-    outputs = operator.apply(values["y0"], values["goal"], v, z0, return_derivatives=return_derivatives)
+    y0, goal = values["y0"], values["goal"]
+    batch = torch.broadcast_shapes(y0.shape, goal.shape, weights.shape[:-1], *([] if z0 is None else [z0.shape]))
+    needs_grad = any(x.requires_grad for x in (*values.values(), *([] if z0 is None else [z0])))
+    if needs_grad or weights.shape[:-1] != batch:
+        v = scale(weights, y0, goal)
+        outputs = operator.apply(y0, goal, v, z0, return_derivatives=return_derivatives)
+    else:  # one weight set per sample: the scaled weights go straight into the operator's input columns
+        inputs, slot = operator.input_buffer(y0, goal, z0, batch, weights.shape[-1])
+        scale(weights, y0, goal, out=slot)
+        outputs = operator.apply_inputs(inputs, z0 is not None, return_derivatives=return_derivatives)
     outputs = outputs if return_derivatives else (outputs,)
     if unbatched:
         outputs = tuple(x[0] for x in outputs)

@@ -211,7 +211,7 @@ class RhythmicDMP(Primitive):
         def make_operator(grid, tau_value, n_basis, dtype, device):
             return rhythmic_operator(grid, tau_value, n_basis, self.gains, dtype, device)
 
-        def scale(w, start, anchor):
-            return w * float(r)
+        def scale(w, start, anchor, out=None):
+            return w * float(r) if out is None else torch.mul(w, float(r), out=out)
 
         return evaluate(y0, goal, weights, times, tau, make_operator, scale, yd0, return_derivatives)

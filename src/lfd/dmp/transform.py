@@ -263,10 +263,33 @@ class RolloutOperator:
             Positions ``(B, T, D)``; with ``return_derivatives`` the tuple
             ``(y, dy/dt, d2y/dt2)`` in units of ``y``, ``y/s``, ``y/s^2``.
         """
-        columns = [goal[..., None], (y0 - goal)[..., None], *([] if z0 is None else [z0[..., None]]), v]
-        batch = torch.broadcast_tensors(*(column[..., 0] for column in columns))[0].shape
-        inputs = torch.cat([column.expand(*batch, column.shape[-1]) for column in columns], dim=-1)
-        response = self.initial[..., : len(columns) - 2]  # drop the z0 column when z0 is None
+        batch = torch.broadcast_shapes(y0.shape, goal.shape, v.shape[:-1], *([] if z0 is None else [z0.shape]))
+        if any(x.requires_grad for x in (y0, goal, v, *([] if z0 is None else [z0]))):
+            columns = [goal[..., None], (y0 - goal)[..., None], *([] if z0 is None else [z0[..., None]]), v]
+            inputs = torch.cat([column.expand(*batch, column.shape[-1]) for column in columns], dim=-1)
+        else:
+            inputs, slot = self.input_buffer(y0, goal, z0, batch, v.shape[-1])
+            slot.copy_(v)
+        return self.apply_inputs(inputs, z0 is not None, return_derivatives=return_derivatives)
+
+    def input_buffer(
+        self, y0: Tensor, goal: Tensor, z0: Tensor | None, batch: torch.Size, n_weights: int
+    ) -> tuple[Tensor, Tensor]:
+        """The columns ``[g, y0 - g, (z0,) v]`` of :meth:`apply` as one new ``(*batch, C)`` tensor,
+        the first ones written, and the ``(*batch, n_weights)`` view where ``v`` goes (to be
+        filled in place, e.g. by :func:`lfd.dmp.formulation.scale_weights` with ``out=``).
+        No autograd through the buffer: for inputs that need gradients use :meth:`apply`."""
+        first = 2 + (z0 is not None)
+        inputs = torch.empty(*batch, first + n_weights, dtype=goal.dtype, device=goal.device)
+        inputs[..., 0] = goal
+        inputs[..., 1] = y0 - goal
+        if z0 is not None:
+            inputs[..., 2] = z0
+        return inputs, inputs[..., first:]
+
+    def apply_inputs(self, inputs: Tensor, with_z0: bool, *, return_derivatives: bool = False):
+        """:meth:`apply` on prepared columns ``inputs`` ``(..., D, C)`` (from :meth:`input_buffer`)."""
+        response = self.initial[..., : 2 if with_z0 else 1]  # drop the z0 column when z0 is None
         zero = torch.zeros_like(response[..., 0, :1])
 
         def rows(first: Tensor, state: int) -> Tensor:
@@ -277,7 +300,7 @@ class RolloutOperator:
             return _contract(position, inputs)
         tau = self.tau[..., None, None]
         scaled_velocity = rows(zero, 1)
-        force = torch.nn.functional.pad(self.features, (len(columns) - 1, 0))
+        force = torch.nn.functional.pad(self.features, (inputs.shape[-1] - self.features.shape[-1], 0))
         acceleration = (
             force - self.alpha_z * self.beta_z * rows(zero, 0) - self.alpha_z * scaled_velocity
         ) / tau**2
