@@ -59,7 +59,13 @@ def check_formulation(formulation) -> str:
 
 
 def scale_weights(
-    weights: Tensor, y0: Tensor, goal: Tensor, formulation: str, stiffness: float, *, out: Tensor | None = None
+    weights: Tensor,
+    y0: Tensor,
+    goal: Tensor,
+    formulation: str,
+    stiffness: float,
+    *,
+    out: Tensor | None = None,
 ) -> Tensor:
     """Amplitude-scaled weights ``v`` ``(B, D, K)`` fed to the rollout operator.
 

@@ -246,7 +246,9 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
     operator = make_operator(t, tau, weights.shape[-1], weights.dtype, weights.device)
     z0 = None if yd0 is None else values["yd0"] * operator.tau[..., None]
     y0, goal = values["y0"], values["goal"]
-    batch = torch.broadcast_shapes(y0.shape, goal.shape, weights.shape[:-1], *([] if z0 is None else [z0.shape]))
+    batch = torch.broadcast_shapes(
+        y0.shape, goal.shape, weights.shape[:-1], *([] if z0 is None else [z0.shape])
+    )
     needs_grad = any(x.requires_grad for x in (*values.values(), *([] if z0 is None else [z0])))
     if needs_grad or weights.shape[:-1] != batch:
         v = scale(weights, y0, goal)

@@ -263,7 +263,9 @@ class RolloutOperator:
             Positions ``(B, T, D)``; with ``return_derivatives`` the tuple
             ``(y, dy/dt, d2y/dt2)`` in units of ``y``, ``y/s``, ``y/s^2``.
         """
-        batch = torch.broadcast_shapes(y0.shape, goal.shape, v.shape[:-1], *([] if z0 is None else [z0.shape]))
+        batch = torch.broadcast_shapes(
+            y0.shape, goal.shape, v.shape[:-1], *([] if z0 is None else [z0.shape])
+        )
         if any(x.requires_grad for x in (y0, goal, v, *([] if z0 is None else [z0]))):
             columns = [goal[..., None], (y0 - goal)[..., None], *([] if z0 is None else [z0[..., None]]), v]
             inputs = torch.cat([column.expand(*batch, column.shape[-1]) for column in columns], dim=-1)
