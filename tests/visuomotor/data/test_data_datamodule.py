@@ -2,6 +2,7 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 from hydra.utils import instantiate
@@ -113,3 +114,27 @@ def test_hydra_configs_compose_and_instantiate(compose, tmp_path, name, train, p
     dm = instantiate(data, _convert_="all")
     assert isinstance(dm, ReachDataModule)
     assert dm.path == tmp_path / f"{name}_s9" and dm.config.seed == 9 and dm.mode == "dmp"
+
+
+def test_train_objects_keeps_the_first_objects_and_recomputes_the_stats(root):
+    full = ReachDataModule(name="tiny", root=root, mode="dmp", **TINY)
+    full.setup()
+    one = ReachDataModule(name="tiny", root=root, mode="dmp", train_objects=1, **TINY)
+    one.setup()
+    train_full, train_one = full.data.split("train"), one.data.split("train")
+    first = min(e.object_index for e in train_full)
+    # every placement of the first training object, nothing of the other
+    assert [e.index for e in train_one] == [e.index for e in train_full if e.object_index == first]
+    assert len(one.datasets["train"]) == len(train_one) < len(full.datasets["train"])
+    # validation and test are the same episodes
+    for split in ("val", "test"):
+        assert [e.index for e in one.data.split(split)] == [e.index for e in full.data.split(split)]
+    # statistics from the kept episodes (the full split's differ): the mean of their start joints
+    joints = np.concatenate([e.arrays["joints"] for e in train_one])
+    expected = torch.from_numpy(joints.mean(0)).float()
+    torch.testing.assert_close(one.stats["joints"]["mean"], expected)
+    assert not torch.allclose(one.stats["joints"]["mean"], full.stats["joints"]["mean"])
+    with pytest.raises(ValueError, match=r"train_objects: expected an int in \[1, 2\]"):
+        ReachDataModule(name="tiny", root=root, train_objects=3, **TINY).setup()
+    with pytest.raises(ValueError, match="ReachDataModule.train_objects"):
+        ReachDataModule(name="tiny", root=root, train_objects=0, **TINY)

@@ -57,6 +57,9 @@ class ReachDataModule(L.LightningDataModule):
             ``<root>/<name>.shard-<i>-of-<N>`` (join with :func:`lfd.visuomotor.data.merge_shards`);
             a sharded datamodule cannot be ``setup()``.
         progress: show generation progress.
+        train_objects: loading only (not the content): train on the episodes of the first
+            this many training objects (:meth:`ReachData.with_train_objects`, statistics
+            recomputed on them); ``None`` = all. For data-efficiency grids on one dataset.
     """
 
     def __init__(
@@ -98,6 +101,7 @@ class ReachDataModule(L.LightningDataModule):
         shard: int | None = None,
         num_shards: int = 1,
         progress: bool = True,
+        train_objects: int | None = None,
     ) -> None:
         super().__init__()
         if mode not in MODES:
@@ -155,6 +159,13 @@ class ReachDataModule(L.LightningDataModule):
         self.shard, self.num_shards = shard, num_shards
         self.batch_size, self.num_workers, self.augment = batch_size, num_workers, augment
         self.num_gen_workers, self.progress = num_gen_workers, progress
+        if train_objects is not None and (
+            isinstance(train_objects, bool) or not isinstance(train_objects, int) or train_objects < 1
+        ):
+            raise ValueError(
+                f"ReachDataModule.train_objects: expected null or an int >= 1, got {train_objects!r}"
+            )
+        self.train_objects = train_objects
         self.data: ReachData | None = None
         self.datasets: dict[str, Dataset] = {}
         self.generation_report: GenerationReport | None = None
@@ -178,6 +189,8 @@ class ReachDataModule(L.LightningDataModule):
             )
         if self.data is None:
             self.data = load_dataset(self.path, self.config)
+            if self.train_objects is not None:
+                self.data = self.data.with_train_objects(self.train_objects)
         view = MODES[self.mode]
         augment = image_augmentation(self.config.image_size) if self.augment else None
         wanted = {"fit": ("train", "val"), "validate": ("val",), "test": ("test",), "predict": ("test",)}.get(

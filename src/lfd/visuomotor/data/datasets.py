@@ -15,6 +15,7 @@ unless the dataset class is given ``depth=False`` (RGB items from an RGB-D datas
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,6 +33,7 @@ from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import SPLITS, EpisodeRecord, episode_path
 from lfd.visuomotor.data.generate import code_version
 from lfd.visuomotor.data.manifest import STATS, verify_dataset
+from lfd.visuomotor.data.stats import compute_stats
 
 __all__ = [
     "DMPReachDataset",
@@ -71,6 +73,33 @@ class ReachData:
         if name not in SPLITS:
             raise ValueError(f"ReachData.split: name must be one of {SPLITS}, got {name!r}")
         return [e for e in self.episodes if e.split == name]
+
+    def with_train_objects(self, n_objects: int) -> ReachData:
+        """A copy whose train split keeps the episodes of its first ``n_objects`` training objects
+        (by object index; every placement of each), the normalisation statistics recomputed on
+        them; val and test are unchanged. For data-efficiency studies on one dataset: every
+        size sees the same validation and test episodes.
+
+        Raises:
+            ValueError: ``n_objects`` is not an int in ``[1, number of training objects]``.
+        """
+        objects = sorted({e.object_index for e in self.split("train")})
+        if (
+            isinstance(n_objects, bool)
+            or not isinstance(n_objects, int)
+            or not 1 <= n_objects <= len(objects)
+        ):
+            raise ValueError(
+                f"train_objects: expected an int in [1, {len(objects)}] (this dataset's training objects), "
+                f"got {n_objects!r}"
+            )
+        keep = set(objects[:n_objects])
+        episodes = [e for e in self.episodes if e.split != "train" or e.object_index in keep]
+        stats = {
+            name: {k: torch.tensor(v, dtype=torch.float32) for k, v in entry.items() if k in ("mean", "std")}
+            for name, entry in compute_stats([e for e in episodes if e.split == "train"]).items()
+        }
+        return dataclasses.replace(self, episodes=episodes, stats=stats)
 
 
 def load_dataset(path: str | Path, cfg: GeneratorConfig | None = None) -> ReachData:
