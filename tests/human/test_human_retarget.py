@@ -46,9 +46,39 @@ def test_wam_reproduces_the_posture(side):
         return v / np.linalg.norm(v, axis=1, keepdims=True)
 
     assert np.degrees(np.arccos(np.clip((upper * unit(e - s)).sum(1), -1, 1))).max() < 0.01
-    assert np.degrees(np.arccos(np.clip((fore * unit(w - e)).sum(1), -1, 1))).max() < 0.01
+    # The forearm within 0.05 deg: the twist smoother (TWIST_CUTOFF_HZ, 6 Hz) moves it by 0.02 deg here
+    assert np.degrees(np.arccos(np.clip((fore * unit(w - e)).sum(1), -1, 1))).max() < 0.05
     # Continuous: no joint jumps more than 0.1 rad between frames at 30 Hz.
     assert np.abs(np.diff(res.q, axis=0)).max() < 0.1
+
+
+def test_wam_twist_ignores_noise_near_a_straight_elbow(monkeypatch):
+    # The elbow straightens to 3 deg and bends again while the wrist jitters by 2 mm: near the
+    # straight elbow the twist q3 (the forearm's direction about the upper arm) is ill-defined
+    # and follows the jitter (up to 4.8 deg per frame here). The smoother (weights sin(q4)^2)
+    # cuts those steps 5x while the forearm direction moves by under a degree.
+    import lfd.human.retarget as retarget
+
+    t = np.arange(150) / 30.0
+    q = np.zeros((150, 4))
+    q[:, 0], q[:, 1] = np.deg2rad(40.0), np.deg2rad(50.0)
+    q[:, 2] = np.deg2rad(10.0 + 20.0 * np.sin(0.8 * t))
+    q[:, 3] = np.deg2rad(3.0 + 60.0 * (1 - np.cos(2 * np.pi * t / 5.0)) / 2)  # 3 deg at both ends
+    elbow, wrist = arm_fk(q, 0.30, 0.26)
+    wrist = wrist + np.random.default_rng(0).normal(0.0, 0.002, wrist.shape)
+    shoulder = np.zeros_like(elbow) + np.array([0.0, -0.18, 0.0])
+    elbow, wrist = shoulder + elbow, shoulder + wrist
+    smooth = retarget_wam4(shoulder, elbow, wrist, t=t)
+    monkeypatch.setattr(retarget, "TWIST_CUTOFF_HZ", None)
+    raw = retarget_wam4(shoulder, elbow, wrist, t=t)
+    straight = q[:, 3] < np.deg2rad(15.0)
+    jump_raw = np.abs(np.diff(raw.q[:, 2]))[straight[1:]].max()
+    jump_smooth = np.abs(np.diff(smooth.q[:, 2]))[straight[1:]].max()
+    assert jump_raw > 0.06 and jump_smooth < 0.25 * jump_raw  # rad per frame
+    np.testing.assert_array_equal(smooth.q[:, 3], raw.q[:, 3])  # the elbow is untouched
+    assert np.degrees(np.abs(smooth.error - raw.error)).max() < 1.0  # forearm within a degree
+    with pytest.raises(ValueError, match="t must be finite and strictly increasing"):
+        retarget_wam4(shoulder, elbow, wrist, t=t[::-1].copy())
 
 
 def test_wam_clamps_unreachable_postures():

@@ -125,7 +125,44 @@ def _mount_about(axis: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.stack([x, np.cross(z, x), z], 1)
 
 
-def _wam_posture(s, e, w, mount, singular_deg, robot):
+#: Hz: cutoff of the twist smoother (:func:`_smooth_twist`) where the elbow is bent at 90 deg
+#: (the analysis filter's 6 Hz); lower where it straightens. Chosen on the validation recordings
+#: (UI-PRMD s02-s05, KIMORE exercise 1; docs/imitation.md); ``None`` turns the smoother off.
+TWIST_CUTOFF_HZ: float | None = 6.0
+
+
+def _smooth_twist(q3: np.ndarray, sin_elbow: np.ndarray, dt: np.ndarray | float, cutoff_hz) -> np.ndarray:
+    """The upper-arm twist ``q3`` (rad, unwrapped) smoothed in proportion to how ill-defined it is.
+
+    Near a straight elbow the twist is ill-defined: an error ``d`` in it moves the forearm by
+    only ``sin(q4) * d``. So ``q3`` is replaced by the weighted Whittaker smoother
+    ``argmin_z sum_t sin(q4_t)^2 (z_t - q3_t)^2 + lam * sum_t (second difference of z)_t^2``:
+    the squared forearm-direction change plus a roughness penalty. ``lam = (fs / (2 pi
+    cutoff_hz))**4`` (``fs`` = 1 / median ``dt``) makes it a low-pass of cutoff ``cutoff_hz``
+    where the elbow is bent at 90 deg, and a lower one (``cutoff * sin(q4)**0.5``) where it
+    straightens, so the twist follows its neighbours there instead of its noise.
+    """
+    from scipy.linalg import solveh_banded
+
+    n = len(q3)
+    if n < 3 or cutoff_hz is None:
+        return q3
+    fs = 1.0 / float(np.median(dt))
+    lam = (fs / (2.0 * np.pi * float(cutoff_hz))) ** 4
+    w = np.maximum(sin_elbow**2, 1e-12)
+    # D^T D of the second difference as the bands (upper form) of a symmetric banded matrix.
+    d0 = np.full(n, 6.0)
+    d0[[0, -1]], d0[[1, -2]] = 1.0, 5.0
+    d1 = np.full(n, -4.0)
+    d1[[1, -1]] = -2.0
+    d2 = np.ones(n)
+    ab = np.stack([lam * d2, lam * d1, w + lam * d0])
+    ab[0, :2] = 0.0
+    ab[1, 0] = 0.0
+    return solveh_banded(ab, w * q3)
+
+
+def _wam_posture(s, e, w, mount, singular_deg, robot, dt=1.0 / 30.0):
     n = len(s)
     lo, hi = robot.lower.numpy(), robot.upper.numpy()
     u = _unit(e - s) @ mount  # mount-frame coordinates
@@ -166,7 +203,7 @@ def _wam_posture(s, e, w, mount, singular_deg, robot):
     if straight.any() and not straight.all():
         idx = np.arange(n)
         q3[straight] = np.interp(idx[straight], idx[~straight], np.unwrap(q3[~straight]))
-    q[:, 2] = np.unwrap(q3)
+    q[:, 2] = _smooth_twist(np.unwrap(q3), np.sin(q[:, 3]), dt, TWIST_CUTOFF_HZ)
     q[:, 2] -= 2 * np.pi * np.round(np.median(q[:, 2]) / (2 * np.pi))
     limited = np.clip(q, lo, hi)
     clamped |= (np.abs(limited - q) > 1e-9).any(1)
@@ -209,7 +246,8 @@ def retarget_wam4(
             scaling (smallest peak joint speed / velocity limit). A motion that sweeps the arm through
             the side mount's singular direction (arm straight out sideways) then gets a mount whose
             singular axis lies away from the demonstrated upper-arm directions.
-        t: (T,) s, frame times for ``mount="auto"`` (uniform frames when None).
+        t: (T,) s, strictly increasing frame times, for ``mount="auto"`` and the twist smoother
+            (:data:`TWIST_CUTOFF_HZ`); None = uniform frames at 30 Hz.
         n_mounts: candidates of ``mount="auto"``.
 
     Returns:
@@ -220,18 +258,21 @@ def retarget_wam4(
     n = _check_points(shoulder=shoulder, elbow=elbow, wrist=wrist)
     s, e, w = (mirror(np.asarray(x, float), side) for x in (shoulder, elbow, wrist))
     robot = load_robot("wam4")
+    if t is not None and np.shape(t) != (n,):
+        raise ValueError(f"t must have shape ({n},) (frame times in s), got {np.shape(t)}")
+    dt = np.diff(np.asarray(t, float)) if t is not None and n > 1 else 1.0 / 30.0
+    if not np.all(np.isfinite(dt)) or np.any(np.asarray(dt) <= 0):
+        raise ValueError("t must be finite and strictly increasing (frame times in s)")
     if isinstance(mount, str):
         if mount == "side":
             mount = WAM_MOUNT
         elif mount == "auto":
-            if t is not None and np.shape(t) != (n,):
-                raise ValueError(f"t must have shape ({n},) (frame times in s), got {np.shape(t)}")
             vmax = robot.velocity_limits.numpy()
             u = _unit(e - s)
             best = None
             for axis in np.concatenate([WAM_MOUNT[:, 2:].T, _fibonacci_sphere(int(n_mounts))]):
                 m = WAM_MOUNT if best is None else _mount_about(axis, u)
-                q, clamped = _wam_posture(s, e, w, m, singular_deg, robot)[:2]
+                q, clamped = _wam_posture(s, e, w, m, singular_deg, robot, dt)[:2]
                 key = (int(clamped.sum()), _speed_ratio(q, None if t is None else np.asarray(t, float), vmax))
                 if best is None or key < best[0]:
                     best = (key, m)
@@ -247,7 +288,7 @@ def retarget_wam4(
         raise ValueError(
             f"mount must be a (3, 3) rotation matrix (columns = base axes), got {mount.tolist()}"
         )
-    q, clamped, singular, f, err = _wam_posture(s, e, w, mount, singular_deg, robot)
+    q, clamped, singular, f, err = _wam_posture(s, e, w, mount, singular_deg, robot, dt)
     return RetargetResult(q, clamped, singular, f, err, 1.0, "wam4", mount if side == "right" else
                           np.diag([1.0, -1.0, 1.0]) @ mount)  # fmt: skip
 
