@@ -12,15 +12,25 @@ Examples::
     python train.py trainer=ddp trainer.devices=2     # Lightning DDP (gloo on CPU)
     python train.py trainer.fast_dev_run=true         # one batch of train + val, a smoke test
     python train.py experiment=sawyer_models          # the Sawyer forward + inverse models
+    python train.py -m experiment=quick +grid=policies hydra/launcher=joblib   # the policy grid
+                                                      # (issue 35; scripts/collect_grid.py tabulates it)
+
+With ``evaluate=true`` a visuomotor policy is scored right after training, by ``evaluate.py``'s
+configuration for the same experiment, data and paths (plus ``eval_overrides``, e.g.
+``[eval.split=val]``; the test split by default), into ``<run dir>/evaluate/metrics.json``:
+one self-contained result per multirun job (and ``timing.json``: training wall time).
 """
 
 from __future__ import annotations
 
 import sys
+import time
+from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
+from lfd.io.files import write_json_atomic
 from lfd.training import Adaptable, AdaptationSource, CheckpointError, read_checkpoint
 
 #: ``ckpt_path`` values Lightning resolves itself (no file of that name is read here).
@@ -47,11 +57,68 @@ def check_resume(ckpt_path: str | None) -> None:
         raise SystemExit(2) from None
 
 
+#: Overrides of the training run that the evaluation after it inherits (its data config is the
+#: training run's own, copied whole).
+INHERITED = ("paths", "seed", "experiment")
+
+
+def check_evaluate(cfg: DictConfig) -> str | None:
+    """The policy kind to evaluate after training (``evaluate=true``), or None; one line on
+    stderr and exit status 2 for a model that the reaching evaluator does not score."""
+    if not cfg.get("evaluate"):
+        return None
+    from hydra.core.hydra_config import HydraConfig
+
+    from lfd.visuomotor.eval.evaluator import CKPT_KEYS
+
+    kind = HydraConfig.get().runtime.choices.get("model")
+    if kind not in CKPT_KEYS:
+        print(f"train: evaluate=true: model={kind} is not a policy the reaching evaluator scores "
+              f"(expected one of {sorted(CKPT_KEYS)})", file=sys.stderr)  # fmt: skip
+        raise SystemExit(2)
+    return kind
+
+
+def evaluate_checkpoint(cfg: DictConfig, kind: str, ckpt: str) -> Path:
+    """Score ``ckpt`` (policy ``kind``) with ``configs/evaluate.yaml`` composed from this run's
+    experiment, its paths/seed overrides and ``eval_overrides``, on this run's own data config
+    (the same dataset); writes ``<run dir>/evaluate/``."""
+    from hydra import compose
+    from hydra.core.hydra_config import HydraConfig
+    from omegaconf import open_dict
+
+    from lfd.visuomotor.eval.evaluator import CKPT_KEYS
+
+    here = str(Path(__file__).resolve().parent)  # evaluate.py beside this file, also in launcher workers
+    if here not in sys.path:
+        sys.path.insert(0, here)
+    import evaluate
+
+    hc = HydraConfig.get()
+    out = Path(cfg.paths.output_dir) / "evaluate"
+    inherited = [o for o in hc.overrides.task if o.lstrip("+~").split("=")[0].split(".")[0] in INHERITED]
+    overrides = [
+        *inherited,
+        f"eval.methods=[{kind}]",
+        # test-time colour averaging only for a policy trained with colour augmentation
+        *([] if cfg.model.get("colour_augment") else ["eval.colour_tta=[]"]),
+        f"{CKPT_KEYS[kind]}={ckpt}",
+        f"paths.output_dir={out}",
+        *cfg.get("eval_overrides", []),
+    ]
+    eval_cfg = compose(config_name="evaluate", overrides=overrides)
+    with open_dict(eval_cfg):
+        eval_cfg.data = OmegaConf.create(OmegaConf.to_container(cfg.data, resolve=True))
+    evaluate.evaluate(eval_cfg, out)
+    return out
+
+
 @hydra.main(version_base="1.3", config_path="configs", config_name="train")
 def main(cfg: DictConfig) -> str | None:
     import lightning as L
 
     check_resume(cfg.get("ckpt_path"))
+    kind = check_evaluate(cfg)
     L.seed_everything(cfg.seed, workers=True)
     datamodule = hydra.utils.instantiate(cfg.data)
     model = hydra.utils.instantiate(cfg.model)
@@ -64,7 +131,9 @@ def main(cfg: DictConfig) -> str | None:
 
     if trainer.is_global_zero:
         print(OmegaConf.to_yaml(cfg, resolve=False))
+    started = time.perf_counter()
     trainer.fit(model=model, datamodule=datamodule, ckpt_path=cfg.get("ckpt_path"), weights_only=True)
+    fit_s = time.perf_counter() - started
     if cfg.get("test"):
         trainer.test(
             model=model,
@@ -87,6 +156,15 @@ def main(cfg: DictConfig) -> str | None:
                     f"[lfd]   the best {callback.monitor} on validation ({best:.4g}), "
                     f"at step {step} of {trainer.global_step}"
                 )
+        train = getattr(datamodule, "datasets", {}).get("train")
+        episodes = len(datamodule.data.split("train")) if getattr(datamodule, "data", None) else None
+        write_json_atomic(
+            Path(cfg.paths.output_dir) / "timing.json",
+            {"fit_s": fit_s, "global_step": trainer.global_step, "train_items": None if train is None else len(train),
+             "train_episodes": episodes},
+        )  # fmt: skip
+        if kind is not None and ckpt:
+            print(f"[lfd] evaluation written to: {evaluate_checkpoint(cfg, kind, ckpt)}")
     return ckpt
 
 
