@@ -81,7 +81,7 @@ def scale_weights(
     if out is not None:
         if formulation == "ijspeert":
             return torch.mul(weights, displacement, out=out)
-        return torch.sub(weights, displacement, out=out).mul_(stiffness)
+        return torch.add(displacement * -stiffness, weights, alpha=stiffness, out=out)  # one pass
     if formulation == "ijspeert":
         return weights * displacement
     return stiffness * (weights - displacement)

@@ -205,6 +205,13 @@ def _tau_value(tau):
     return float(value) if value.ndim == 0 else torch.from_numpy(value)
 
 
+def _batch_shape(*tensors: Tensor | None) -> torch.Size:
+    """The broadcast shape of ``(B or 1, D)`` tensors (``None`` skipped), without
+    ``torch.broadcast_shapes``' Python overhead (tens of microseconds per call)."""
+    shapes = [x.shape for x in tensors if x is not None]
+    return torch.Size((max(s[0] for s in shapes), *shapes[0][1:]))
+
+
 def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=None, return_derivatives=False):
     """Shared front end of every rollout: convert, check, broadcast, build, apply.
 
@@ -246,9 +253,7 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
     operator = make_operator(t, tau, weights.shape[-1], weights.dtype, weights.device)
     z0 = None if yd0 is None else values["yd0"] * operator.tau[..., None]
     y0, goal = values["y0"], values["goal"]
-    batch = torch.broadcast_shapes(
-        y0.shape, goal.shape, weights.shape[:-1], *([] if z0 is None else [z0.shape])
-    )
+    batch = _batch_shape(y0, goal, weights[..., 0], z0)
     needs_grad = any(x.requires_grad for x in (*values.values(), *([] if z0 is None else [z0])))
     if needs_grad or weights.shape[:-1] != batch:
         v = scale(weights, y0, goal)
