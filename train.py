@@ -62,6 +62,19 @@ def check_resume(ckpt_path: str | None) -> None:
 INHERITED = ("paths", "seed", "experiment")
 
 
+def _train_size(datamodule) -> dict:
+    """``train_items`` (the train dataset's length) and ``train_episodes`` (demonstrations, for a
+    reaching datamodule) where the datamodule has them; empty otherwise."""
+    out = {}
+    datasets = getattr(datamodule, "datasets", None)
+    if isinstance(datasets, dict) and "train" in datasets:
+        out["train_items"] = len(datasets["train"])
+    split = getattr(getattr(datamodule, "data", None), "split", None)
+    if callable(split):
+        out["train_episodes"] = len(split("train"))
+    return out
+
+
 def check_evaluate(cfg: DictConfig) -> str | None:
     """The policy kind to evaluate after training (``evaluate=true``), or None; one line on
     stderr and exit status 2 for a model that the reaching evaluator does not score."""
@@ -156,13 +169,10 @@ def main(cfg: DictConfig) -> str | None:
                     f"[lfd]   the best {callback.monitor} on validation ({best:.4g}), "
                     f"at step {step} of {trainer.global_step}"
                 )
-        train = getattr(datamodule, "datasets", {}).get("train")
-        episodes = len(datamodule.data.split("train")) if getattr(datamodule, "data", None) else None
         write_json_atomic(
             Path(cfg.paths.output_dir) / "timing.json",
-            {"fit_s": fit_s, "global_step": trainer.global_step, "train_items": None if train is None else len(train),
-             "train_episodes": episodes},
-        )  # fmt: skip
+            {"fit_s": fit_s, "global_step": trainer.global_step, **_train_size(datamodule)},
+        )
         if kind is not None and ckpt:
             print(f"[lfd] evaluation written to: {evaluate_checkpoint(cfg, kind, ckpt)}")
     return ckpt
