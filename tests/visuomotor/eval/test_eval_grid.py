@@ -5,6 +5,7 @@ then scoring its policy, collected by scripts/collect_grid.py."""
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -87,8 +88,13 @@ TINY = [
 ]
 
 
-def _run(args: list[str], tmp_path: Path, timeout: int = 900) -> subprocess.CompletedProcess:
-    done = subprocess.run([sys.executable, *args], capture_output=True, text=True, cwd=ROOT, timeout=timeout)
+def _run(args: list[str], tmp_path: Path, timeout: int = 600) -> subprocess.CompletedProcess:
+    # One torch thread per process: the launchers run jobs side by side on CI's 2 cores, and two
+    # jobs with two intra-op threads each once stalled in a backward pass for minutes there.
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    done = subprocess.run(
+        [sys.executable, *args], capture_output=True, text=True, cwd=ROOT, timeout=timeout, env=env
+    )
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
     return done
 
