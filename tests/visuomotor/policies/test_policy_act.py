@@ -1,11 +1,13 @@
 """ACT without data: shapes, the CVAE objective, a one-batch overfit, the closed-loop entry point."""
 
+import functools
 import math
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import torch
+from _chunk_batches import chunk_batch
 
 from lfd.visuomotor.policies import ACTPolicy
 from lfd.visuomotor.policies.backbones import ImageBackbone, grid_embedding, sinusoidal_embedding
@@ -27,11 +29,7 @@ TINY = dict(
 )
 
 
-def batch(b=4, k=5, seed=1):
-    g = torch.Generator().manual_seed(seed)
-    joints = torch.randn(b, 7, generator=g) * 0.3
-    chunk = joints[:, None] + torch.cumsum(torch.randn(b, k, 7, generator=g) * 0.1, dim=1)
-    return {"image": torch.rand(b, 3, 32, 32, generator=g), "joints": joints, "chunk": chunk}
+batch = functools.partial(chunk_batch, k=5)
 
 
 @pytest.mark.parametrize("backbone", ["trunk", "resnet18"])

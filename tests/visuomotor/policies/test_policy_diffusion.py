@@ -1,8 +1,11 @@
 """Diffusion Policy without data: shapes, a one-batch overfit, the closed-loop entry point."""
 
+import functools
+
 import numpy as np
 import pytest
 import torch
+from _chunk_batches import chunk_batch
 
 from lfd.visuomotor.policies import DiffusionPolicy
 from lfd.visuomotor.policies.control import ChunkController
@@ -24,11 +27,7 @@ TINY = dict(
 )
 
 
-def batch(b=4, k=8, seed=1):
-    g = torch.Generator().manual_seed(seed)
-    joints = torch.randn(b, 7, generator=g) * 0.3
-    chunk = joints[:, None] + torch.cumsum(torch.randn(b, k, 7, generator=g) * 0.1, dim=1)
-    return {"image": torch.rand(b, 3, 32, 32, generator=g), "joints": joints, "chunk": chunk}
+batch = functools.partial(chunk_batch, k=8)
 
 
 @pytest.mark.parametrize("backbone", ["trunk", "resnet18"])
