@@ -111,6 +111,27 @@ def test_act_bad_settings():
         ACTPolicy(**{**TINY, "aux_weight": 1.0})
     with pytest.raises(ValueError, match="'index' and 'step'"):
         ACTPolicy(**TINY).losses({k: v for k, v in batch().items() if k != "chunk"})
+    with pytest.raises(ValueError, match="state_noise: expected a number >= 0"):
+        ACTPolicy(**{**TINY, "state_noise": -0.1})
+
+
+def test_state_noise_perturbs_the_training_joints_only():
+    """With ``state_noise`` the training loss conditions the decoder (and the CVAE encoder) on
+    joints + N(0, sigma^2) against the unchanged demonstrated chunk; validation and the closed
+    loop see the measured joints."""
+    torch.manual_seed(0)
+    policy = ACTPolicy(**{**TINY, "state_noise": 0.2})
+    b = batch(b=256)
+    seen, decode = [], policy.decode
+    policy.decode = lambda image, joints_n, z: seen.append(joints_n) or decode(image, joints_n, z)
+    policy.train()
+    policy.losses(b)
+    offset = policy.denormalise("joints", seen[-1]) - b["joints"]
+    assert abs(float(offset.std()) - 0.2) < 0.02 and abs(float(offset.mean())) < 0.02
+    policy.eval()
+    policy.losses(b)
+    torch.testing.assert_close(policy.denormalise("joints", seen[-1]), b["joints"])
+    assert ACTPolicy(**TINY).hparams.state_noise == 0.0  # the paper's: off by default
 
 
 def test_chunk_targets_read_the_demonstrations_and_hold_the_last_sample():

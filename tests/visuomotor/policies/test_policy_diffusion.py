@@ -94,3 +94,18 @@ def test_diffusion_bad_settings():
         DiffusionPolicy(**{**TINY, "n_inference_steps": 0})
     with pytest.raises(ValueError, match="down_dims"):
         DiffusionPolicy(**{**TINY, "down_dims": [12, 32]})
+
+
+def test_state_noise_perturbs_the_condition_in_training_only():
+    torch.manual_seed(0)
+    policy = DiffusionPolicy(**{**TINY, "state_noise": 0.2})
+    b = batch(b=256)
+    seen, condition = [], policy.condition
+    policy.condition = lambda image, joints: seen.append(joints) or condition(image, joints)
+    policy.train()
+    policy.losses(b)
+    offset = seen[-1] - b["joints"]
+    assert abs(float(offset.std()) - 0.2) < 0.02
+    policy.eval()
+    policy.losses(b)
+    torch.testing.assert_close(seen[-1], b["joints"])

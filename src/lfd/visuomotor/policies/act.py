@@ -157,7 +157,7 @@ class ACTPolicy(ChunkPolicy):
         return self.denormalise("joints", self.decode(image, joints_n, z))
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
-        joints_n = self.normalise("joints", batch["joints"])
+        joints_n = self.normalise("joints", self.input_joints(batch))
         target_n = self.normalise("joints", self.chunk_targets(batch))
         b = joints_n.shape[0]
         if self.hparams.use_vae:

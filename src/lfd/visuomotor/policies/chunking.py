@@ -34,6 +34,11 @@ class ChunkPolicy(VisuomotorPolicy):
 
     Args:
         chunk_size: ``k``, joint-position samples predicted per query.
+        state_noise: std (rad) of Gaussian noise added to the joints the policy is conditioned
+            on in training (0: none), the target chunk staying the demonstration's: the policy
+            learns to steer back to the demonstrated path from states near it (noise injection,
+            DART, Laskey et al. 2017, as the velocity CNN's ``state_noise``; absolute position
+            targets make the correction implicit). Not in the ACT or Diffusion Policy papers.
         **common: :class:`~lfd.visuomotor.policies.base.VisuomotorPolicy` arguments; those of
             its keypoint head (``hidden``, ``bias_dim``, ``global_pool``, ``aux_weight``,
             ``mode_heads``) must stay at their no-op values (the chunking policies have
@@ -45,7 +50,7 @@ class ChunkPolicy(VisuomotorPolicy):
 
     item_mode = "velocity"
 
-    def __init__(self, *, chunk_size: int, **common) -> None:
+    def __init__(self, *, chunk_size: int, state_noise: float = 0.0, **common) -> None:
         common.setdefault("bias_dim", 0)
         common.setdefault("hidden", [])
         for key in ("aux_weight", "mode_heads", "global_pool"):
@@ -56,6 +61,10 @@ class ChunkPolicy(VisuomotorPolicy):
         super().__init__(**common)
         if not (isinstance(chunk_size, int) and chunk_size >= 1):
             raise ValueError(f"{type(self).__name__}.chunk_size: expected an int >= 1, got {chunk_size!r}")
+        if not (isinstance(state_noise, (int, float)) and 0 <= state_noise < float("inf")):
+            raise ValueError(
+                f"{type(self).__name__}.state_noise: expected a number >= 0 (rad), got {state_noise!r}"
+            )
         n = self.hparams.n_joints
         self.stat_names = ("joints",)
         self.register_buffer("joints_mean", torch.zeros(n))
@@ -127,6 +136,11 @@ class ChunkPolicy(VisuomotorPolicy):
         k, last = self.hparams.chunk_size, self.hparams.n_steps - 1
         steps = (batch["step"].long()[:, None] + torch.arange(1, k + 1, device=self.device)).clamp(max=last)
         return self._trajectories[batch["index"].long()[:, None], steps]
+
+    def input_joints(self, batch: dict[str, torch.Tensor]) -> torch.Tensor:
+        """The joints ``(B, n)`` rad a training or validation batch conditions the policy on:
+        ``batch["joints"]`` plus :meth:`perturbation` (``state_noise``, training only)."""
+        return batch["joints"] + self.perturbation(batch["joints"])
 
     # ------------------------------------------------------------------ inference
     def predict_chunk(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:

@@ -115,7 +115,7 @@ class DiffusionPolicy(ChunkPolicy):
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         target_n = self.normalise("joints", self.chunk_targets(batch))
-        cond = self.condition(batch["image"], batch["joints"])
+        cond = self.condition(batch["image"], self.input_joints(batch))
         noise = torch.randn_like(target_n)
         t = torch.randint(0, self.hparams.n_train_steps, (target_n.shape[0],), device=target_n.device)
         pred = self.unet(self.noise.add_noise(target_n, noise, t), t, cond)

@@ -82,12 +82,6 @@ class VelocityPolicy(VisuomotorPolicy):
         episode started (needed with ``phase_input``) -> joint velocities ``(B, n)`` rad/s."""
         return self.denormalise("velocity", self.features(image, joints, self.phase(time, image.shape[0])))
 
-    def perturbation(self, joints: torch.Tensor) -> torch.Tensor:
-        """Noise ``(B, n)`` rad added to the training joints (zeros in eval mode or without ``state_noise``)."""
-        if not self.training or self.hparams.state_noise == 0:
-            return torch.zeros_like(joints)
-        return torch.randn_like(joints) * self.hparams.state_noise
-
     def setup(self, stage: str) -> None:
         """Lightning hook: the dataset's statistics, then those of the label (the train
         split's velocity commands) for the output normalisation."""
