@@ -1,4 +1,5 @@
-"""Evaluate trained models: ``python evaluate.py [ckpt_dmp=PATH] [ckpt_velocity=PATH] [eval.scenario=FILE]``.
+"""Evaluate trained models: ``python evaluate.py [ckpt_dmp=PATH] [ckpt_velocity=PATH] [ckpt_act=PATH]
+[ckpt_diffusion=PATH] [eval.scenario=FILE]``.
 
 A thin Hydra entry point (lightning-hydra-template's ``eval.py``): it composes
 ``configs/evaluate.yaml`` with your overrides, instantiates the evaluator named by
@@ -8,7 +9,7 @@ this run's output directory, whose path it prints. Metrics, tables and plots lan
 
 Examples::
 
-    python evaluate.py experiment=quick                   # both policies, newest checkpoints
+    python evaluate.py experiment=quick                   # every policy kind, newest checkpoints
     python evaluate.py eval.scenario=configs/scenarios/mixed.yaml
     python evaluate.py eval=sawyer                        # the Sawyer models' protocol
 """
@@ -54,7 +55,7 @@ def instantiate_evaluator(cfg: DictConfig) -> Evaluator:
 
 def evaluate(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     """Instantiate ``cfg.eval`` (which checks its scenario file first) and (for evaluators that
-    read a dataset) ``cfg.data``, resolve the checkpoints (``ckpt_dmp``, ``ckpt_velocity``,
+    read a dataset) ``cfg.data``, resolve the checkpoints (``ckpt_dmp``, ``ckpt_velocity``, ``ckpt_act``, ``ckpt_diffusion``,
     ``eval.checkpoint`` or the newest under ``paths.output_root``) and run; returns the metrics
     (:func:`instantiate_evaluator` raises; a bad checkpoint raises
     :class:`lfd.training.CheckpointError`, a bad scenario file

@@ -280,9 +280,15 @@ def test_missing_checkpoint_says_which_and_how(tiny, tmp_path):
         ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
 
 
-def test_newest_checkpoint_of_each_kind_is_found(checkpoints, tiny):
+def test_newest_checkpoint_of_each_kind_is_found(checkpoints, tiny, capsys):
+    """`python evaluate.py` scores every kind by default; the kinds without a checkpoint (here
+    ACT and Diffusion Policy) are skipped with one line saying how to train them."""
     cfg = tiny("evaluate")
-    assert ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg)) == checkpoints
+    assert tuple(cfg.eval.methods) == tuple(POLICIES) == ("cnn_dmp", "velocity", "act", "diffusion")
+    with pytest.warns(RuntimeWarning, match="no 'act' checkpoint.*python train.py model=act"):
+        found = evaluate.instantiate_evaluator(cfg).resolve_checkpoints(cfg.paths.output_root, given(cfg))
+    assert found == checkpoints
+    assert "no 'diffusion' checkpoint" in capsys.readouterr().out
 
 
 def test_mismatched_image_size_is_refused(checkpoints, tiny, workspace):

@@ -62,7 +62,8 @@ TRAIN_COMMANDS = {kind: f"python train.py model={kind}" for kind in CKPT_KEYS}
 
 
 class ReachEvaluator:
-    """Closed-loop evaluation of the CNN -> DMP and velocity policies (an :class:`lfd.training.Evaluator`).
+    """Closed-loop evaluation of the visuomotor policies (CNN -> DMP, velocity CNN, ACT, Diffusion
+    Policy; an :class:`lfd.training.Evaluator`).
 
     Args:
         scenario: scenario YAML file (:mod:`lfd.visuomotor.eval.scenario`); None = the ``split`` of
@@ -71,7 +72,8 @@ class ReachEvaluator:
             ``"val"`` (model selection and tuning: the val split's held-out validation
             objects at their placements; its training objects' other placements are left
             out, the overlap check refuses them as training objects).
-        methods: policy kinds to evaluate.
+        methods: policy kinds to evaluate (default: all four); :meth:`resolve_checkpoints` skips
+            the kinds without a checkpoint with a one-line note, and raises when none has one.
         colour_tta: methods whose policies average their output over the 6 orders of the
             RGB channels (:attr:`lfd.visuomotor.policies.base.VisuomotorPolicy.colour_tta`; only for
             checkpoints trained with ``colour_augment``).
@@ -96,7 +98,7 @@ class ReachEvaluator:
     def __init__(
         self,
         scenario: str | None = None,
-        methods: tuple[str, ...] | list[str] = ("cnn_dmp", "velocity"),
+        methods: tuple[str, ...] | list[str] = tuple(POLICIES),
         n_gifs: int = 2,
         gif_every: int = 2,
         max_steps: int | None = None,
