@@ -54,11 +54,12 @@ def test_unet_keeps_the_sequence_shape_and_uses_its_condition():
         net(torch.randn(2, 6, 7), t, torch.zeros(2, 5))
 
 
-def test_diffusion_overfits_one_batch():
+@pytest.mark.parametrize("prediction", ["epsilon", "sample"])
+def test_diffusion_overfits_one_batch(prediction):
     """The batch is the items with their diffusion steps and noise draws (the same generator
-    state at every step): the noise-prediction loss drops by a large factor."""
+    state at every step): the noise- (or sample-) prediction loss drops by a large factor."""
     torch.manual_seed(0)
-    policy = DiffusionPolicy(**TINY)
+    policy = DiffusionPolicy(**TINY, prediction=prediction)
     b = batch()
     opt = torch.optim.Adam(policy.parameters(), lr=3e-3)
     history = []

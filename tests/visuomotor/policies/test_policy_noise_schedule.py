@@ -70,6 +70,26 @@ def test_ddim_with_the_perfect_noise_predictor_recovers_x0(n_steps):
     torch.testing.assert_close(out, x0, atol=1e-9, rtol=0)
 
 
+@pytest.mark.parametrize("n_steps", [1, 3, 10, 100])
+def test_ddim_with_the_perfect_sample_predictor_recovers_x0(n_steps):
+    """prediction="sample": the network gives x0 itself; the DDIM step derives the noise from it."""
+    s = NoiseSchedule(100, prediction="sample")
+    g = torch.Generator().manual_seed(0)
+    x0 = torch.randn(2, 16, 7, generator=g, dtype=torch.float64)
+    s.alphas_cumprod = s.alphas_cumprod.double()
+    out = s.sample(lambda x, t: x0, torch.randn(2, 16, 7, generator=g, dtype=torch.float64), n_steps)
+    torch.testing.assert_close(out, x0, atol=1e-9, rtol=0)
+    # one step by hand: x_prev = sqrt(a_prev) x0 + sqrt(1 - a_prev) (x - sqrt(a) x0) / sqrt(1 - a)
+    a = s.alphas_cumprod
+    x = torch.randn(2, 16, 7, generator=g, dtype=torch.float64)
+    expected = a[40].sqrt() * x0 + (1 - a[40]).sqrt() * (x - a[70].sqrt() * x0) / (1 - a[70]).sqrt()
+    torch.testing.assert_close(s.ddim_step(x0, 70, x, 40), expected)
+    noise = torch.randn_like(x0)
+    assert s.target(x0, noise) is x0 and NoiseSchedule(10).target(x0, noise) is noise
+    with pytest.raises(ValueError, match="prediction: expected one of"):
+        NoiseSchedule(10, prediction="v_prediction")
+
+
 def test_clip_sample_bounds_the_predicted_x0():
     s = NoiseSchedule(10, clip_sample=1.0)
     out = s.ddim_step(torch.zeros(1, 3), 5, torch.full((1, 3), 100.0), -1)

@@ -10,7 +10,8 @@ dependency: :mod:`~lfd.visuomotor.policies.noise_schedule`).
   normalised action sequence of ``horizon`` steps (prediction horizon ``T_p``), FiLM-conditioned
   on the global condition and the diffusion step.
 * Training: DDPM, ``n_train_steps`` steps, squared-cosine schedule, mean squared error of the
-  predicted noise. Inference: DDIM with ``n_inference_steps`` steps from Gaussian noise
+  predicted noise (or of the predicted clean sequence, ``prediction="sample"``). Inference:
+  DDIM with ``n_inference_steps`` steps from Gaussian noise
   (``seed``-able through torch's global generator).
 * Receding horizon: the observation horizon is ``T_o = 1`` (the dataset items carry one
   frame; the paper uses 2), the predicted sequence is ``q[t+1..t+T_p]`` and the controller
@@ -48,6 +49,8 @@ class DiffusionPolicy(ChunkPolicy):
             (:class:`~lfd.visuomotor.policies.noise_schedule.NoiseSchedule`; the paper: 100,
             squared cosine, clipping at 1 of min-max-normalised actions; here the actions are
             z-scored, so the default clips at 5 standard deviations).
+        prediction: ``"epsilon"`` (the paper's: the U-Net predicts the noise) or ``"sample"`` (it
+            predicts the clean action sequence; an option of the paper's code).
         n_inference_steps: DDIM steps at inference (the paper's real-robot runs: 10 to 16; here 8
             and the smaller U-Net keep a query near 50 ms on 2 CPU cores, docs/policies.md).
         **common: :class:`~lfd.visuomotor.policies.chunking.ChunkPolicy` arguments.
@@ -71,6 +74,7 @@ class DiffusionPolicy(ChunkPolicy):
         schedule: str = "squaredcos_cap_v2",
         clip_sample: float | None = 5.0,
         n_inference_steps: int = 8,
+        prediction: str = "epsilon",
         **common,
     ) -> None:
         saved = common.pop("chunk_size", horizon)  # a checkpoint's hyper-parameters repeat it
@@ -97,7 +101,7 @@ class DiffusionPolicy(ChunkPolicy):
         self.unet = ConditionalUnet1D(
             n, image_feature_dim + n, down_dims, step_embed_dim, kernel_size, n_groups
         )
-        self.noise = NoiseSchedule(n_train_steps, schedule, clip_sample)
+        self.noise = NoiseSchedule(n_train_steps, schedule, clip_sample, prediction)
         NoiseSchedule.timesteps(self.noise, n_inference_steps)  # checks n_inference_steps
         self.replan_every = n_action_steps
 
@@ -119,4 +123,4 @@ class DiffusionPolicy(ChunkPolicy):
         noise = torch.randn_like(target_n)
         t = torch.randint(0, self.hparams.n_train_steps, (target_n.shape[0],), device=target_n.device)
         pred = self.unet(self.noise.add_noise(target_n, noise, t), t, cond)
-        return {"loss": F.mse_loss(pred, noise)}
+        return {"loss": F.mse_loss(pred, self.noise.target(target_n, noise))}

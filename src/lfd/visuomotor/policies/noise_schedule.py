@@ -13,6 +13,9 @@
   ``x0 = (x - sqrt(1 - a_t) eps) / sqrt(a_t)`` (optionally clipped),
   ``x <- sqrt(a_prev) x0 + sqrt(1 - a_prev) eps`` with ``a_prev = a_{t - r}``, or 1 past the
   first step (``set_alpha_to_one``).
+* Prediction types (diffusers' ``prediction_type``; Diffusion Policy's code has both):
+  ``"epsilon"``, the network predicts the noise ``eps``; ``"sample"``, it predicts ``x0``
+  itself and ``eps = (x - sqrt(a_t) x0) / sqrt(1 - a_t)`` (computed before clipping ``x0``).
 """
 
 from __future__ import annotations
@@ -24,6 +27,8 @@ import torch
 
 #: Beta schedules.
 SCHEDULES = ("squaredcos_cap_v2", "linear")
+#: What the network predicts: the noise or the clean sample.
+PREDICTIONS = ("epsilon", "sample")
 
 
 def betas_for(schedule: str, n_train_steps: int) -> torch.Tensor:
@@ -52,15 +57,23 @@ class NoiseSchedule(torch.nn.Module):
         schedule: one of :data:`SCHEDULES`.
         clip_sample: clip the predicted ``x0`` to ``[-clip_sample, clip_sample]`` at each
             sampling step (None: no clipping).
+        prediction: one of :data:`PREDICTIONS`: what the network's output is (:meth:`target`
+            gives its training target, :meth:`ddim_step` reads it).
     """
 
     def __init__(
-        self, n_train_steps: int = 100, schedule: str = "squaredcos_cap_v2", clip_sample: float | None = None
+        self,
+        n_train_steps: int = 100,
+        schedule: str = "squaredcos_cap_v2",
+        clip_sample: float | None = None,
+        prediction: str = "epsilon",
     ):
         super().__init__()
         if clip_sample is not None and not clip_sample > 0:
             raise ValueError(f"NoiseSchedule.clip_sample: expected a number > 0 or None, got {clip_sample}")
-        self.n_train_steps, self.clip_sample = n_train_steps, clip_sample
+        if prediction not in PREDICTIONS:
+            raise ValueError(f"NoiseSchedule.prediction: expected one of {PREDICTIONS}, got {prediction!r}")
+        self.n_train_steps, self.clip_sample, self.prediction = n_train_steps, clip_sample, prediction
         betas = betas_for(schedule, n_train_steps)
         self.register_buffer("alphas_cumprod", torch.cumprod(1.0 - betas, 0).float(), persistent=False)
 
@@ -69,6 +82,11 @@ class NoiseSchedule(torch.nn.Module):
         a = self.alphas_cumprod[t].reshape(-1, *([1] * (x0.dim() - 1)))
         return a.sqrt() * x0 + (1 - a).sqrt() * noise
 
+    def target(self, x0: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        """The network's training target for clean samples ``x0`` noised with ``noise``: ``noise``
+        (``prediction="epsilon"``) or ``x0`` (``"sample"``)."""
+        return noise if self.prediction == "epsilon" else x0
+
     def timesteps(self, n_steps: int) -> list[int]:
         """The ``S = n_steps`` DDIM steps, descending: ``(S-1) r, ..., 0`` with ``r = T // S``."""
         if not (isinstance(n_steps, int) and 1 <= n_steps <= self.n_train_steps):
@@ -76,11 +94,17 @@ class NoiseSchedule(torch.nn.Module):
         r = self.n_train_steps // n_steps
         return [i * r for i in reversed(range(n_steps))]
 
-    def ddim_step(self, eps: torch.Tensor, t: int, x: torch.Tensor, prev_t: int) -> torch.Tensor:
-        """One deterministic DDIM step from ``x_t`` to ``x_{prev_t}`` (``prev_t < 0``: to ``x0``)."""
+    def ddim_step(self, out: torch.Tensor, t: int, x: torch.Tensor, prev_t: int) -> torch.Tensor:
+        """One deterministic DDIM step from ``x_t`` to ``x_{prev_t}`` (``prev_t < 0``: to ``x0``),
+        ``out`` the network's output at ``(x, t)`` (noise or sample, :attr:`prediction`)."""
         a = self.alphas_cumprod[t]
         a_prev = self.alphas_cumprod[prev_t] if prev_t >= 0 else torch.ones((), device=x.device)
-        x0 = (x - (1 - a).sqrt() * eps) / a.sqrt()
+        if self.prediction == "epsilon":
+            eps = out
+            x0 = (x - (1 - a).sqrt() * eps) / a.sqrt()
+        else:
+            x0 = out
+            eps = (x - a.sqrt() * x0) / (1 - a).sqrt()
         if self.clip_sample is not None:
             x0 = x0.clamp(-self.clip_sample, self.clip_sample)
         return a_prev.sqrt() * x0 + (1 - a_prev).sqrt() * eps
@@ -91,8 +115,9 @@ class NoiseSchedule(torch.nn.Module):
         noise: torch.Tensor,
         n_steps: int,
     ) -> torch.Tensor:
-        """DDIM sampling from ``noise`` (``x_T``, any shape ``(B, ...)``) with ``eps_model(x, t)``
-        (``t`` an int64 ``(B,)`` tensor) over ``n_steps`` steps; returns ``x0``."""
+        """DDIM sampling from ``noise`` (``x_T``, any shape ``(B, ...)``) with the network
+        ``eps_model(x, t)`` (``t`` an int64 ``(B,)`` tensor; its output as :attr:`prediction`
+        says) over ``n_steps`` steps; returns ``x0``."""
         steps = self.timesteps(n_steps)
         r = self.n_train_steps // n_steps
         x = noise
