@@ -122,3 +122,25 @@ def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, co
         assert m["checkpoint"] == str(checkpoints[kind]) and m["episodes"] == 2
         assert m["final_distance_m"]["mean"] > 0 and 0.0 <= m["success_5cm"] <= 1.0
         assert m["joint_limit_violations"] >= 0 and m["latency_ms"]["median"] > 0
+
+
+def test_probe_script_reports_errors_offsets_and_the_noise_model(checkpoints, workspace, capsys):
+    """``scripts/probe_chunk_policy.py`` on both kinds: chunk errors on the validation episodes,
+    the joint-offset sensitivity, and (Diffusion Policy) the error by diffusion step."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[3] / "scripts" / "probe_chunk_policy.py"
+    spec = importlib.util.spec_from_file_location("probe_chunk_policy", path)
+    probe = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(probe)
+    data = str(workspace / "data" / "tiny")
+    for kind, ckpt in checkpoints.items():
+        assert probe.main([str(ckpt), "--data", data, "--episodes", "2"]) == 0
+        out = capsys.readouterr().out
+        assert f"{kind} {ckpt}: 2 validation episodes" in out
+        assert "chunk error (rad) at steps 0, 5, 10, 20:" in out and "joints +0.05 rad moves the chunk" in out
+        rows = [line for line in out.splitlines() if line.startswith("  val-")]
+        assert len(rows) == 2 and all(len(r.split()) == 1 + 4 for r in rows)
+        assert ("t= 90" in out and "sampled chunks (4 DDIM steps)" in out) == (kind == "diffusion")
+    assert probe.main([str(workspace / "missing.ckpt"), "--data", data]) == 2
+    assert "probe_chunk_policy:" in capsys.readouterr().err
