@@ -55,8 +55,9 @@ def instantiate_evaluator(cfg: DictConfig) -> Evaluator:
 
 def evaluate(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
     """Instantiate ``cfg.eval`` (which checks its scenario file first) and (for evaluators that
-    read a dataset) ``cfg.data``, resolve the checkpoints (``ckpt_dmp``, ``ckpt_velocity``, ``ckpt_act``, ``ckpt_diffusion``,
-    ``eval.checkpoint`` or the newest under ``paths.output_root``) and run; returns the metrics
+    read a dataset) ``cfg.data``, resolve the checkpoints (``ckpt_dmp``, ``ckpt_velocity``,
+    ``ckpt_act``, ``ckpt_diffusion``, ``eval.checkpoint`` or the newest under
+    ``paths.output_root``) and run; returns the metrics
     (:func:`instantiate_evaluator` raises; a bad checkpoint raises
     :class:`lfd.training.CheckpointError`, a bad scenario file
     :class:`lfd.visuomotor.eval.scenario.ScenarioError`, both ``ValueError``s)."""

@@ -398,9 +398,8 @@ class VisuomotorPolicy(L.LightningModule):
                 buffer.copy_(torch.as_tensor(stats[stat][moment], dtype=buffer.dtype).reshape(buffer.shape))
 
     def perturbation(self, joints: torch.Tensor) -> torch.Tensor:
-        """Noise ``(B, n)`` rad to add to the training joints: ``N(0, state_noise^2)`` for the
-        policies with a ``state_noise`` hyper-parameter (velocity CNN, ACT, Diffusion Policy),
-        zeros in eval mode (validation, closed loop) or without it."""
+        """Noise ``(B, n)`` rad for the training joints: ``N(0, state_noise^2)`` (velocity CNN, ACT,
+        Diffusion Policy), zeros in eval mode (validation, closed loop) or without ``state_noise``."""
         std = float(self.hparams.get("state_noise", 0.0))
         if not self.training or std == 0:
             return torch.zeros_like(joints)
