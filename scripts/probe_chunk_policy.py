@@ -115,7 +115,7 @@ def _diffusion(policy, items) -> None:
         target = noise_model.target(x0, noise)
         own, other = policy.unet(xt, tt, cond), policy.unet(xt, tt, shuffled)
         a = noise_model.alphas_cumprod[t]
-        x0_hat = own if noise_model.prediction == "sample" else (xt - (1 - a).sqrt() * own) / a.sqrt()
+        x0_hat = noise_model.split(own, t, xt)[0]
         print(
             f"  t={t:3d} sqrt(abar)={float(a.sqrt()):.2f} MSE {float(((own - target) ** 2).mean()):.4f} "
             f"shuffled {float(((other - target) ** 2).mean()):.4f} x0 error {float((x0_hat - x0).abs().mean()):.3f}"

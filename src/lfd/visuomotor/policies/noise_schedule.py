@@ -94,17 +94,19 @@ class NoiseSchedule(torch.nn.Module):
         r = self.n_train_steps // n_steps
         return [i * r for i in reversed(range(n_steps))]
 
+    def split(self, out: torch.Tensor, t: int, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """``(x0, eps)`` (``x0`` unclipped) from the network's output ``out`` at ``(x_t, t)``
+        (noise or sample, :attr:`prediction`)."""
+        a = self.alphas_cumprod[t]
+        if self.prediction == "epsilon":
+            return (x - (1 - a).sqrt() * out) / a.sqrt(), out
+        return out, (x - a.sqrt() * out) / (1 - a).sqrt()
+
     def ddim_step(self, out: torch.Tensor, t: int, x: torch.Tensor, prev_t: int) -> torch.Tensor:
         """One deterministic DDIM step from ``x_t`` to ``x_{prev_t}`` (``prev_t < 0``: to ``x0``),
         ``out`` the network's output at ``(x, t)`` (noise or sample, :attr:`prediction`)."""
-        a = self.alphas_cumprod[t]
         a_prev = self.alphas_cumprod[prev_t] if prev_t >= 0 else torch.ones((), device=x.device)
-        if self.prediction == "epsilon":
-            eps = out
-            x0 = (x - (1 - a).sqrt() * eps) / a.sqrt()
-        else:
-            x0 = out
-            eps = (x - a.sqrt() * x0) / (1 - a).sqrt()
+        x0, eps = self.split(out, t, x)
         if self.clip_sample is not None:
             x0 = x0.clamp(-self.clip_sample, self.clip_sample)
         return a_prev.sqrt() * x0 + (1 - a_prev).sqrt() * eps
