@@ -100,6 +100,35 @@ def test_act_closed_loop_interface():
     assert fig.axes
 
 
+def test_set_execution_changes_how_the_controller_queries():
+    """``set_execution`` (the evaluator's ``chunk_execution`` ablation): chunks executed to their end
+    query once per chunk; a query every 2 steps without ensembling queries ceil(steps / 2) times."""
+    policy = ACTPolicy(**TINY)
+    frame, q = np.zeros((32, 32, 3), dtype=np.uint8), np.zeros(7)
+
+    def queries(steps: int) -> int:
+        ctl, latencies = policy.controller(0.1), []
+        ctl.start(steps)
+        for step in range(steps):
+            ctl.command(SimpleNamespace(image=frame, joints=q), step, latencies)
+        return len(latencies)
+
+    assert queries(12) == 12  # the paper's: a query every step, ensembled
+    policy.set_execution(replan_every=None, ensemble_m=None)
+    assert queries(12) == 3 and policy.controller(0.1).ensemble_m is None  # chunk_size 5: steps 0, 5, 10
+    policy.set_execution(replan_every=2, ensemble_m=0.5)
+    ctl = policy.controller(0.1)
+    assert (ctl.replan_every, ctl.ensemble_m) == (2, 0.5) and queries(7) == 4
+    for bad, match in [
+        (dict(replan_every=6), r"replan_every: expected an int in 1..chunk_size=5"),
+        (dict(replan_every=True), "replan_every"),
+        (dict(ensemble_m=-1.0), "ensemble_m: expected a number >= 0"),
+        (dict(ensemble_m=float("nan")), "ensemble_m"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            policy.set_execution(**bad)
+
+
 def test_act_bad_settings():
     with pytest.raises(ValueError, match="chunk_size"):
         ACTPolicy(**{**TINY, "chunk_size": 0})

@@ -124,6 +124,37 @@ def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, co
         assert m["joint_limit_violations"] >= 0 and m["latency_ms"]["median"] > 0
 
 
+def test_chunk_execution_ablation_is_applied_recorded_and_checked(checkpoints, compose, workspace):
+    """``eval.chunk_execution`` runs ACT's chunks open-loop to their end (recorded per kind in
+    metrics.json; other kinds None); a non-chunking kind or an unknown key is one clear error."""
+    from lfd.visuomotor.eval import ReachEvaluator
+
+    out_dir = workspace / "eval_execution"
+    args = [
+        f"paths.root_dir={workspace}",
+        *TINY_DATA,
+        "eval.colour_tta=[]",
+        "eval.n_gifs=0",
+        "eval.max_steps=8",
+    ]
+    cfg = compose(
+        "evaluate",
+        *args,
+        "eval.methods=[act,diffusion]",
+        "eval.chunk_execution={act:{replan_every:null,ensemble_m:null}}",
+    )
+    evaluate.evaluate(cfg, out_dir)
+    saved = json.loads((out_dir / "metrics.json").read_text())
+    assert saved["act"]["chunk_execution"] == {"replan_every": None, "ensemble_m": None}
+    assert saved["diffusion"]["chunk_execution"] is None and saved["act"]["episodes"] == 2
+    for bad in ({"cnn_dmp": {"replan_every": 2}}, {"act": {"every": 2}}):
+        with pytest.raises(ValueError, match="ReachEvaluator.chunk_execution: expected"):
+            ReachEvaluator(chunk_execution=bad)
+    cfg = compose("evaluate", *args, "eval.methods=[act]", "eval.chunk_execution={act:{replan_every:7}}")
+    with pytest.raises(ValueError, match=r"eval.chunk_execution.act: .*chunk_size=6"):
+        evaluate.evaluate(cfg, workspace / "eval_bad")
+
+
 def test_probe_script_reports_errors_offsets_and_the_noise_model(checkpoints, workspace, capsys):
     """``scripts/probe_chunk_policy.py`` on both kinds: chunk errors on the validation episodes,
     the joint-offset sensitivity, and (Diffusion Policy) the error by diffusion step."""

@@ -77,6 +77,9 @@ class ReachEvaluator:
         colour_tta: methods whose policies average their output over the 6 orders of the
             RGB channels (:attr:`lfd.visuomotor.policies.base.VisuomotorPolicy.colour_tta`; only for
             checkpoints trained with ``colour_augment``).
+        chunk_execution: ``{kind: {"replan_every": ..., "ensemble_m": ...}}`` for chunking policies
+            (ACT, Diffusion Policy): run their chunks otherwise than trained
+            (:meth:`~lfd.visuomotor.policies.chunking.ChunkPolicy.set_execution`; an ablation).
         n_gifs: rollout GIFs per method (the first cases).
         gif_every: keep every this many control steps in a GIF.
         max_steps: control steps per episode; None = twice the demonstrations' length
@@ -107,6 +110,7 @@ class ReachEvaluator:
         torch_threads: int = 1,
         split: str = "test",
         colour_tta: tuple[str, ...] | list[str] = (),
+        chunk_execution: Mapping[str, Mapping[str, Any]] | None = None,
         episode_reports: Sequence[EpisodeReport] = (),
     ) -> None:
         if split not in ("test", "val"):
@@ -123,6 +127,14 @@ class ReachEvaluator:
             raise ValueError(
                 f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(POLICIES)}"
             )
+        self.chunk_execution = {k: dict(v) for k, v in (chunk_execution or {}).items()}
+        chunking = sorted(k for k, c in POLICIES.items() if hasattr(c, "set_execution"))  # act, diffusion
+        for kind, settings in self.chunk_execution.items():
+            if kind not in chunking or set(settings) - {"replan_every", "ensemble_m"}:
+                raise ValueError(
+                    f"ReachEvaluator.chunk_execution: expected {{kind: {{replan_every, ensemble_m}}}} with a chunking "
+                    f"policy's kind {chunking}, got {kind!r}: {settings!r}"
+                )
         if scenario is not None:  # fields, values, table and camera: before any checkpoint or data
             load_scenario(scenario)
         self.colour_tta = tuple(colour_tta)
@@ -217,6 +229,11 @@ class ReachEvaluator:
                     f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: "
                     "eval.colour_tta=[]"
                 ) from e
+        for kind in set(self.chunk_execution) & set(policies):
+            try:
+                policies[kind].set_execution(**self.chunk_execution[kind])
+            except ValueError as e:
+                raise ValueError(f"eval.chunk_execution.{kind}: {e}") from e
         for kind, policy in policies.items():
             try:
                 # the dataset gives the cases, and each policy gets its own input rendered
@@ -293,6 +310,7 @@ class ReachEvaluator:
                     "cases": source,
                     "steps_per_episode": steps,
                     "colour_tta": kind in self.colour_tta,
+                    "chunk_execution": self.chunk_execution.get(kind),  # None: as trained
                 }
             )
         self._write(out_dir, metrics, rows, cases, traces)
