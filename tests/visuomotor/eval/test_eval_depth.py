@@ -28,7 +28,7 @@ from lfd.sim.depth import (
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.scene import ReachScene
 from lfd.visuomotor.data import ReachDataModule
-from lfd.visuomotor.data.datasets import DMPReachDataset, VelocityReachDataset, load_dataset
+from lfd.visuomotor.data.datasets import DMPReachDataset, VelocityReachDataset, load_dataset, policy_frames
 from lfd.visuomotor.eval.rollout import observe
 from lfd.visuomotor.policies import POLICIES, load_policy
 from lfd.visuomotor.policies.control import PlanController
@@ -178,6 +178,13 @@ def test_depth_dataset_files_and_items(depth_checkpoints, workspace):
         item["image"][3].numpy(), rgbd_image(rgb[0], depth[0])[..., 3] / 255.0, atol=1e-6
     )
     assert VelocityReachDataset(data, "train")[5]["image"].shape == (4, 32, 32)
+    for encoding in ("range", "relief"):  # the frames a DMP item needs, encoded alone: the same values
+        every = policy_frames(rec, True, encoding)
+        assert every.shape == (30, 32, 32, 4)
+        np.testing.assert_array_equal(policy_frames(rec, True, encoding, steps=slice(0, 1)), every[:1])
+        np.testing.assert_array_equal(policy_frames(rec, False, encoding, steps=slice(3, 7)), rgb[3:7])
+        relief = DMPReachDataset(data, "train", depth_encoding=encoding).frames[0].numpy()
+        np.testing.assert_array_equal(relief, every[0])
 
 
 def test_depth_policies_evaluate_in_closed_loop(depth_checkpoints, compose, workspace):

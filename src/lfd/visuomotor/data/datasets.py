@@ -141,16 +141,20 @@ def image_augmentation(image_size: int, max_shift_px: float = 4.0) -> Transform:
     )
 
 
-def policy_frames(record: EpisodeRecord, depth: bool, depth_encoding: str = "range") -> np.ndarray:
+def policy_frames(
+    record: EpisodeRecord, depth: bool, depth_encoding: str = "range", steps: slice | None = None
+) -> np.ndarray:
     """The policy inputs of an episode: uint8 ``(T, H, W, 3)`` RGB frames, or with ``depth``
     ``(T, H, W, 4)`` RGB-D (:func:`lfd.sim.depth.rgbd_image`) from its ``depth`` images, the
     depth channel in ``depth_encoding`` (:data:`~lfd.sim.depth.DEPTH_ENCODINGS`; ``"relief"``
-    against the table plane seen through the episode's recorded camera)."""
+    against the table plane seen through the episode's recorded camera). ``steps``: only those
+    frames (``T`` = their number; the depth channel is encoded for them alone)."""
     if depth_encoding not in DEPTH_ENCODINGS:
         raise ValueError(
             f"policy_frames.depth_encoding: expected one of {DEPTH_ENCODINGS}, got {depth_encoding!r}"
         )
-    rgb = record.frames()
+    steps = slice(None) if steps is None else steps
+    rgb = record.frames()[steps]
     if not depth:
         return rgb
     reference = None
@@ -159,7 +163,7 @@ def policy_frames(record: EpisodeRecord, depth: bool, depth_encoding: str = "ran
         reference = plane_depth_mm(
             a["camera_view"], a["camera_projection"], rgb.shape[-2], rgb.shape[-3], TABLE_Z
         )
-    return rgbd_image(rgb, record.frames("depth"), reference)
+    return rgbd_image(rgb, record.frames("depth")[steps], reference)
 
 
 def _depth(data) -> bool:
@@ -281,7 +285,7 @@ class DMPReachDataset(Dataset):
         records, depth = _split_records(data, split, depth)
         self.transform = transform
         self.frames = torch.from_numpy(
-            np.stack([policy_frames(r, depth, depth_encoding)[0] for r in records])
+            np.stack([policy_frames(r, depth, depth_encoding, steps=slice(0, 1))[0] for r in records])
         )
         self.tensors = {
             "joints": _stack(records, "joints")[:, 0],
