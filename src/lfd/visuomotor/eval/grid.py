@@ -200,7 +200,11 @@ def plot_data_efficiency(
         )
     ax.set_xlabel("training objects (2 demonstrations each)")
     ax.set_ylabel(metric.replace("_", " ") + (" (%)" if scale == 100.0 else ""))
-    ax.set_title("data efficiency (mean ± std over seeds)")
+    seeds = [s["seeds"] for s in summaries if s["seeds"]]
+    if max(seeds, default=0) <= 1:
+        ax.set_title("data efficiency (one seed per point, no error bars)")
+    else:
+        ax.set_title(f"data efficiency (mean ± std over {min(seeds)}-{max(seeds)} seeds per point)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
