@@ -119,11 +119,14 @@ def test_set_execution_changes_how_the_controller_queries():
     policy.set_execution(replan_every=2, ensemble_m=0.5)
     ctl = policy.controller(0.1)
     assert (ctl.replan_every, ctl.ensemble_m) == (2, 0.5) and queries(7) == 4
+    policy.set_execution(replan_every=4)  # ensemble_m left out: kept
+    assert policy.execution == {"replan_every": 4, "ensemble_m": 0.5}
     for bad, match in [
         (dict(replan_every=6), r"replan_every: expected an int in 1..chunk_size=5"),
         (dict(replan_every=True), "replan_every"),
         (dict(ensemble_m=-1.0), "ensemble_m: expected a number >= 0"),
         (dict(ensemble_m=float("nan")), "ensemble_m"),
+        (dict(ensemble_m=True), "ensemble_m"),
     ]:
         with pytest.raises(ValueError, match=match):
             policy.set_execution(**bad)

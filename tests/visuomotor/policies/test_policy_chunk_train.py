@@ -150,6 +150,12 @@ def test_chunk_execution_ablation_is_applied_recorded_and_checked(checkpoints, c
     for bad in ({"cnn_dmp": {"replan_every": 2}}, {"act": {"every": 2}}):
         with pytest.raises(ValueError, match="ReachEvaluator.chunk_execution: expected"):
             ReachEvaluator(chunk_execution=bad)
+    cfg = compose(
+        "evaluate", *args, "eval.methods=[act]", "eval.limit=1", "eval.chunk_execution={act:{replan_every:3}}"
+    )
+    evaluate.evaluate(cfg, workspace / "eval_partial")  # ensemble_m left out: the trained 0.01 kept
+    saved = json.loads((workspace / "eval_partial" / "metrics.json").read_text())
+    assert saved["act"]["chunk_execution"] == {"replan_every": 3, "ensemble_m": 0.01}
     cfg = compose("evaluate", *args, "eval.methods=[act]", "eval.chunk_execution={act:{replan_every:7}}")
     with pytest.raises(ValueError, match=r"eval.chunk_execution.act: .*chunk_size=6"):
         evaluate.evaluate(cfg, workspace / "eval_bad")

@@ -78,8 +78,8 @@ class ReachEvaluator:
             RGB channels (:attr:`lfd.visuomotor.policies.base.VisuomotorPolicy.colour_tta`; only for
             checkpoints trained with ``colour_augment``).
         chunk_execution: ``{kind: {"replan_every": ..., "ensemble_m": ...}}`` for chunking policies
-            (ACT, Diffusion Policy): run their chunks otherwise than trained
-            (:meth:`~lfd.visuomotor.policies.chunking.ChunkPolicy.set_execution`; an ablation).
+            (ACT, Diffusion Policy): run their chunks otherwise than trained (an ablation; a key left
+            out keeps the trained value; :meth:`~lfd.visuomotor.policies.chunking.ChunkPolicy.set_execution`).
         n_gifs: rollout GIFs per method (the first cases).
         gif_every: keep every this many control steps in a GIF.
         max_steps: control steps per episode; None = twice the demonstrations' length
@@ -310,7 +310,7 @@ class ReachEvaluator:
                     "cases": source,
                     "steps_per_episode": steps,
                     "colour_tta": kind in self.colour_tta,
-                    "chunk_execution": self.chunk_execution.get(kind),  # None: as trained
+                    "chunk_execution": policies[kind].execution if kind in self.chunk_execution else None,
                 }
             )
         self._write(out_dir, metrics, rows, cases, traces)

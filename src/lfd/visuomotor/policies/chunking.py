@@ -81,16 +81,19 @@ class ChunkPolicy(VisuomotorPolicy):
     #: Temporal ensembling weight decay ``m`` (``w_i = exp(-m i)``, oldest chunk first), or None.
     ensemble_m: float | None = None
 
-    def set_execution(self, replan_every: int | None = None, ensemble_m: float | None = None) -> None:
+    def set_execution(self, replan_every: int | None = ..., ensemble_m: float | None = ...) -> None:
         """Run the chunks differently from the trained configuration (an evaluation ablation:
         ``replan_every`` control steps between queries, None: each chunk executed to its end;
-        ``ensemble_m`` temporal ensembling, None: the newest chunk alone).
+        ``ensemble_m`` temporal ensembling, None: the newest chunk alone); an argument left out
+        keeps its current value.
 
         Raises:
             ValueError: ``replan_every`` not an int in 1..chunk_size or None; ``ensemble_m`` not a
                 number >= 0 or None.
         """
         k = self.hparams.chunk_size
+        replan_every = self.replan_every if replan_every is ... else replan_every
+        ensemble_m = self.ensemble_m if ensemble_m is ... else ensemble_m
         if replan_every is not None and (
             isinstance(replan_every, bool) or not (isinstance(replan_every, int) and 1 <= replan_every <= k)
         ):
@@ -98,13 +101,19 @@ class ChunkPolicy(VisuomotorPolicy):
                 f"{type(self).__name__}.replan_every: expected an int in 1..chunk_size={k} or None, got "
                 f"{replan_every!r}"
             )
-        if ensemble_m is not None and not (
-            isinstance(ensemble_m, (int, float)) and 0 <= ensemble_m < float("inf")
+        if ensemble_m is not None and (
+            isinstance(ensemble_m, bool)
+            or not (isinstance(ensemble_m, (int, float)) and 0 <= ensemble_m < float("inf"))
         ):
             raise ValueError(
                 f"{type(self).__name__}.ensemble_m: expected a number >= 0 or None, got {ensemble_m!r}"
             )
         self.replan_every, self.ensemble_m = replan_every, None if ensemble_m is None else float(ensemble_m)
+
+    @property
+    def execution(self) -> dict[str, int | float | None]:
+        """How :meth:`controller` runs the chunks: ``{"replan_every": ..., "ensemble_m": ...}``."""
+        return {"replan_every": self.replan_every, "ensemble_m": self.ensemble_m}
 
     @property
     def colour_tta(self) -> bool:
