@@ -21,7 +21,7 @@ import numpy as np
 import torch
 
 from lfd.visuomotor.policies.base import VisuomotorPolicy
-from lfd.visuomotor.policies.control import ChunkController
+from lfd.visuomotor.policies.control import ChunkController, chunk_execution
 from lfd.visuomotor.policies.plots import joint_figure
 
 #: Batch keys the chunk lookup needs (the velocity items carry them).
@@ -91,24 +91,12 @@ class ChunkPolicy(VisuomotorPolicy):
             ValueError: ``replan_every`` not an int in 1..chunk_size or None; ``ensemble_m`` not a
                 number >= 0 or None.
         """
-        k = self.hparams.chunk_size
-        replan_every = self.replan_every if replan_every is ... else replan_every
-        ensemble_m = self.ensemble_m if ensemble_m is ... else ensemble_m
-        if replan_every is not None and (
-            isinstance(replan_every, bool) or not (isinstance(replan_every, int) and 1 <= replan_every <= k)
-        ):
-            raise ValueError(
-                f"{type(self).__name__}.replan_every: expected an int in 1..chunk_size={k} or None, got "
-                f"{replan_every!r}"
-            )
-        if ensemble_m is not None and (
-            isinstance(ensemble_m, bool)
-            or not (isinstance(ensemble_m, (int, float)) and 0 <= ensemble_m < float("inf"))
-        ):
-            raise ValueError(
-                f"{type(self).__name__}.ensemble_m: expected a number >= 0 or None, got {ensemble_m!r}"
-            )
-        self.replan_every, self.ensemble_m = replan_every, None if ensemble_m is None else float(ensemble_m)
+        self.replan_every, self.ensemble_m = chunk_execution(
+            self.replan_every if replan_every is ... else replan_every,
+            self.ensemble_m if ensemble_m is ... else ensemble_m,
+            type(self).__name__,
+            max_replan=self.hparams.chunk_size,
+        )
 
     @property
     def execution(self) -> dict[str, int | float | None]:

@@ -100,6 +100,36 @@ class VelocityController(_PolicyController):
         return obs.joints + qd * self.dt, qd
 
 
+def chunk_execution(
+    replan_every: int | None, ensemble_m: float | None, owner: str, max_replan: int | None = None
+) -> tuple[int | None, float | None]:
+    """Checked chunk-execution settings (:class:`ChunkController`'s): ``replan_every`` an int in
+    ``1..max_replan`` (no upper bound without it) or None, ``ensemble_m`` a finite number >= 0 or None.
+
+    Raises:
+        ValueError: either is out of range (bools are refused), naming ``owner``'s field.
+    """
+    if replan_every is not None and (
+        isinstance(replan_every, bool)
+        or not (
+            isinstance(replan_every, (int, np.integer)) and 1 <= replan_every <= (max_replan or replan_every)
+        )
+    ):
+        bound = f"in 1..chunk_size={max_replan}" if max_replan else ">= 1"
+        raise ValueError(f"{owner}.replan_every: expected an int {bound} or None, got {replan_every!r}")
+    if ensemble_m is not None and (
+        isinstance(ensemble_m, bool)
+        or not (
+            isinstance(ensemble_m, (int, float, np.number)) and np.isfinite(ensemble_m) and ensemble_m >= 0
+        )
+    ):
+        raise ValueError(f"{owner}.ensemble_m: expected a number >= 0 or None, got {ensemble_m!r}")
+    return (
+        None if replan_every is None else int(replan_every),
+        None if ensemble_m is None else float(ensemble_m),
+    )
+
+
 class ChunkController(_PolicyController):
     """Runs an action-chunking policy (``act_chunk(image, joints) -> (k, n)`` rad, sample ``i``
     the position target of the command ``i`` steps after the query) in closed loop.
@@ -124,16 +154,7 @@ class ChunkController(_PolicyController):
         self, policy, dt: float, replan_every: int | None = None, ensemble_m: float | None = None
     ) -> None:
         super().__init__(policy, dt)
-        if replan_every is not None and not (int(replan_every) == replan_every and replan_every >= 1):
-            raise ValueError(
-                f"ChunkController.replan_every: expected an int >= 1 or None, got {replan_every!r}"
-            )
-        if ensemble_m is not None and not (np.isfinite(ensemble_m) and ensemble_m >= 0):
-            raise ValueError(
-                f"ChunkController.ensemble_m: expected a number >= 0 or None, got {ensemble_m!r}"
-            )
-        self.replan_every = None if replan_every is None else int(replan_every)
-        self.ensemble_m = None if ensemble_m is None else float(ensemble_m)
+        self.replan_every, self.ensemble_m = chunk_execution(replan_every, ensemble_m, "ChunkController")
         self.chunks: list[tuple[int, np.ndarray, np.ndarray]] = []  # (start step, targets, velocities)
         self._next_query = self._step = 0
 
