@@ -204,7 +204,8 @@ def plot_data_efficiency(
     if max(seeds, default=0) <= 1:
         ax.set_title("data efficiency (one seed per point, no error bars)")
     else:
-        ax.set_title(f"data efficiency (mean ± std over {min(seeds)}-{max(seeds)} seeds per point)")
+        count = str(max(seeds)) if min(seeds) == max(seeds) else f"{min(seeds)}-{max(seeds)}"
+        ax.set_title(f"data efficiency (mean ± std over {count} seeds per point)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
