@@ -181,3 +181,18 @@ def test_layer_formulation_and_start_velocity_match_the_numpy_rollout(formulatio
     )
     with pytest.raises(ValueError, match="formulation"):
         DMPLayer(10, 40, 0.05, formulation="schaal")
+
+
+@pytest.mark.parametrize("dtype", [torch.float16, torch.bfloat16])
+def test_half_precision_weights_roll_out_in_float32_outside_autocast(dtype):
+    """A network under mixed precision hands the layer half-precision weights inside autocast: the
+    rollout runs in float32 (float16 overflows on DMP forcing weights of this size)."""
+    layer = DMPLayer(n_basis=20, n_steps=100, dt=0.04)
+    y0, goal, weights = _parameters(6, 7, 20, dtype=torch.float32)
+    weights = (100 * weights).to(dtype)  # |w| up to ~10^4, as fitted reaching demonstrations have
+    expected = layer(y0, goal, weights.float(), return_derivatives=True)
+    with torch.autocast("cpu", dtype=dtype):
+        actual = layer(y0.to(dtype), goal, weights, return_derivatives=True)
+    for a, e in zip(actual, expected, strict=True):
+        assert a.dtype == torch.float32 and bool(torch.isfinite(a).all())
+        torch.testing.assert_close(a, e, rtol=1e-5, atol=1e-5 * float(e.abs().max()))

@@ -189,3 +189,19 @@ def test_large_batches_match_row_by_row(robots):
     torch.testing.assert_close(
         q.grad[rows], robot.jacobian(q[rows].detach())[:, :3].sum(1), atol=1e-12, rtol=0
     )
+
+
+@pytest.mark.parametrize("dtype", [torch.float16, torch.bfloat16])
+@pytest.mark.parametrize("grad", [False, True])
+def test_fk_leaves_autocast_and_half_precision(robots, dtype, grad):
+    """Inside mixed-precision autocast (a policy's loss), FK runs in float32: the same poses as
+    outside it, not half-precision matrix products (~3 digits: millimetres at the tool)."""
+    robot = robots["sawyer"]
+    q = robot.sample_q(64, torch.Generator().manual_seed(3)).float().requires_grad_(grad)
+    expected = robot.fk(q)
+    with torch.autocast("cpu", dtype=dtype):
+        actual = robot.fk(q)
+        from_half = robot.fk(q.detach().to(dtype))
+    assert actual.dtype == from_half.dtype == torch.float32
+    torch.testing.assert_close(actual, expected, rtol=0, atol=1e-6)
+    torch.testing.assert_close(from_half, robot.fk(q.detach().to(dtype).float()), rtol=0, atol=1e-6)

@@ -35,11 +35,13 @@ class DMPLayer(nn.Module):
     ``features`` the float64 operator matrices for the default ``tau``.
 
     Shapes: ``y0`` ``(B, D)``, ``goal`` ``(B, D)``, ``weights`` ``(B, D, K)`` ->
-    ``(B, T, D)``. Works in the inputs' dtype (float32 or float64) and device; move the
-    layer with ``.to(device)``. Gradients flow to ``y0``, ``goal``, ``weights`` and to
-    ``tau`` when it is passed as a tensor (``()`` or ``(B,)``; then the matrices are
-    rebuilt on every call, O(T * 128 * K) per distinct ``tau``). Inputs are shape-checked
-    but not scanned for NaN, to keep the hot path free of host synchronisation.
+    ``(B, T, D)``. Works in the weights' dtype (float32 or float64; half-precision
+    weights, e.g. a network's output under mixed-precision autocast, are rolled out in
+    float32 with autocast off) and device; move the layer with ``.to(device)``.
+    Gradients flow to ``y0``, ``goal``, ``weights`` and to ``tau`` when it is passed as a
+    tensor (``()`` or ``(B,)``; then the matrices are rebuilt on every call, O(T * 128 * K)
+    per distinct ``tau``). Inputs are shape-checked but not scanned for NaN, to keep the hot
+    path free of host synchronisation.
 
     Example:
         >>> import torch
@@ -128,8 +130,15 @@ class DMPLayer(nn.Module):
             )
         if tau is not None and not isinstance(tau, Tensor):
             tau = check.positive_float("tau", tau)
-        operator = self.operator(tau, weights.dtype, weights.device)
-        z0 = None if yd0 is None else yd0 * operator.tau[..., None]
-        return discrete_rollout(
-            operator, y0, goal, weights, return_derivatives, formulation=self.formulation, z0=z0
-        )
+        # Mixed precision (autocast, float16 / bfloat16 heads): the rollout's matrix products
+        # would run in half precision, where the forcing term overflows float16 (inf -> NaN)
+        # and bfloat16 keeps ~3 digits of a joint angle; so it runs outside autocast in float32.
+        dtype = weights.dtype if weights.dtype in (torch.float32, torch.float64) else torch.float32
+        with torch.autocast(weights.device.type, enabled=False):
+            y0, goal, weights = y0.to(dtype), goal.to(dtype), weights.to(dtype)
+            yd0 = None if yd0 is None else yd0.to(dtype)
+            operator = self.operator(tau, dtype, weights.device)
+            z0 = None if yd0 is None else yd0 * operator.tau[..., None]
+            return discrete_rollout(
+                operator, y0, goal, weights, return_derivatives, formulation=self.formulation, z0=z0
+            )

@@ -265,21 +265,27 @@ class Robot:
                 the URDF and PyBullet's ``getLinkState(body, i)``), index ``n`` the tool.
 
         Returns:
-            Homogeneous transforms (m), differentiable with respect to ``q``.
+            Homogeneous transforms (m), differentiable with respect to ``q``, in ``q``'s dtype
+            (float32 for half-precision ``q``), computed outside autocast (mixed precision).
         """
         q = self._batch(q)
-        if all_links:
-            return _blockwise(self._fk_all_links, q)
-        if q.requires_grad and torch.is_grad_enabled():
-            return _blockwise(self._fk_tool, q)
-        if q.device.type == "cpu" and q.dtype in (torch.float32, torch.float64):
-            # NumPy asks for huge pages: no first-touch page fault per 4 kB of a large output
-            out = torch.from_numpy(np.empty((q.shape[0], 4, 4), dtype=str(q.dtype).removeprefix("torch.")))
-        else:
-            out = q.new_empty(q.shape[0], 4, 4)
-        with torch.no_grad():
-            self._program.tool_into(q, out)
-        return out
+        if q.dtype not in (torch.float32, torch.float64):
+            q = q.float()  # half precision keeps ~3 digits of an angle: mm at the tool
+        with torch.autocast(q.device.type, enabled=False):  # mixed precision: FK stays in q's dtype
+            if all_links:
+                return _blockwise(self._fk_all_links, q)
+            if q.requires_grad and torch.is_grad_enabled():
+                return _blockwise(self._fk_tool, q)
+            if q.device.type == "cpu":
+                # NumPy asks for huge pages: no first-touch page fault per 4 kB of a large output
+                out = torch.from_numpy(
+                    np.empty((q.shape[0], 4, 4), dtype=str(q.dtype).removeprefix("torch."))
+                )
+            else:
+                out = q.new_empty(q.shape[0], 4, 4)
+            with torch.no_grad():
+                self._program.tool_into(q, out)
+            return out
 
     def fk_positions(self, q) -> Tensor:
         """Tool positions ``(..., 3)`` (m, world frame) of joint vectors ``q (..., n)`` (rad).

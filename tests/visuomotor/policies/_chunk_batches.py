@@ -1,6 +1,6 @@
 """A synthetic batch of the chunking policies (ACT, Diffusion Policy): images, joints and a smooth chunk of
-future joint positions starting at them. Imported by the tests in this folder (not a conftest: several
-conftest modules share that name)."""
+future joint positions starting at them; the tiny dataset and networks their entry-point tests train.
+Imported by the tests in this folder (not a conftest: several conftest modules share that name)."""
 
 from __future__ import annotations
 
@@ -13,3 +13,44 @@ def chunk_batch(b: int = 4, k: int = 5, seed: int = 1) -> dict[str, torch.Tensor
     joints = torch.randn(b, 7, generator=g) * 0.3
     chunk = joints[:, None] + torch.cumsum(torch.randn(b, k, 7, generator=g) * 0.1, dim=1)
     return {"image": torch.rand(b, 3, 32, 32, generator=g), "joints": joints, "chunk": chunk}
+
+
+TINY_DATA = [
+    "data.name=tiny",
+    "data.n_train_objects=2",
+    "data.n_train_placements=3",
+    "data.val_fraction=0.34",
+    "data.n_test_objects=1",
+    "data.n_test_placements=2",
+    "data.depth=false",
+    "data.n_val_objects=4",
+    "data.n_val_object_placements=3",
+    "data.image_size=32",
+    "data.n_steps=30",
+    "data.batch_size=4",
+    "data.progress=false",
+]
+#: The networks shrunk to seconds of CPU (the trunk; ResNet-18 is covered in the unit tests).
+TINY_MODELS = {
+    "act": [
+        "model.backbone=trunk",
+        "model.channels=[4,4,8]",
+        "model.chunk_size=6",
+        "model.d_model=32",
+        "model.n_heads=4",
+        "model.dim_feedforward=64",
+        "model.n_encoder_layers=1",
+        "model.n_vae_layers=1",
+    ],
+    "diffusion": [
+        "model.backbone=trunk",
+        "model.channels=[4,4,8]",
+        "model.horizon=8",
+        "model.n_action_steps=4",
+        "model.down_dims=[16,32]",
+        "model.n_keypoints=8",
+        "model.image_feature_dim=16",
+        "model.step_embed_dim=16",
+        "model.n_inference_steps=4",
+    ],
+}

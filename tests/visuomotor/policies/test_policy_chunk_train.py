@@ -8,51 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+from _chunk_batches import TINY_DATA, TINY_MODELS
 
 import evaluate
 import train
 from lfd.training import read_checkpoint
 from lfd.visuomotor.policies import POLICIES, load_policy
-
-TINY_DATA = [
-    "data.name=tiny",
-    "data.n_train_objects=2",
-    "data.n_train_placements=3",
-    "data.val_fraction=0.34",
-    "data.n_test_objects=1",
-    "data.n_test_placements=2",
-    "data.depth=false",
-    "data.n_val_objects=4",
-    "data.n_val_object_placements=3",
-    "data.image_size=32",
-    "data.n_steps=30",
-    "data.batch_size=4",
-    "data.progress=false",
-]
-#: The networks shrunk to seconds of CPU (the trunk; ResNet-18 is covered in the unit tests).
-TINY_MODELS = {
-    "act": [
-        "model.backbone=trunk",
-        "model.channels=[4,4,8]",
-        "model.chunk_size=6",
-        "model.d_model=32",
-        "model.n_heads=4",
-        "model.dim_feedforward=64",
-        "model.n_encoder_layers=1",
-        "model.n_vae_layers=1",
-    ],
-    "diffusion": [
-        "model.backbone=trunk",
-        "model.channels=[4,4,8]",
-        "model.horizon=8",
-        "model.n_action_steps=4",
-        "model.down_dims=[16,32]",
-        "model.n_keypoints=8",
-        "model.image_feature_dim=16",
-        "model.step_embed_dim=16",
-        "model.n_inference_steps=4",
-    ],
-}
 
 
 @pytest.fixture(scope="module")
