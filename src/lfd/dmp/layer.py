@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from contextlib import nullcontext
+
 import torch
 from torch import Tensor, nn
 
@@ -134,7 +136,8 @@ class DMPLayer(nn.Module):
         # would run in half precision, where the forcing term overflows float16 (inf -> NaN)
         # and bfloat16 keeps ~3 digits of a joint angle; so it runs outside autocast in float32.
         dtype = weights.dtype if weights.dtype in (torch.float32, torch.float64) else torch.float32
-        with torch.autocast(weights.device.type, enabled=False):
+        device = weights.device.type
+        with torch.autocast(device, enabled=False) if torch.is_autocast_enabled(device) else nullcontext():
             y0, goal, weights = y0.to(dtype), goal.to(dtype), weights.to(dtype)
             yd0 = None if yd0 is None else yd0.to(dtype)
             operator = self.operator(tau, dtype, weights.device)

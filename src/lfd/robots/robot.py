@@ -21,6 +21,7 @@ in cache-sized blocks of rows (see ``_blockwise``); there is never a loop over r
 from __future__ import annotations
 
 import os
+from contextlib import nullcontext
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -271,7 +272,8 @@ class Robot:
         q = self._batch(q)
         if q.dtype not in (torch.float32, torch.float64):
             q = q.float()  # half precision keeps ~3 digits of an angle: mm at the tool
-        with torch.autocast(q.device.type, enabled=False):  # mixed precision: FK stays in q's dtype
+        device = q.device.type  # mixed precision: FK stays in q's dtype, outside autocast
+        with torch.autocast(device, enabled=False) if torch.is_autocast_enabled(device) else nullcontext():
             if all_links:
                 return _blockwise(self._fk_all_links, q)
             if q.requires_grad and torch.is_grad_enabled():
