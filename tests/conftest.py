@@ -45,6 +45,32 @@ def tiny_reaching() -> tuple[str, ...]:
     return TINY_REACHING
 
 
+#: A tiny dataset with a test split, for the tests that train and evaluate through the entry points:
+#: 2 training objects x 3 placements (1 of them validation), 1 test object x 2 placements, 32 px,
+#: 30 steps, RGB (the data keys are explicit: experiment=quick, evaluate.py's default, sets its own).
+TINY_DATA = (
+    "data.name=tiny",
+    "data.n_train_objects=2",
+    "data.n_train_placements=3",
+    "data.val_fraction=0.34",
+    "data.n_test_objects=1",
+    "data.n_test_placements=2",
+    "data.depth=false",
+    "data.n_val_objects=4",
+    "data.n_val_object_placements=3",
+    "data.image_size=32",
+    "data.n_steps=30",
+    "data.batch_size=4",
+    "data.progress=false",
+)
+
+
+@pytest.fixture(scope="session")
+def tiny_data() -> tuple[str, ...]:
+    """:data:`TINY_DATA`: overrides for the tiny dataset with a test split (``data.name=tiny``)."""
+    return TINY_DATA
+
+
 @pytest.fixture(scope="session")
 def compose(tmp_path_factory):
     """``compose(config_name, *overrides) -> DictConfig``: ``configs/<config_name>.yaml`` with

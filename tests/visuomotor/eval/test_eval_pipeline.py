@@ -24,34 +24,17 @@ import train
 from lfd.visuomotor.eval import ReachEvaluator
 from lfd.visuomotor.policies import POLICIES, load_policy
 
-#: A dataset small enough to generate in seconds: 2 training objects x 3 placements
-#: (1 of them validation), 1 test object x 2 placements, 32 px images, 30 steps.
-TINY_DATA = [
-    "data.name=tiny",
-    "data.n_train_objects=2",
-    "data.n_train_placements=3",
-    "data.val_fraction=0.34",
-    "data.n_test_objects=1",
-    "data.n_test_placements=2",
-    "data.depth=false",  # explicit, like the next: experiment=quick (evaluate.py's default) sets its own
-    "data.n_val_objects=4",
-    "data.n_val_object_placements=3",
-    "data.image_size=32",
-    "data.n_steps=30",
-    "data.batch_size=4",
-    "data.progress=false",
-]
 TINY_MODEL = ["model.channels=[4,4,4,8]", "model.hidden=[16,16]", "model.plot_every_n_val=1"]
 
 
 @pytest.fixture(scope="module")
-def tiny(compose, workspace):
+def tiny(compose, workspace, tiny_data):
     """``compose`` rooted in this module's workspace, on the tiny dataset."""
 
     def _compose(name: str, *overrides: str):
         # the tiny checkpoints train without colour_augment: no colour averaging unless a test asks
         plain = ["eval.colour_tta=[]"] if name == "evaluate" else []
-        return compose(name, f"paths.root_dir={workspace}", *TINY_DATA, *plain, *overrides)
+        return compose(name, f"paths.root_dir={workspace}", *tiny_data, *plain, *overrides)
 
     return _compose
 

@@ -1,5 +1,6 @@
 """A synthetic batch of the chunking policies (ACT, Diffusion Policy): images, joints and a smooth chunk of
-future joint positions starting at them; the tiny dataset and networks their entry-point tests train.
+future joint positions starting at them; the tiny networks their entry-point tests train (on the
+``tiny_data`` fixture's dataset).
 Imported by the tests in this folder (not a conftest: several conftest modules share that name)."""
 
 from __future__ import annotations
@@ -15,21 +16,6 @@ def chunk_batch(b: int = 4, k: int = 5, seed: int = 1) -> dict[str, torch.Tensor
     return {"image": torch.rand(b, 3, 32, 32, generator=g), "joints": joints, "chunk": chunk}
 
 
-TINY_DATA = [
-    "data.name=tiny",
-    "data.n_train_objects=2",
-    "data.n_train_placements=3",
-    "data.val_fraction=0.34",
-    "data.n_test_objects=1",
-    "data.n_test_placements=2",
-    "data.depth=false",
-    "data.n_val_objects=4",
-    "data.n_val_object_placements=3",
-    "data.image_size=32",
-    "data.n_steps=30",
-    "data.batch_size=4",
-    "data.progress=false",
-]
 #: The networks shrunk to seconds of CPU (the trunk; ResNet-18 is covered in the unit tests).
 TINY_MODELS = {
     "act": [

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from _chunk_batches import TINY_DATA, TINY_MODELS
+from _chunk_batches import TINY_MODELS
 
 import evaluate
 import train
@@ -22,7 +22,7 @@ def workspace(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def checkpoints(compose, workspace) -> dict[str, Path]:
+def checkpoints(compose, workspace, tiny_data) -> dict[str, Path]:
     """Three optimiser steps of each chunking policy, as ``train.py model=...`` leaves them."""
     out = {}
     for model, overrides in TINY_MODELS.items():
@@ -30,7 +30,7 @@ def checkpoints(compose, workspace) -> dict[str, Path]:
         cfg = compose(
             "train",
             f"paths.root_dir={workspace}",
-            *TINY_DATA,
+            *tiny_data,
             f"model={model}",
             *overrides,
             "++trainer.max_steps=3",
@@ -63,14 +63,14 @@ def test_checkpoints_load_with_weights_only_and_run_alone(checkpoints, workspace
         POLICIES["act"].load_from_checkpoint(checkpoints["diffusion"], weights_only=True)
 
 
-def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, compose, workspace):
+def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, compose, workspace, tiny_data):
     """``python evaluate.py eval.methods=[act,diffusion]`` finds the newest checkpoint of each
     kind under outputs/train and writes one metrics.json entry per kind."""
     out_dir = workspace / "eval"
     cfg = compose(
         "evaluate",
         f"paths.root_dir={workspace}",
-        *TINY_DATA,
+        *tiny_data,
         "eval.colour_tta=[]",
         "eval.methods=[act,diffusion]",
         "eval.n_gifs=0",
@@ -85,7 +85,7 @@ def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, co
         assert m["joint_limit_violations"] >= 0 and m["latency_ms"]["median"] > 0
 
 
-def test_chunk_execution_ablation_is_applied_recorded_and_checked(checkpoints, compose, workspace):
+def test_chunk_execution_ablation_is_applied_recorded_and_checked(checkpoints, compose, workspace, tiny_data):
     """``eval.chunk_execution`` runs ACT's chunks open-loop to their end (recorded per kind in
     metrics.json; other kinds None); a non-chunking kind or an unknown key is one clear error."""
     from lfd.visuomotor.eval import ReachEvaluator
@@ -93,7 +93,7 @@ def test_chunk_execution_ablation_is_applied_recorded_and_checked(checkpoints, c
     out_dir = workspace / "eval_execution"
     args = [
         f"paths.root_dir={workspace}",
-        *TINY_DATA,
+        *tiny_data,
         "eval.colour_tta=[]",
         "eval.n_gifs=0",
         "eval.max_steps=8",

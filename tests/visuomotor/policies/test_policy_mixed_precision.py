@@ -9,14 +9,14 @@ from pathlib import Path
 
 import pytest
 import torch
-from _chunk_batches import TINY_DATA, TINY_MODELS
+from _chunk_batches import TINY_MODELS
 from hydra.utils import instantiate
 
 import train
 from lfd.visuomotor.policies import load_policy
 
 #: Per kind: its tiny data and network (the step-wise kinds' epochs outlast 3 steps: validate at step 3);
-#: "tiny_reaching" stands for the conftest fixture's overrides.
+#: "tiny_reaching" and "tiny_data" stand for those conftest fixtures' overrides.
 RUNS = {
     "cnn_dmp": ["data.name=tiny-reaching", "tiny_reaching", "model=cnn_dmp"],
     "velocity": [
@@ -25,8 +25,13 @@ RUNS = {
         "model=velocity",
         "++trainer.val_check_interval=3",
     ],
-    "act": [*TINY_DATA, "model=act", *TINY_MODELS["act"], "++trainer.val_check_interval=3"],
-    "diffusion": [*TINY_DATA, "model=diffusion", *TINY_MODELS["diffusion"], "++trainer.val_check_interval=3"],
+    "act": ["tiny_data", "model=act", *TINY_MODELS["act"], "++trainer.val_check_interval=3"],
+    "diffusion": [
+        "tiny_data",
+        "model=diffusion",
+        *TINY_MODELS["diffusion"],
+        "++trainer.val_check_interval=3",
+    ],
 }
 
 
@@ -35,8 +40,13 @@ def workspace(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("mixed_precision")
 
 
-def _config(compose, tiny_reaching, workspace: Path, kind: str, *overrides: str):
-    run = [o for arg in RUNS[kind] for o in (tiny_reaching if arg == "tiny_reaching" else [arg])]
+@pytest.fixture(scope="module")
+def tiny(tiny_reaching, tiny_data) -> dict:
+    return {"tiny_reaching": tiny_reaching, "tiny_data": tiny_data}
+
+
+def _config(compose, tiny: dict, workspace: Path, kind: str, *overrides: str):
+    run = [o for arg in RUNS[kind] for o in tiny.get(arg, [arg])]
     return compose(
         "train",
         f"paths.root_dir={workspace}",
@@ -49,8 +59,8 @@ def _config(compose, tiny_reaching, workspace: Path, kind: str, *overrides: str)
 
 
 @pytest.mark.parametrize("kind", list(RUNS))
-def test_every_policy_trains_under_mixed_precision(kind, compose, tiny_reaching, workspace):
-    cfg = _config(compose, tiny_reaching, workspace, kind, "++trainer.precision=bf16-mixed")
+def test_every_policy_trains_under_mixed_precision(kind, compose, tiny, workspace):
+    cfg = _config(compose, tiny, workspace, kind, "++trainer.precision=bf16-mixed")
     ckpt = Path(train.main(cfg))
     state = torch.load(ckpt, map_location="cpu", weights_only=True)
     assert 1 <= state["global_step"] <= 3  # last.ckpt is the best-on-validation step
@@ -62,8 +72,8 @@ def test_every_policy_trains_under_mixed_precision(kind, compose, tiny_reaching,
 
 
 @pytest.mark.parametrize("dtype", [torch.float16, torch.bfloat16])
-def test_dmp_policy_losses_under_autocast_match_float32(dtype, compose, tiny_reaching, workspace):
-    cfg = _config(compose, tiny_reaching, workspace, "cnn_dmp")
+def test_dmp_policy_losses_under_autocast_match_float32(dtype, compose, tiny, workspace):
+    cfg = _config(compose, tiny, workspace, "cnn_dmp")
     ckpt = workspace / "outputs" / "train" / "cnn_dmp" / "checkpoints" / "last.ckpt"
     if not ckpt.is_file():  # run alone (-k): train the float32 policy here
         train.main(cfg)
