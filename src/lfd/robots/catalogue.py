@@ -32,7 +32,15 @@ import numpy as np
 from .robot import Robot
 from .spec import RobotSpec, composite_inertial, cylinder_inertia, make_transform, segment_inertials
 
-__all__ = ["WAM4_DH", "WAM4_TOOL_D", "available_robots", "load_robot"]
+__all__ = [
+    "WAM4_DH",
+    "WAM4_TOOL_D",
+    "CatalogueEntry",
+    "available_robots",
+    "catalogue_entries",
+    "catalogue_entry",
+    "load_robot",
+]
 
 _DEG = np.pi / 180.0
 
@@ -215,17 +223,60 @@ def _human_arm(
     )
 
 
-_BUILDERS: dict[str, Callable[..., RobotSpec]] = {
-    "pr2_right_arm": _pr2_right_arm,
-    "sawyer": _sawyer,
-    "wam4": _wam4,
-    "human_arm": _human_arm,
+@dataclasses.dataclass(frozen=True)
+class CatalogueEntry:
+    """One robot of the catalogue: its builder and what the capabilities offer it for.
+
+    Attributes:
+        name: the catalogue name (:func:`load_robot`).
+        build: returns the :class:`RobotSpec` (robot-specific keyword options).
+        retarget: how :mod:`lfd.imitation` turns a person's arm into this robot's joints:
+            ``"posture"`` (the arm's link directions, :func:`lfd.human.retarget.retarget_wam4`),
+            ``"wrist_path"`` (the tool follows the wrist path by IK,
+            :func:`lfd.human.retarget.retarget_wrist_path`); None: not offered by imitation.
+        teach: offered by the teach app (:mod:`lfd.teach`).
+        closed_form_held_joint: index of the joint held at its current value by the robot's
+            closed-form position IK (:mod:`lfd.robots.analytic`); None: no closed form.
+    """
+
+    name: str
+    build: Callable[..., RobotSpec]
+    retarget: str | None = None
+    teach: bool = False
+    closed_form_held_joint: int | None = None
+
+
+_ENTRIES: dict[str, CatalogueEntry] = {
+    e.name: e
+    for e in (
+        CatalogueEntry("pr2_right_arm", _pr2_right_arm, retarget="wrist_path", teach=True),
+        CatalogueEntry("sawyer", _sawyer, retarget="wrist_path", teach=True),
+        CatalogueEntry("wam4", _wam4, retarget="posture", teach=True, closed_form_held_joint=2),
+        CatalogueEntry("human_arm", _human_arm),
+    )
 }
+_BUILDERS: dict[str, Callable[..., RobotSpec]] = {name: e.build for name, e in _ENTRIES.items()}
 
 
 def available_robots() -> tuple[str, ...]:
     """Names accepted by :func:`load_robot`."""
     return tuple(_BUILDERS)
+
+
+def catalogue_entries() -> tuple[CatalogueEntry, ...]:
+    """Every :class:`CatalogueEntry`, in :func:`available_robots` order."""
+    return tuple(_ENTRIES.values())
+
+
+def catalogue_entry(name: str) -> CatalogueEntry:
+    """The :class:`CatalogueEntry` of ``name``.
+
+    Raises:
+        ValueError: unknown name (the message lists the valid ones).
+    """
+    if name not in _ENTRIES:
+        raise ValueError(f"unknown robot {name!r}; valid names: {', '.join(available_robots())}")
+    return _ENTRIES[name]
 
 
 def load_robot(name: str, *, base_transform: np.ndarray | None = None, **options) -> Robot:
