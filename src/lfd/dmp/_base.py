@@ -6,8 +6,9 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
+from lfd import checks
+
 from . import _io
-from . import _validation as check
 
 
 class Primitive(ABC):
@@ -16,7 +17,7 @@ class Primitive(ABC):
 
     _KIND: ClassVar[str]
     _VECTORS: ClassVar[tuple[str, ...]] = ("y0", "goal")  # (D,) or (B, D) learned vectors
-    _SCALARS: ClassVar[dict] = {"tau": check.positive_float, "n_steps": check.positive_int}
+    _SCALARS: ClassVar[dict] = {"tau": checks.positive_float, "n_steps": checks.positive_int}
     #: Constructor arguments added after format version 1 was fixed, with the value that a
     #: file written before they existed implies (read by :meth:`load` when one is missing).
     _MISSING_PARAMS: ClassVar[dict] = {}
@@ -82,13 +83,13 @@ class Primitive(ABC):
         return primitive
 
     def _restore(self, fitted: dict) -> None:
-        weights = check.finite_array("weights", fitted["weights"], (2, 3))
+        weights = checks.finite_array(fitted["weights"], "weights", ndim=(2, 3))
         if weights.shape[-1] != self.n_basis:
             raise ValueError(f"weights have {weights.shape[-1]} basis functions, expected {self.n_basis}")
-        vectors = {name: check.finite_array(name, fitted[name], (1, 2)) for name in self._VECTORS}
+        vectors = {name: checks.finite_array(fitted[name], name, ndim=(1, 2)) for name in self._VECTORS}
         for name, vector in vectors.items():
             if vector.shape != weights.shape[:-1]:
                 raise ValueError(f"{name} has shape {vector.shape}, expected {weights.shape[:-1]}")
-        scalars = {name: convert(name, fitted[name]) for name, convert in self._SCALARS.items()}
+        scalars = {name: convert(fitted[name], name) for name, convert in self._SCALARS.items()}
         for name, value in {"weights": weights, **vectors, **scalars}.items():
             setattr(self, name + "_", value)

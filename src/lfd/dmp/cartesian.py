@@ -48,7 +48,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from . import _validation as check
+from lfd import checks
+
 from . import quaternion as quat
 from .canonical import discrete_features
 from .discrete import DMP
@@ -65,7 +66,7 @@ ORIENTATION_STEPS_PER_TAU = 1000
 
 
 def _check_pose(name: str, value, ndims=(1, 2)) -> np.ndarray:
-    pose = check.finite_array(name, value, ndims)
+    pose = checks.finite_array(value, name, ndim=ndims)
     if pose.shape[-1] != 7:
         raise ValueError(f"{name} must end with 7 values [x, y, z, qw, qx, qy, qz], got shape {pose.shape}")
     norms = np.linalg.norm(pose[..., 3:], axis=-1)
@@ -108,9 +109,7 @@ class CartesianDMP:
         ridge: float = DEFAULT_RIDGE,
         orientation: str = "log",
     ):
-        if orientation not in ORIENTATIONS:
-            raise ValueError(f"orientation must be one of {ORIENTATIONS}, got {orientation!r}")
-        self.orientation = orientation
+        self.orientation = checks.check_choice(orientation, "orientation", ORIENTATIONS)
         self.position_ = DMP(n_basis, alpha_z, beta_z, alpha_s, overlap, formulation, ridge)
         self.n_basis = self.position_.n_basis
         self.gains = self.position_.gains
@@ -143,7 +142,7 @@ class CartesianDMP:
         Raises:
             ValueError: bad shapes, NaN/inf, non-unit quaternions, bad ``t``.
         """
-        times = check.time_grid(t, min_samples=3)
+        times = checks.time_grid(t, min_samples=3)
         pose = _check_pose("pose", pose, (2, 3))
         if pose.shape[-2] != times.shape[0]:
             raise ValueError(
@@ -218,13 +217,13 @@ class CartesianDMP:
             raise ValueError("start, goal, tau and weights are required: the CartesianDMP is not fitted")
         start = _check_pose("start", self.start_ if start is None else start)
         goal = _check_pose("goal", self.goal_ if goal is None else goal)
-        tau = check.positive_float("tau", float(self.tau_ if tau is None else tau))
-        weights = check.finite_array("weights", self.weights_ if weights is None else weights, (2, 3))
+        tau = checks.positive_float(float(self.tau_ if tau is None else tau), "tau")
+        weights = checks.finite_array(self.weights_ if weights is None else weights, "weights", ndim=(2, 3))
         if weights.shape[-2:] != (6, self.n_basis):
             raise ValueError(
                 f"weights must have shape (6, {self.n_basis}) or (B, 6, {self.n_basis}), got {weights.shape}"
             )
-        times = np.linspace(0.0, tau, self.n_steps_) if t is None else check.time_grid(t, min_samples=1)
+        times = np.linspace(0.0, tau, self.n_steps_) if t is None else checks.time_grid(t, min_samples=1)
         batch = np.broadcast_shapes(start.shape[:-1], goal.shape[:-1], weights.shape[:-2])
         position = np.asarray(
             self.position_.rollout(

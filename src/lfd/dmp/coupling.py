@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _validation as check
+from lfd import checks
 
 __all__ = ["JointLimits", "ObstacleAvoidance"]
 
@@ -69,13 +69,11 @@ class ObstacleAvoidance:
     def __init__(
         self, points, kind: str = "park", gain: float | None = None, beta: float | None = None, dims=None
     ):
-        if kind not in self.KINDS:
-            raise ValueError(f"kind must be one of {self.KINDS}, got {kind!r}")
-        self.kind = kind
+        self.kind = checks.check_choice(kind, "kind", self.KINDS)
         self.points = points
         default_gain, default_beta = (1.0, 2.0) if kind == "park" else (1000.0, 20.0 / np.pi)
-        self.gain = check.positive_float("gain", default_gain if gain is None else gain)
-        self.beta = check.positive_float("beta", default_beta if beta is None else beta)
+        self.gain = checks.positive_float(default_gain if gain is None else gain, "gain")
+        self.beta = checks.positive_float(default_beta if beta is None else beta, "beta")
         self.dims = None if dims is None else np.asarray(dims, dtype=int)
         if kind == "hoffmann" and self.points.shape[-1] not in (2, 3):
             raise ValueError(
@@ -89,7 +87,7 @@ class ObstacleAvoidance:
 
     @points.setter
     def points(self, value) -> None:
-        points = check.finite_array("points", value, (2, 3))
+        points = checks.finite_array(value, "points", ndim=(2, 3))
         if getattr(self, "_points", None) is not None and points.shape[-1] != self._points.shape[-1]:
             raise ValueError(f"points must keep {self._points.shape[-1]} coordinates, got {points.shape}")
         self._points = points
@@ -168,20 +166,20 @@ class JointLimits:
     """
 
     def __init__(self, lower, upper, margin=None, gain: float = 500.0, damping: float = 30.0):
-        self.lower = check.finite_array("lower", lower, (1,))
-        self.upper = check.finite_array("upper", upper, (1,))
+        self.lower = checks.finite_array(lower, "lower", ndim=(1,))
+        self.upper = checks.finite_array(upper, "upper", ndim=(1,))
         if self.lower.shape != self.upper.shape or np.any(self.lower >= self.upper):
             raise ValueError("lower and upper must have the same shape (D,) with lower < upper")
         span = self.upper - self.lower
         self.margin = (
             0.1 * span
             if margin is None
-            else np.broadcast_to(check.finite_array("margin", margin, (0, 1)), span.shape).copy()
+            else np.broadcast_to(checks.finite_array(margin, "margin", ndim=(0, 1)), span.shape).copy()
         )
         if np.any(self.margin <= 0) or np.any(2 * self.margin > span):
             raise ValueError("margin must be > 0 and at most half of upper - lower")
-        self.gain = check.positive_float("gain", gain)
-        self.damping = check.positive_float("damping", damping)
+        self.gain = checks.positive_float(gain, "gain")
+        self.damping = checks.positive_float(damping, "damping")
 
     def _check(self, y: np.ndarray) -> None:
         if y.shape[-1] != self.lower.shape[0]:

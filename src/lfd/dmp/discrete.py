@@ -7,11 +7,19 @@ from typing import ClassVar
 import numpy as np
 import torch
 
-from . import _validation as check
+from lfd import checks
+
 from . import transform
 from ._base import Primitive
 from .canonical import discrete_activations, discrete_phase
-from .fitting import DEFAULT_RIDGE, check_ridge, demo_derivatives, forcing_target, lwr_weights
+from .fitting import (
+    DEFAULT_RIDGE,
+    check_demonstration,
+    check_ridge,
+    demo_derivatives,
+    forcing_target,
+    lwr_weights,
+)
 from .formulation import DEFAULT_FORMULATION, check_formulation, unscale_weights
 from .functional import DiscreteGains, cached_trajectory_fit, grid_key, rollout_with_gains
 from .stepping import advance, integrate
@@ -24,9 +32,7 @@ FIT_METHODS = ("trajectory", "lwr")
 
 def check_method(method: str) -> str:
     """``method`` if it is one of :data:`FIT_METHODS`, else ``ValueError``."""
-    if method not in FIT_METHODS:
-        raise ValueError(f"method must be one of {FIT_METHODS}, got {method!r}")
-    return method
+    return checks.check_choice(method, "method", FIT_METHODS)
 
 
 class DMP(Primitive):
@@ -82,7 +88,7 @@ class DMP(Primitive):
         formulation: str = DEFAULT_FORMULATION,
         ridge: float = DEFAULT_RIDGE,
     ):
-        self.n_basis = check.positive_int("n_basis", n_basis)
+        self.n_basis = checks.positive_int(n_basis, "n_basis")
         self.gains = DiscreteGains.resolve(alpha_z, beta_z, alpha_s, overlap)
         self.formulation = check_formulation(formulation)
         self.ridge = check_ridge(ridge)
@@ -141,7 +147,7 @@ class DMP(Primitive):
                 increasing, unknown ``method``.
         """
         check_method(method)
-        t, y = check.demonstration(t, y)
+        t, y = check_demonstration(t, y)
         tau = float(t[-1] - t[0])
         y0, goal = y[..., 0, :], y[..., -1, :]
         start_velocity = self._start_velocity(t, y, yd0)
@@ -169,7 +175,7 @@ class DMP(Primitive):
             if yd0 != "demo":
                 raise ValueError(f"yd0 must be None, 'demo' or an array, got {yd0!r}")
             return demo_derivatives(t, y)[0][..., 0, :]
-        velocity = check.finite_array("yd0", yd0, (1, 2))
+        velocity = checks.finite_array(yd0, "yd0", ndim=(1, 2))
         try:
             return np.broadcast_to(velocity, y[..., 0, :].shape).copy()
         except ValueError:
@@ -234,8 +240,10 @@ class DMP(Primitive):
         if t is None:
             if getattr(tau, "ndim", 0) != 0:
                 raise ValueError("t is required when tau has one value per sample")
-            t = np.linspace(0.0, check.positive_float("tau", float(tau)), self._fitted("n_steps", None))
-        times = check.time_grid(t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1)
+            t = np.linspace(0.0, checks.positive_float(float(tau), "tau"), self._fitted("n_steps", None))
+        times = checks.time_grid(
+            t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1
+        )
         if yd0 is None and self.is_fitted and np.any(self.yd0_ != 0):
             yd0 = self.yd0_
         if coupling:
@@ -261,8 +269,8 @@ class DMP(Primitive):
         arrays = {"y0": (y0, (1, 2)), "goal": (goal, (1, 2)), "weights": (weights, (2, 3))}
         if yd0 is not None:
             arrays["yd0"] = (yd0, (1, 2))
-        values = {name: check.finite_array(name, x, dims) for name, (x, dims) in arrays.items()}
-        tau = check.positive_float("tau", float(tau))
+        values = {name: checks.finite_array(x, name, ndim=dims) for name, (x, dims) in arrays.items()}
+        tau = checks.positive_float(float(tau), "tau")
         positions, velocities = integrate(
             times - times[0],
             y0=values["y0"],
@@ -307,10 +315,10 @@ class DMP(Primitive):
         return advance(
             state,
             dt,
-            y0=check.finite_array("y0", y0, (1, 2)),
-            goal=check.finite_array("goal", goal, (1, 2)),
-            weights=check.finite_array("weights", weights, (2, 3)),
-            tau=check.positive_float("tau", float(tau)),
+            y0=checks.finite_array(y0, "y0", ndim=(1, 2)),
+            goal=checks.finite_array(goal, "goal", ndim=(1, 2)),
+            weights=checks.finite_array(weights, "weights", ndim=(2, 3)),
+            tau=checks.positive_float(float(tau), "tau"),
             n_basis=self.n_basis,
             gains=self.gains,
             formulation=self.formulation,

@@ -21,7 +21,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from . import _validation as check
+from lfd import checks
+
 from .discrete import DMP
 from .promp import _demonstrations
 
@@ -114,8 +115,8 @@ class DMPDistribution:
 
     def _grid(self, t, tau) -> tuple[np.ndarray, float]:
         self._check_fitted()
-        tau = self.tau_ if tau is None else check.positive_float("tau", tau)
-        times = np.linspace(0.0, tau, self.n_steps_) if t is None else check.time_grid(t, min_samples=1)
+        tau = self.tau_ if tau is None else checks.positive_float(tau, "tau")
+        times = np.linspace(0.0, tau, self.n_steps_) if t is None else checks.time_grid(t, min_samples=1)
         return times, tau
 
     def linear_map(self, t=None, tau=None) -> np.ndarray:
@@ -172,8 +173,8 @@ class DMPDistribution:
         """``(D T, D K)`` map of the weights and the ``(T, D)`` free response for fixed start/goal."""
         d, k = self.n_dims_, self.dmp.n_basis
         means = self.mean_.reshape(d, k + 2)
-        y0 = means[:, 0] if y0 is None else check.finite_array("y0", y0, (1,))
-        goal = means[:, 1] if goal is None else check.finite_array("goal", goal, (1,))
+        y0 = means[:, 0] if y0 is None else checks.finite_array(y0, "y0", ndim=(1,))
+        goal = means[:, 1] if goal is None else checks.finite_array(goal, "goal", ndim=(1,))
         if y0.shape != (d,) or goal.shape != (d,):
             raise ValueError(f"y0 and goal must have shape ({d},), got {y0.shape} and {goal.shape}")
         unit = np.concatenate([np.zeros((1, d, k)), np.broadcast_to(np.eye(k)[:, None, :], (k, d, k))])
@@ -191,7 +192,7 @@ class DMPDistribution:
 
     def sample_trajectories(self, n: int, t=None, tau=None, rng=None) -> np.ndarray:
         """``n`` rollouts ``(n, T, D)`` of parameters drawn from the distribution (sampling-based)."""
-        n = check.positive_int("n", n)
+        n = checks.positive_int(n, "n")
         times, tau = self._grid(t, tau)
         rng = np.random.default_rng(rng)
         params = rng.multivariate_normal(self.mean_, self.cov_, size=n, method="eigh")
@@ -200,7 +201,7 @@ class DMPDistribution:
     def rollout_params(self, params, t=None, tau=None) -> np.ndarray:
         """Rollouts ``(B, T, D)`` of parameter vectors ``(B, P)`` (layout of ``mean_``)."""
         times, tau = self._grid(t, tau)
-        params = check.finite_array("params", params, (2,))
+        params = checks.finite_array(params, "params", ndim=(2,))
         if params.shape[1] != self.mean_.shape[0]:
             raise ValueError(f"params must have shape (B, {self.mean_.shape[0]}), got {params.shape}")
         blocks = params.reshape(params.shape[0], self.n_dims_, -1)

@@ -34,8 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from lfd import checks
+
 from . import _io
-from . import _validation as check
 from . import quaternion as quat
 from .canonical import discrete_features
 from .cartesian import ORIENTATION_STEPS_PER_TAU, CartesianDMP, _check_pose
@@ -79,12 +80,12 @@ class RelativePoseCoupling:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "desired", tuple(_check_pose("desired", self.desired, (1,)).tolist()))
-        lf = check.finite_array("leader_follower", self.leader_follower, (1,))
+        lf = checks.finite_array(self.leader_follower, "leader_follower", ndim=(1,))
         if lf.shape != (2,):
             raise ValueError(f"leader_follower must be 2 numbers (left, right), got {self.leader_follower!r}")
         object.__setattr__(self, "leader_follower", tuple(lf.tolist()))
         for name in ("k", "c2"):
-            check.positive_float(name, getattr(self, name))
+            checks.positive_float(getattr(self, name), name)
         if not np.isfinite(self.c1) or self.c1 < 0:
             raise ValueError(f"c1 must be a finite number >= 0, got {self.c1!r}")
 
@@ -162,7 +163,7 @@ class DualCartesianDMP:
         Raises:
             ValueError: bad shapes, NaN/inf, non-unit quaternions, bad ``t``.
         """
-        pose = check.finite_array("pose", pose, (2, 3))
+        pose = checks.finite_array(pose, "pose", ndim=(2, 3))
         if pose.shape[-1] != 14:
             raise ValueError(
                 f"pose must end with 14 values (left and right [x, y, z, qw, qx, qy, qz]), got {pose.shape}"
@@ -195,13 +196,13 @@ class DualCartesianDMP:
             raise ValueError("start, goal, tau and weights are required: the DualCartesianDMP is not fitted")
         start = self._pose("start", self.start_ if start is None else start)
         goal = self._pose("goal", self.goal_ if goal is None else goal)
-        tau = check.positive_float("tau", float(self.tau_ if tau is None else tau))
-        weights = check.finite_array("weights", self.weights_ if weights is None else weights, (2, 3))
+        tau = checks.positive_float(float(self.tau_ if tau is None else tau), "tau")
+        weights = checks.finite_array(self.weights_ if weights is None else weights, "weights", ndim=(2, 3))
         if weights.shape[-2:] != (12, self.n_basis):
             raise ValueError(
                 f"weights must have shape (12, {self.n_basis}) or (B, 12, {self.n_basis}), got {weights.shape}"
             )
-        times = np.linspace(0.0, tau, self.n_steps_) if t is None else check.time_grid(t, min_samples=1)
+        times = np.linspace(0.0, tau, self.n_steps_) if t is None else checks.time_grid(t, min_samples=1)
         if coupling is None:
             arms = [
                 arm.rollout(
@@ -218,7 +219,7 @@ class DualCartesianDMP:
 
     @staticmethod
     def _pose(name: str, value) -> np.ndarray:
-        pose = check.finite_array(name, value, (1, 2))
+        pose = checks.finite_array(value, name, ndim=(1, 2))
         if pose.shape[-1] != 14:
             raise ValueError(f"{name} must have 14 values (two poses), got shape {pose.shape}")
         return np.concatenate([_check_pose(name, pose[..., :7]), _check_pose(name, pose[..., 7:])], axis=-1)
@@ -306,11 +307,11 @@ class DualCartesianDMP:
         try:
             dmp = cls(**params)
             if fitted is not None:
-                weights = check.finite_array("weights", fitted["weights"], (2, 3))
+                weights = checks.finite_array(fitted["weights"], "weights", ndim=(2, 3))
                 start, goal = dmp._pose("start", fitted["start"]), dmp._pose("goal", fitted["goal"])
                 tau, n_steps = (
-                    check.positive_float("tau", fitted["tau"]),
-                    check.positive_int("n_steps", fitted["n_steps"]),
+                    checks.positive_float(fitted["tau"], "tau"),
+                    checks.positive_int(fitted["n_steps"], "n_steps"),
                 )
                 if weights.shape[-2:] != (12, dmp.n_basis):
                     raise ValueError(f"weights have shape {weights.shape}, expected (12, {dmp.n_basis})")

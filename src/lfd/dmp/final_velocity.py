@@ -42,10 +42,11 @@ from typing import ClassVar
 
 import numpy as np
 
-from . import _validation as check
+from lfd import checks
+
 from ._base import Primitive
 from .discrete import DMP
-from .fitting import DEFAULT_RIDGE, demo_derivatives
+from .fitting import DEFAULT_RIDGE, check_demonstration, demo_derivatives
 
 __all__ = ["FinalVelocityDMP", "quintic"]
 
@@ -122,7 +123,7 @@ class FinalVelocityDMP(Primitive):
         Raises:
             ValueError: bad shapes, NaN/inf, fewer than 3 samples, ``t`` not increasing.
         """
-        t, y = check.demonstration(t, y)
+        t, y = check_demonstration(t, y)
         tau = float(t[-1] - t[0])
         dy, ddy = demo_derivatives(t, y)
         self.y0_, self.yd0_, self.ydd0_ = y[..., 0, :], dy[..., 0, :], ddy[..., 0, :]
@@ -179,9 +180,9 @@ class FinalVelocityDMP(Primitive):
         """
         names = ("y0", "yd0", "ydd0", "goal", "goal_velocity", "goal_acceleration")
         given = (y0, yd0, ydd0, goal, goal_velocity, goal_acceleration)
-        vectors = [check.finite_array(n, self._fitted(n, v), (1, 2)) for n, v in zip(names, given)]
-        tau = check.positive_float("tau", float(self._fitted("tau", tau)))
-        weights = check.finite_array("weights", self._fitted("weights", weights), (2, 3))
+        vectors = [checks.finite_array(self._fitted(n, v), n, ndim=(1, 2)) for n, v in zip(names, given)]
+        tau = checks.positive_float(float(self._fitted("tau", tau)), "tau")
+        weights = checks.finite_array(self._fitted("weights", weights), "weights", ndim=(2, 3))
         width = weights.shape[-2]
         if weights.shape[-1] != self.n_basis or any(v.shape[-1] != width for v in vectors):
             raise ValueError(
@@ -190,7 +191,7 @@ class FinalVelocityDMP(Primitive):
             )
         if t is None:
             t = np.linspace(0.0, tau, self._fitted("n_steps", None))
-        times = check.time_grid(t, min_samples=1)
+        times = checks.time_grid(t, min_samples=1)
         times = times - times[0]
         if times[-1] > tau * (1 + 1e-12):
             raise ValueError(f"t must span at most tau = {tau} s (the hit is at tau), got {times[-1]} s")

@@ -26,16 +26,35 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from lfd import checks
+
 from .transform import RolloutOperator
 
 __all__ = [
     "DEFAULT_RIDGE",
     "TrajectoryFit",
+    "check_demonstration",
     "check_ridge",
     "demo_derivatives",
     "forcing_target",
     "lwr_weights",
 ]
+
+
+def check_demonstration(t, y) -> tuple[np.ndarray, np.ndarray]:
+    """A demonstration ``(t (T,), y (T, D) or (B, T, D))`` with ``T >= 3``, as float64 arrays.
+
+    Raises:
+        ValueError: ``t`` not a strictly increasing finite grid of at least 3 samples, ``y``
+            not 2-D/3-D, NaN/inf, or ``y``'s sample axis not ``len(t)`` long.
+    """
+    times = checks.time_grid(t, min_samples=3)
+    positions = checks.finite_array(y, "y", ndim=(2, 3))
+    if positions.shape[-2] != times.shape[0]:
+        raise ValueError(
+            f"y must have shape (T, D) or (B, T, D) with T = len(t) = {times.shape[0]}, got {positions.shape}"
+        )
+    return times, positions
 
 
 def demo_derivatives(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -109,11 +128,7 @@ DEFAULT_RIDGE = 1e-12
 
 def check_ridge(ridge) -> float:
     """``ridge`` as a finite float ``>= 0``, else ``ValueError``."""
-    if isinstance(ridge, bool) or not isinstance(ridge, (int, float, np.floating, np.integer)):
-        raise ValueError(f"ridge must be a finite number >= 0, got {ridge!r}")
-    if not np.isfinite(ridge) or ridge < 0:
-        raise ValueError(f"ridge must be a finite number >= 0, got {ridge!r}")
-    return float(ridge)
+    return checks.check_float(ridge, "ridge", low=0.0)
 
 
 @dataclass(frozen=True)

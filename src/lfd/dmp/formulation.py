@@ -40,6 +40,8 @@ import numpy as np
 import torch
 from torch import Tensor
 
+from lfd import checks
+
 __all__ = ["DEFAULT_FORMULATION", "FORMULATIONS", "check_formulation", "scale_weights", "unscale_weights"]
 
 #: Accepted values of ``formulation=``; the first is the default.
@@ -53,9 +55,7 @@ ZERO_DISPLACEMENT = 1e-8
 
 def check_formulation(formulation) -> str:
     """``formulation`` if it is one of :data:`FORMULATIONS`, else ``ValueError``."""
-    if formulation not in FORMULATIONS:
-        raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
-    return formulation
+    return checks.check_choice(formulation, "formulation", FORMULATIONS)
 
 
 def scale_weights(

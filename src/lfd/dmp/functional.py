@@ -15,7 +15,8 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from . import _validation as check
+from lfd import checks
+
 from .canonical import discrete_features
 from .fitting import DEFAULT_RIDGE, TrajectoryFit
 from .formulation import DEFAULT_FORMULATION, check_formulation, scale_weights
@@ -40,11 +41,11 @@ class Gains:
 
     @staticmethod
     def _common(alpha_z, beta_z, overlap) -> dict:
-        alpha_z = check.positive_float("alpha_z", alpha_z)
+        alpha_z = checks.positive_float(alpha_z, "alpha_z")
         return {
             "alpha_z": alpha_z,
-            "beta_z": check.positive_float("beta_z", alpha_z / 4.0 if beta_z is None else beta_z),
-            "overlap": check.open_unit_float("overlap", overlap),
+            "beta_z": checks.positive_float(alpha_z / 4.0 if beta_z is None else beta_z, "beta_z"),
+            "overlap": checks.unit_interval(overlap, "overlap"),
         }
 
     @classmethod
@@ -63,7 +64,7 @@ class DiscreteGains(Gains):
     def resolve(cls, alpha_z=25.0, beta_z=None, alpha_s=None, overlap=0.8) -> DiscreteGains:
         """Validated gains; ``beta_z`` defaults to ``alpha_z / 4``, ``alpha_s`` to ``alpha_z / 3``."""
         common = cls._common(alpha_z, beta_z, overlap)
-        alpha_s = check.positive_float("alpha_s", common["alpha_z"] / 3.0 if alpha_s is None else alpha_s)
+        alpha_s = checks.positive_float(common["alpha_z"] / 3.0 if alpha_s is None else alpha_s, "alpha_s")
         return cls(**common, alpha_s=alpha_s)
 
 
@@ -166,9 +167,9 @@ def time_grid(t, n_steps, dt) -> np.ndarray:
     if (t is None) == (n_steps is None and dt is None):
         raise ValueError("pass either t (sample times) or both n_steps and dt")
     if t is not None:
-        return check.time_grid(t.detach().cpu().numpy() if isinstance(t, Tensor) else t, min_samples=1)
-    steps = check.positive_int("n_steps", n_steps)
-    return np.arange(steps, dtype=np.float64) * check.positive_float("dt", dt)
+        return checks.time_grid(t.detach().cpu().numpy() if isinstance(t, Tensor) else t, min_samples=1)
+    steps = checks.positive_int(n_steps, "n_steps")
+    return np.arange(steps, dtype=np.float64) * checks.positive_float(dt, "dt")
 
 
 def _batch_size(vectors: dict, weights, tau) -> int | None:
@@ -199,7 +200,7 @@ def _batch_size(vectors: dict, weights, tau) -> int | None:
 
 def _tau_value(tau):
     """A numpy/float ``tau``: finite and > 0, scalar or ``(B,)``; returns float or tensor."""
-    value = check.finite_array("tau", tau, (0, 1))
+    value = checks.finite_array(tau, "tau", ndim=(0, 1))
     if np.any(value <= 0):
         raise ValueError(f"tau must be > 0 seconds, got {tau!r}")
     return float(value) if value.ndim == 0 else torch.from_numpy(value)
@@ -235,7 +236,7 @@ def evaluate(y0, goal, weights, t: np.ndarray, tau, make_operator, scale, yd0=No
     as_numpy = not any(isinstance(x, Tensor) for x, _ in (*named.values(), (tau, None)))
     if as_numpy:
         values = {
-            name: torch.from_numpy(check.finite_array(name, x, dims, copy=False))
+            name: torch.from_numpy(checks.finite_array(x, name, ndim=dims, copy=False))
             for name, (x, dims) in named.items()
         }
     else:

@@ -7,7 +7,8 @@ from contextlib import nullcontext
 import torch
 from torch import Tensor, nn
 
-from . import _validation as check
+from lfd import checks
+
 from .formulation import DEFAULT_FORMULATION, check_formulation
 from .functional import DiscreteGains, discrete_rollout, operator_for, time_grid
 from .transform import RolloutOperator
@@ -68,13 +69,13 @@ class DMPLayer(nn.Module):
         formulation: str = DEFAULT_FORMULATION,
     ):
         super().__init__()
-        self.n_basis = check.positive_int("n_basis", n_basis)
+        self.n_basis = checks.positive_int(n_basis, "n_basis")
         self.gains = DiscreteGains.resolve(alpha_z, beta_z, alpha_s, overlap)
         self.formulation = check_formulation(formulation)
         self._times = time_grid(None, n_steps, dt)
         if tau is None and n_steps < 2:
             raise ValueError("tau is required when n_steps == 1")
-        self.tau = check.positive_float("tau", (n_steps - 1) * dt if tau is None else tau)
+        self.tau = checks.positive_float((n_steps - 1) * dt if tau is None else tau, "tau")
         operator = operator_for(self._times, self.tau, self.n_basis, self.gains, torch.float64, "cpu")
         self.register_buffer("t", torch.from_numpy(self._times.copy()), persistent=False)
         self.register_buffer("initial", operator.initial.clone(), persistent=False)
@@ -131,7 +132,7 @@ class DMPLayer(nn.Module):
                 f"tau must be a scalar or have shape ({weights.shape[0]},), got {tuple(tau.shape)}"
             )
         if tau is not None and not isinstance(tau, Tensor):
-            tau = check.positive_float("tau", tau)
+            tau = checks.positive_float(tau, "tau")
         # Mixed precision (autocast, float16 / bfloat16 heads): the rollout's matrix products
         # would run in half precision, where the forcing term overflows float16 (inf -> NaN)
         # and bfloat16 keeps ~3 digits of a joint angle; so it runs outside autocast in float32.

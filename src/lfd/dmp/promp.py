@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import copy
 import math
-import numbers
 
 import numpy as np
 import torch
 
+from lfd import checks
+
 from . import _io
-from . import _validation as check
 
 __all__ = ["ProMP"]
 
@@ -44,16 +44,10 @@ def promp_basis(phase: torch.Tensor, n_basis: int, overlap: float) -> torch.Tens
     return activations / activations.sum(dim=-1, keepdim=True)
 
 
-def _as_array(name: str, value, ndims: tuple[int, ...]) -> np.ndarray:
-    if isinstance(value, torch.Tensor):
-        value = value.detach().cpu().numpy()
-    return check.finite_array(name, value, ndims)
-
-
 def _demonstrations(t, y) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Split ``fit``'s inputs into per-demonstration ``(t_i (T_i,), y_i (T_i, D))``."""
     if isinstance(y, (list, tuple)):
-        ys = [_as_array(f"Y[{i}]", yi, (2,)) for i, yi in enumerate(y)]
+        ys = [checks.finite_array(yi, f"Y[{i}]", ndim=(2,)) for i, yi in enumerate(y)]
         if not isinstance(t, (list, tuple)):
             ts = [t] * len(ys)
         elif len(t) != len(ys):
@@ -61,9 +55,9 @@ def _demonstrations(t, y) -> tuple[list[np.ndarray], list[np.ndarray]]:
         else:
             ts = list(t)
     else:
-        array = _as_array("Y", y, (2, 3))
+        array = checks.finite_array(y, "Y", ndim=(2, 3))
         ys = list(array[None] if array.ndim == 2 else array)
-        times = _as_array("t", t, (1, 2))
+        times = checks.finite_array(t, "t", ndim=(1, 2))
         if times.ndim == 2 and times.shape[0] != len(ys):
             raise ValueError(
                 f"t must be (T,) or (N, T) with N = {len(ys)} demonstrations, got shape {times.shape}"
@@ -71,7 +65,7 @@ def _demonstrations(t, y) -> tuple[list[np.ndarray], list[np.ndarray]]:
         ts = list(times) if times.ndim == 2 else [times] * len(ys)
     if not ys:
         raise ValueError("Y must hold at least one demonstration")
-    ts = [check.time_grid(ti, min_samples=2, name=f"t[{i}]") for i, ti in enumerate(ts)]
+    ts = [checks.time_grid(ti, min_samples=2, name=f"t[{i}]") for i, ti in enumerate(ts)]
     for i, (ti, yi) in enumerate(zip(ts, ys)):
         if yi.shape[0] != ti.shape[0] or yi.shape[1] != ys[0].shape[1] or yi.shape[1] < 1:
             raise ValueError(
@@ -104,24 +98,13 @@ class ProMP:
     """
 
     def __init__(self, n_basis: int = 10, overlap: float = 0.7, ridge: float = 1e-12, cov_reg: float = 0.0):
-        self.n_basis = check.positive_int("n_basis", n_basis)
-        self.overlap = check.open_unit_float("overlap", overlap)
-        self.ridge = self._non_negative("ridge", ridge)
-        self.cov_reg = self._non_negative("cov_reg", cov_reg)
+        self.n_basis = checks.positive_int(n_basis, "n_basis")
+        self.overlap = checks.unit_interval(overlap, "overlap")
+        self.ridge = checks.check_float(ridge, "ridge", low=0.0)
+        self.cov_reg = checks.check_float(cov_reg, "cov_reg", low=0.0)
 
     def __repr__(self) -> str:
         return f"ProMP(n_basis={self.n_basis}, overlap={self.overlap}, ridge={self.ridge}, cov_reg={self.cov_reg})"
-
-    @staticmethod
-    def _non_negative(name: str, value) -> float:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, numbers.Real)
-            or not math.isfinite(value)
-            or value < 0
-        ):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        return float(value)
 
     @property
     def is_fitted(self) -> bool:
@@ -179,8 +162,8 @@ class ProMP:
         Raises:
             ValueError: sizes that are not a multiple of ``K``, ``cov`` not square/symmetric.
         """
-        mean = _as_array("mean", mean, (1,))
-        cov = _as_array("cov", cov, (2,))
+        mean = checks.finite_array(mean, "mean", ndim=(1,))
+        cov = checks.finite_array(cov, "cov", ndim=(2,))
         size = mean.shape[0]
         if size % self.n_basis or cov.shape != (size, size):
             raise ValueError(
@@ -189,7 +172,7 @@ class ProMP:
         if not np.allclose(cov, cov.T, rtol=1e-8, atol=1e-12 * max(1.0, np.abs(cov).max())):
             raise ValueError("cov must be symmetric")
         self.mean_, self.cov_, self.n_dims_ = mean, cov, size // self.n_basis
-        self.duration_ = check.positive_float("duration", duration)
+        self.duration_ = checks.positive_float(duration, "duration")
         self.noise_ = getattr(self, "noise_", 0.0)
         return self
 
@@ -226,7 +209,7 @@ class ProMP:
             promp = cls(**params)
             if fitted is not None:
                 promp.from_weight_distribution(fitted["mean"], fitted["cov"], fitted["duration"])
-                promp.noise_ = cls._non_negative("noise", fitted["noise"])
+                promp.noise_ = checks.check_float(fitted["noise"], "noise", low=0.0)
         except (TypeError, KeyError, ValueError) as exc:
             raise ValueError(f"{path}: bad ProMP contents: {exc}") from exc
         return promp
@@ -236,7 +219,7 @@ class ProMP:
     def _phase_basis(self, t, name: str = "t", min_samples: int = 1) -> torch.Tensor:
         """``(T, K)`` basis at times ``t`` (units of fit's ``t``, from the motion's start)."""
         self._check_fitted()
-        times = _as_array(name, t, (0, 1)).reshape(-1)
+        times = checks.finite_array(t, name, ndim=(0, 1)).reshape(-1)
         if times.shape[0] < min_samples:
             raise ValueError(f"{name} needs at least {min_samples} samples, got {times.shape[0]}")
         return promp_basis(torch.from_numpy(times / self.duration_), self.n_basis, self.overlap)
@@ -271,7 +254,7 @@ class ProMP:
         Args:
             rng: ``numpy.random.Generator``, seed or ``None``.
         """
-        n = check.positive_int("n", n)
+        n = checks.positive_int(n, "n")
         basis = self._phase_basis(t)
         rng = np.random.default_rng(rng)
         factor = torch.from_numpy(self._factor())  # (P, r)
@@ -306,9 +289,9 @@ class ProMP:
             ValueError: shapes that do not match ``M``/``D``, NaN, a negative variance.
         """
         self._check_fitted()
-        times = _as_array("t_star", t_star, (0, 1)).reshape(-1)
+        times = checks.finite_array(t_star, "t_star", ndim=(0, 1)).reshape(-1)
         d, m = self.n_dims_, times.shape[0]
-        targets = _as_array("y_star", y_star, (1, 2))
+        targets = checks.finite_array(y_star, "y_star", ndim=(1, 2))
         targets = targets[None] if targets.ndim == 1 else targets
         if targets.shape != (m, d):
             raise ValueError(
@@ -333,7 +316,7 @@ class ProMP:
     def _observation_cov(self, y_cov, m: int) -> np.ndarray:
         """``(M, D, D)`` observation covariance from a number, ``(D, D)`` or ``(M, D, D)``."""
         d = self.n_dims_
-        cov = _as_array("y_cov", y_cov, (0, 2, 3))
+        cov = checks.finite_array(y_cov, "y_cov", ndim=(0, 2, 3))
         if cov.ndim == 0:
             if cov < 0:
                 raise ValueError(f"y_cov must be >= 0, got {float(cov)}")
@@ -363,7 +346,7 @@ class ProMP:
             ValueError: shapes that do not match, NaN, ``noise <= 0`` (also a zero default).
         """
         basis = self._phase_basis(t, min_samples=1)
-        trajectories = _as_array("y", y, (2, 3))
+        trajectories = checks.finite_array(y, "y", ndim=(2, 3))
         single = trajectories.ndim == 2
         batch = trajectories[None] if single else trajectories
         if batch.shape[1:] != (basis.shape[0], self.n_dims_):
@@ -372,14 +355,7 @@ class ProMP:
                 f"got {trajectories.shape}"
             )
         sigma = self.noise_ if noise is None else noise
-        if (
-            isinstance(sigma, bool)
-            or not isinstance(sigma, numbers.Real)
-            or not math.isfinite(sigma)
-            or sigma <= 0
-        ):
-            raise ValueError(f"noise must be a finite number > 0 (the observation noise std), got {sigma!r}")
-        variance = float(sigma) ** 2
+        variance = checks.positive_float(sigma, "noise") ** 2
         mean, _ = self._blocks()
         residual = torch.from_numpy(batch) - basis @ mean.T  # (B, T, D)
         factor = torch.from_numpy(self._factor()).reshape(self.n_dims_, self.n_basis, -1)  # (D, K, r)

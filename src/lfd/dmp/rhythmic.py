@@ -8,11 +8,20 @@ from typing import ClassVar
 import numpy as np
 import torch
 
-from . import _validation as check
+from lfd import checks
+
 from ._base import Primitive
 from .canonical import rhythmic_activations, rhythmic_features
 from .discrete import check_method
-from .fitting import DEFAULT_RIDGE, TrajectoryFit, check_ridge, demo_derivatives, forcing_target, lwr_weights
+from .fitting import (
+    DEFAULT_RIDGE,
+    TrajectoryFit,
+    check_demonstration,
+    check_ridge,
+    demo_derivatives,
+    forcing_target,
+    lwr_weights,
+)
 from .functional import Gains, evaluate
 from .transform import RolloutOperator, build_refined_operator
 
@@ -62,7 +71,7 @@ class RhythmicDMP(Primitive):
 
     _KIND = "lfd.dmp.RhythmicDMP"
     _VECTORS = ("y0", "yd0", "goal")
-    _SCALARS: ClassVar[dict] = {**Primitive._SCALARS, "duration": check.positive_float}
+    _SCALARS: ClassVar[dict] = {**Primitive._SCALARS, "duration": checks.positive_float}
 
     _MISSING_PARAMS: ClassVar[dict] = {"ridge": 0.0}  # files saved before ridge existed: pinv fit
 
@@ -74,7 +83,7 @@ class RhythmicDMP(Primitive):
         overlap: float = 0.8,
         ridge: float = DEFAULT_RIDGE,
     ):
-        self.n_basis = check.positive_int("n_basis", n_basis)
+        self.n_basis = checks.positive_int(n_basis, "n_basis")
         self.gains = Gains.resolve(alpha_z, beta_z, overlap)
         self.ridge = check_ridge(ridge)
 
@@ -112,9 +121,9 @@ class RhythmicDMP(Primitive):
             ``self``.
         """
         check_method(method)
-        t, y = check.demonstration(t, y)
+        t, y = check_demonstration(t, y)
         duration = float(t[-1] - t[0])
-        tau = (duration if period is None else check.positive_float("period", period)) / (2.0 * math.pi)
+        tau = (duration if period is None else checks.positive_float(period, "period")) / (2.0 * math.pi)
         goal = np.trapezoid(y, t, axis=-2) / duration
         dy, ddy = demo_derivatives(t, y)
         if method == "trajectory":
@@ -185,10 +194,10 @@ class RhythmicDMP(Primitive):
         tau = self._fitted("tau", tau)
         tensor_tau = isinstance(tau, torch.Tensor)
         if not tensor_tau:
-            tau = check.positive_float("tau", tau)
+            tau = checks.positive_float(tau, "tau")
         goal = self._fitted("goal", goal)
         if not isinstance(goal, torch.Tensor):
-            goal = check.finite_array("goal", goal, (1, 2))
+            goal = checks.finite_array(goal, "goal", ndim=(1, 2))
         if tuple(goal.shape)[-1:] != (n_dims,) or goal.ndim not in (1, 2):
             raise ValueError(f"goal must have shape ({n_dims},) or (B, {n_dims}), got {tuple(goal.shape)}")
         if y0 is None:
@@ -206,7 +215,9 @@ class RhythmicDMP(Primitive):
             if tensor_tau and tau.ndim > 0:
                 raise ValueError("t is required when tau has one value per sample")
             t = np.linspace(0.0, self._fitted("duration", None) * float(tau) / self.tau_, self.n_steps_)
-        times = check.time_grid(t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1)
+        times = checks.time_grid(
+            t.detach().cpu().numpy() if isinstance(t, torch.Tensor) else t, min_samples=1
+        )
 
         def make_operator(grid, tau_value, n_basis, dtype, device):
             return rhythmic_operator(grid, tau_value, n_basis, self.gains, dtype, device)

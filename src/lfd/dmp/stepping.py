@@ -25,7 +25,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import torch
 
-from . import _validation as check
+from lfd import checks
+
 from .canonical import discrete_centres, discrete_widths
 from .formulation import scale_weights
 from .functional import DiscreteGains
@@ -128,8 +129,8 @@ def advance(
         coupling: iterable of coupling terms ``(y, yd) -> acceleration`` (units/s^2).
         substeps: equal sub-steps per step (>= 1).
     """
-    dt = check.positive_float("dt", dt)
-    substeps = check.positive_int("substeps", substeps)
+    dt = checks.positive_float(dt, "dt")
+    substeps = checks.positive_int(substeps, "substeps")
     stepper = _Stepper(n_basis, gains) if stepper is None else stepper
     v = scale_weights(
         np.asarray(weights, dtype=np.float64),
@@ -229,10 +230,10 @@ class DMPRunner:
         self, dmp, y0=None, goal=None, tau=None, weights=None, yd0=None, coupling=(), substeps: int = 1
     ):
         self.dmp = dmp
-        self.y0 = check.finite_array("y0", dmp._fitted("y0", y0), (1, 2))
-        self.goal = check.finite_array("goal", dmp._fitted("goal", goal), (1, 2))
-        self.tau = check.positive_float("tau", float(dmp._fitted("tau", tau)))
-        self.weights = check.finite_array("weights", dmp._fitted("weights", weights), (2, 3))
+        self.y0 = checks.finite_array(dmp._fitted("y0", y0), "y0", ndim=(1, 2))
+        self.goal = checks.finite_array(dmp._fitted("goal", goal), "goal", ndim=(1, 2))
+        self.tau = checks.positive_float(float(dmp._fitted("tau", tau)), "tau")
+        self.weights = checks.finite_array(dmp._fitted("weights", weights), "weights", ndim=(2, 3))
         if self.weights.shape[-1] != dmp.n_basis:
             raise ValueError(
                 f"weights must end with K = {dmp.n_basis} basis functions, got {self.weights.shape}"
@@ -242,12 +243,14 @@ class DMPRunner:
                 raise ValueError(f"{name} must have {self.weights.shape[-2]} DoF, got shape {value.shape}")
         if yd0 is None:
             yd0 = getattr(dmp, "yd0_", None)
-        start_velocity = np.zeros_like(self.y0) if yd0 is None else check.finite_array("yd0", yd0, (1, 2))
+        start_velocity = (
+            np.zeros_like(self.y0) if yd0 is None else checks.finite_array(yd0, "yd0", ndim=(1, 2))
+        )
         batch = np.broadcast_shapes(
             self.y0.shape, self.goal.shape, self.weights.shape[:-1], start_velocity.shape
         )
         self.coupling = list(coupling)
-        self.substeps = check.positive_int("substeps", substeps)
+        self.substeps = checks.positive_int(substeps, "substeps")
         self._start = DMPState(
             np.broadcast_to(self.y0, batch).copy(), np.broadcast_to(start_velocity, batch).copy()
         )
@@ -257,7 +260,7 @@ class DMPRunner:
     def step(self, dt: float, goal=None) -> DMPState:
         """Advance by ``dt`` seconds (optionally switching to a new ``goal`` first); returns the new state."""
         if goal is not None:
-            goal = check.finite_array("goal", goal, (1, 2))
+            goal = checks.finite_array(goal, "goal", ndim=(1, 2))
             if goal.shape[-1] != self.goal.shape[-1]:
                 raise ValueError(f"goal must have {self.goal.shape[-1]} DoF, got shape {goal.shape}")
             self.goal = goal

@@ -23,9 +23,9 @@ import warnings
 
 import numpy as np
 
+from lfd.checks import finite_array, to_numpy
 from lfd.dmp import DMP
 
-from ._checks import as_finite_array, to_numpy
 from .power import PowerResult, power
 from .rewards import JointGoalReward, TaskGoalReward
 
@@ -56,10 +56,10 @@ def goal_configuration(robot, target, q0) -> np.ndarray:
         orientation first and position only if that fails; an unreachable target gives
         the IK's best effort (check it with ``robot.fk``).
     """
-    target = as_finite_array(target, "target")
+    target = finite_array(target, "target")
     if target.shape not in ((3,), (4, 4)):
         raise ValueError(f"target must be a (3,) position or a (4, 4) pose, got shape {target.shape}")
-    q0 = as_finite_array(q0, "q0", shape=(robot.n_dof,))
+    q0 = finite_array(q0, "q0", shape=(robot.n_dof,))
     solution = robot.ik(target[None], q0)
     if target.shape == (4, 4) and not bool(solution.success[0]):
         solution = robot.ik(target[None, :3, 3], q0)
@@ -111,14 +111,14 @@ def adapt_to_goal(
         power_options.setdefault("lower", lower)
         power_options.setdefault("upper", upper)
     if space == "joint":
-        joint_goal = as_finite_array(goal, "goal", shape=(n_dof,))
+        joint_goal = finite_array(goal, "goal", shape=(n_dof,))
         if robot is not None and not bool(robot.within_limits(joint_goal[None])[0]):
             raise ValueError(f"goal {joint_goal} lies outside the joint limits of robot {robot.name!r}")
         reward = JointGoalReward(joint_goal, w1)
     else:
         if robot is None:
             raise ValueError("robot is required for a task-space goal")
-        target = as_finite_array(goal, "goal")
+        target = finite_array(goal, "goal")
         if target.shape not in ((3,), (4, 4)):
             raise ValueError(
                 f"goal must be a (3,) position or a (4, 4) pose in task space, got shape {target.shape}"

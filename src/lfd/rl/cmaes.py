@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from ._checks import check_float
+from lfd.checks import check_float
+
 from .problem import PowerResult, Recorder, SearchProblem, check_common
 
 __all__ = ["cma_parameters", "cmaes"]

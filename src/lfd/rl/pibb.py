@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._checks import check_float
+from lfd.checks import check_float
+
 from .problem import PowerResult, Recorder, SearchProblem, check_common, check_variance_bounds
 
 __all__ = ["pibb"]

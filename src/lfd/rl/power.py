@@ -59,7 +59,8 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ._checks import check_float, check_int
+from lfd.checks import check_choice, check_float, check_int
+
 from .memory import keep_best
 from .problem import PowerHistory, PowerResult, Recorder, SearchProblem, check_common, check_variance_bounds
 
@@ -212,8 +213,7 @@ def power(
         result = power(dmp, ViaPointReward(t, t[len(t) // 2], point, goal=dmp.goal_), tol=0.01, seed=0)
         result.converged, result.rollouts
     """
-    if variant not in POWER_VARIANTS:
-        raise ValueError(f"variant must be one of {POWER_VARIANTS}, got {variant!r}")
+    check_choice(variant, "variant", POWER_VARIANTS)
     n_rollouts, max_iter = check_common(n_rollouts, max_iter)
     n_best = check_int(n_best, "n_best", minimum=1)
     sigma = check_float(sigma, "sigma", low=0.0)

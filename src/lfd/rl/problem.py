@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import as_finite_array, check_float, check_int, to_numpy
+from lfd.checks import check_float, check_int, finite_array, to_numpy
+
 from .rewards import limit_violation
 from .rollout import DMPRollout
 
@@ -133,9 +134,9 @@ class SearchProblem:
             raise ValueError(f"reward must be callable, got {type(reward).__name__}")
         self.rollout = DMPRollout(dmp, t=t, y0=y0)
         self.n_dof, self.n_basis = self.rollout.n_dof, self.rollout.n_basis
-        self.weights0 = as_finite_array(dmp.weights_ if weights is None else weights, "weights",
+        self.weights0 = finite_array(dmp.weights_ if weights is None else weights, "weights",
                                         shape=(self.n_dof, self.n_basis))  # fmt: skip
-        self.goal0 = as_finite_array(dmp.goal_ if goal is None else goal, "goal", shape=(self.n_dof,))
+        self.goal0 = finite_array(dmp.goal_ if goal is None else goal, "goal", shape=(self.n_dof,))
         self.reward = reward
         self.per_step_reward = getattr(reward, "per_step", None)
         self.reward_to_go = getattr(reward, "returns_to_go", None)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ._checks import as_finite_array, check_float, check_trajectories, to_numpy
+from lfd.checks import check_float, finite_array, to_numpy
 
 __all__ = [
     "JointGoalReward",
@@ -40,6 +40,15 @@ __all__ = [
     "limit_violation",
     "returns_from_distances",
 ]
+
+
+def check_trajectories(trajectories, name: str = "trajectories", *, n_dof: int | None = None) -> np.ndarray:
+    """A batch of joint trajectories ``(B, T, D)`` with ``B >= 1``, ``T >= 2`` (``D = n_dof`` when
+    given), as float64 without a copy; ``ValueError`` naming ``name`` otherwise."""
+    array = finite_array(trajectories, name, shape=(None, None, n_dof), copy=False)
+    if array.shape[0] < 1 or array.shape[1] < 2:
+        raise ValueError(f"{name} must have shape (B >= 1, T >= 2, D), got {array.shape}")
+    return array
 
 
 def returns_from_distances(distances, w1: float) -> np.ndarray:
@@ -96,7 +105,7 @@ class JointGoalReward:
     """
 
     def __init__(self, goal, w1: float = 0.99):
-        self.goal = as_finite_array(goal, "goal", ndim=1)
+        self.goal = finite_array(goal, "goal", ndim=1)
         self.w1 = check_float(w1, "w1", low=0.0, high=1.0)
 
     def _check(self, trajectories) -> np.ndarray:
@@ -136,7 +145,7 @@ class TaskGoalReward:
         if not callable(getattr(robot, "fk", None)):
             raise ValueError(f"robot must provide fk(q), got {type(robot).__name__}")
         self.robot = robot
-        self.target = as_finite_array(target, "target", shape=(3,))
+        self.target = finite_array(target, "target", shape=(3,))
         self.w1 = check_float(w1, "w1", low=0.0, high=1.0)
 
     def _fk_positions(self, joints: np.ndarray) -> np.ndarray:
@@ -182,7 +191,7 @@ class _CostReward:
 
 def _interpolation(t, t_via: float, name: str) -> tuple[int, float]:
     """Sample index ``i`` and fraction ``a`` with ``t_via = (1 - a) t[i] + a t[i + 1]``."""
-    t = as_finite_array(t, "t", ndim=1)
+    t = finite_array(t, "t", ndim=1)
     t_via = check_float(t_via, name)
     if t.size < 2 or np.any(np.diff(t) <= 0) or not t[0] <= t_via <= t[-1]:
         raise ValueError(f"{name} must lie within the strictly increasing time grid t [{t[0]}, {t[-1]}] s")
@@ -215,9 +224,9 @@ class ViaPointReward(_CostReward):
     def __init__(self, t, t_via: float, point, goal, width: float = 0.05):
         self.index, self.fraction = _interpolation(t, t_via, "t_via")
         self.n_steps = np.shape(t)[0]
-        self.point = as_finite_array(point, "point", ndim=1)
+        self.point = finite_array(point, "point", ndim=1)
         self.n_dof = self.point.shape[0]
-        self.goal = as_finite_array(goal, "goal", shape=(self.n_dof,))
+        self.goal = finite_array(goal, "goal", shape=(self.n_dof,))
         self.width = check_float(width, "width", low=0.0, strict_low=True)
 
     def _distances(self, trajectories: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -265,9 +274,9 @@ class ObstacleReward(_CostReward):
     """
 
     def __init__(self, centre, radius: float, goal, width: float = 0.05, points=None):
-        self.centre = as_finite_array(centre, "centre", ndim=1)
+        self.centre = finite_array(centre, "centre", ndim=1)
         self.radius = check_float(radius, "radius", low=0.0, strict_low=True)
-        self.goal = as_finite_array(goal, "goal", ndim=1)
+        self.goal = finite_array(goal, "goal", ndim=1)
         self.n_dof = self.goal.shape[0]
         if points is None and self.centre.shape[0] != self.n_dof:
             raise ValueError(

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._checks import as_finite_array
+from lfd.checks import finite_array
 
 __all__ = ["DMPRollout"]
 
@@ -56,8 +56,8 @@ class DMPRollout:
         self.n_dof, self.n_basis = np.shape(weights)
         if t is None:
             t = np.linspace(0.0, float(dmp.tau_), int(dmp.n_steps_))
-        self.t = as_finite_array(t, "t", ndim=1)
-        self.y0 = as_finite_array(dmp.y0_ if y0 is None else y0, "y0", shape=(self.n_dof,))
+        self.t = finite_array(t, "t", ndim=1)
+        self.y0 = finite_array(dmp.y0_ if y0 is None else y0, "y0", shape=(self.n_dof,))
         unit = np.zeros((self.n_basis + 1, self.n_dof, self.n_basis))
         unit[np.arange(1, self.n_basis + 1), :, np.arange(self.n_basis)] = 1.0
         zero = np.zeros(self.n_dof)
@@ -103,7 +103,7 @@ class DMPRollout:
             ``(D, K)`` non-negative scales (zero only for a goal-scaled DoF with ``g == y0``
             and ``floor == 0``).
         """
-        goal = as_finite_array(goal, "goal", shape=(self.n_dof,))
+        goal = finite_array(goal, "goal", shape=(self.n_dof,))
         per_basis = np.abs(self.forced).max(axis=0)
         if not self.goal_scaled:
             return np.broadcast_to(per_basis, (self.n_dof, self.n_basis)).copy()

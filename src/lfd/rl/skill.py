@@ -22,8 +22,9 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ._checks import as_finite_array, check_float, check_trajectories, to_numpy
-from .rewards import _CostReward, _interpolation
+from lfd.checks import check_choice, check_float, finite_array, to_numpy
+
+from .rewards import _CostReward, _interpolation, check_trajectories
 
 __all__ = ["SKILL_TASKS", "SkillReward"]
 
@@ -64,15 +65,14 @@ class SkillReward(_CostReward):
         shape_weight: float = 1.0,
         shape_scale: float = 0.1,
     ):
-        if task not in SKILL_TASKS:
-            raise ValueError(f"task must be one of {SKILL_TASKS}, got {task!r}")
+        check_choice(task, "task", SKILL_TASKS)
         if not callable(getattr(robot, "fk", None)):
             raise ValueError(f"robot must provide fk(q), got {type(robot).__name__}")
         self.robot, self.task = robot, task
-        self.target = as_finite_array(target, "target", shape=(3,))
-        self.reference = as_finite_array(reference, "reference", ndim=2)
+        self.target = finite_array(target, "target", shape=(3,))
+        self.reference = finite_array(reference, "reference", ndim=2)
         self.n_steps, self.n_dof = self.reference.shape
-        t = as_finite_array(t, "t", shape=(self.n_steps,))
+        t = finite_array(t, "t", shape=(self.n_steps,))
         self.index, self.fraction = _interpolation(
             t, 0.5 * (t[0] + t[-1]) if t_via is None else t_via, "t_via"
         )

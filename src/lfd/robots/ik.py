@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from torch import Tensor
 
-from ._checks import as_batch
+from .batch import as_batch
 
 if TYPE_CHECKING:
     from .robot import Robot

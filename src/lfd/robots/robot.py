@@ -32,7 +32,7 @@ from torch import Tensor
 
 from lfd.io.files import write_text_atomic
 
-from ._checks import as_batch
+from .batch import as_batch
 from .ik import IKResult, solve_ik
 from .kernel import ChainProgram
 from .spec import RobotSpec, frame_with_z_axis

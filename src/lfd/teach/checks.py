@@ -1,6 +1,6 @@
 """Checks of a teach session: argument vectors, joint limits, swept collisions, the scene.
 
-* :func:`check_vector`: a user-given vector (position, joint angles) as finite floats.
+* :func:`check_vector` (from :mod:`lfd.checks`): a user-given vector (position, joint angles) as finite floats.
 * :func:`check_joint_limits`: the sliders' configuration within the joint limits.
 * :func:`sweep`: a move is collision-checked along its straight joint-space segment, not
   only at its end, so one update cannot jump through a thin obstacle.
@@ -13,33 +13,16 @@ Every failure raises ``ValueError`` naming the offending field or joint.
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
+from lfd.checks import check_vector
 from lfd.robots import Robot
 from lfd.sim.collision import CollisionReport, CollisionWorld
 
 from .scene import TeachScene
 
 __all__ = ["check_joint_limits", "check_vector", "sweep", "validate_scene"]
-
-
-def check_vector(x: Any, length: int, name: str) -> np.ndarray:
-    """``x`` as a finite float ``(length,)`` array.
-
-    Raises:
-        ValueError: not numbers, wrong shape, NaN or inf (``name`` in the message).
-    """
-    try:
-        arr = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be {length} numbers, got {x!r}") from None
-    if arr.shape != (length,):
-        raise ValueError(f"{name} must have shape ({length},), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contains NaN or inf: {arr.tolist()}")
-    return arr
 
 
 def check_joint_limits(robot: Robot, q: np.ndarray) -> None:

@@ -1,4 +1,9 @@
-"""Input validation shared by the robots package."""
+"""Joint-space batches as tensors: the one conversion every batched method of :mod:`lfd.robots`
+(FK, Jacobian, dynamics, IK) runs its ``(B, n)`` inputs through.
+
+It follows the caller's tensor (dtype and device), which the numpy-only checks of :mod:`lfd.checks`
+cannot; its messages have their form (``"q must have shape (B, 7) for robot 'sawyer', got (3, 6)"``,
+``"q contains NaN or inf"``)."""
 
 from __future__ import annotations
 
