@@ -99,7 +99,8 @@ from .dual_cartesian import DualCartesianDMP, RelativePoseCoupling
 from .final_velocity import FinalVelocityDMP
 from .fitting import DEFAULT_RIDGE
 from .formulation import DEFAULT_FORMULATION, FORMULATIONS
-from .functional import DiscreteGains, Gains, clear_caches, rollout_batch
+from .functional import clear_caches, rollout_batch
+from .gains import DiscreteGains, Gains
 from .layer import DMPLayer
 from .promp import ProMP
 from .rhythmic import RhythmicDMP

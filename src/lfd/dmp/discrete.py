@@ -9,7 +9,6 @@ import torch
 
 from lfd import checks
 
-from . import transform
 from ._base import Primitive
 from .canonical import discrete_activations, discrete_phase
 from .fitting import (
@@ -21,8 +20,9 @@ from .fitting import (
     lwr_weights,
 )
 from .formulation import DEFAULT_FORMULATION, check_formulation, unscale_weights
-from .functional import DiscreteGains, cached_trajectory_fit, grid_key, rollout_with_gains
-from .stepping import advance, integrate
+from .functional import cached_trajectory_fit, grid_key, rollout_with_gains
+from .gains import DiscreteGains
+from .stepping import advance, coupled_rollout
 
 __all__ = ["DMP", "FIT_METHODS"]
 
@@ -247,7 +247,19 @@ class DMP(Primitive):
         if yd0 is None and self.is_fitted and np.any(self.yd0_ != 0):
             yd0 = self.yd0_
         if coupling:
-            return self._coupled_rollout(times, y0, goal, tau, weights, yd0, coupling, return_derivatives)
+            return coupled_rollout(
+                times,
+                y0,
+                goal,
+                tau,
+                weights,
+                yd0,
+                coupling,
+                return_derivatives,
+                n_basis=self.n_basis,
+                gains=self.gains,
+                formulation=self.formulation,
+            )
         return rollout_with_gains(
             y0,
             goal,
@@ -259,36 +271,6 @@ class DMP(Primitive):
             formulation=self.formulation,
             yd0=yd0,
         )
-
-    def _coupled_rollout(self, times, y0, goal, tau, weights, yd0, coupling, return_derivatives):
-        """Step-wise rollout with coupling terms (numpy in/out), same grid refinement as the closed form."""
-        if isinstance(tau, torch.Tensor) or any(
-            isinstance(x, torch.Tensor) for x in (y0, goal, weights, yd0)
-        ):
-            raise ValueError("coupling terms need numpy inputs (the coupled rollout is not differentiable)")
-        arrays = {"y0": (y0, (1, 2)), "goal": (goal, (1, 2)), "weights": (weights, (2, 3))}
-        if yd0 is not None:
-            arrays["yd0"] = (yd0, (1, 2))
-        values = {name: checks.finite_array(x, name, ndim=dims) for name, (x, dims) in arrays.items()}
-        tau = checks.positive_float(float(tau), "tau")
-        positions, velocities = integrate(
-            times - times[0],
-            y0=values["y0"],
-            goal=values["goal"],
-            weights=values["weights"],
-            tau=tau,
-            yd0=values.get("yd0"),
-            n_basis=self.n_basis,
-            gains=self.gains,
-            formulation=self.formulation,
-            coupling=coupling,
-            substeps=transform.grid_substeps(torch.from_numpy(times / tau)),
-        )
-        if not return_derivatives:
-            return positions
-        if times.shape[0] < 3:
-            raise ValueError("return_derivatives with coupling needs at least 3 samples")
-        return positions, velocities, np.gradient(velocities, times, axis=-2, edge_order=2)
 
     def step(
         self, state, dt: float, goal=None, *, y0=None, tau=None, weights=None, coupling=(), substeps: int = 1

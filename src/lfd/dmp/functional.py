@@ -8,7 +8,6 @@ repeated calls cost a few small matrix products and no Python loop over the batc
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -20,52 +19,11 @@ from lfd import checks
 from .canonical import discrete_features
 from .fitting import DEFAULT_RIDGE, TrajectoryFit
 from .formulation import DEFAULT_FORMULATION, check_formulation, scale_weights
+from .gains import DiscreteGains
+from .stepping import coupled_rollout
 from .transform import RolloutOperator, build_refined_operator
 
-__all__ = ["DiscreteGains", "Gains", "clear_caches", "discrete_operator", "rollout_batch"]
-
-
-@dataclass(frozen=True)
-class Gains:
-    """Transformation-system gains and basis overlap (all dimensionless).
-
-    Attributes:
-        alpha_z: damping gain of the transformation system.
-        beta_z: spring gain (``alpha_z / 4``: critically damped).
-        overlap: activation of a basis at its neighbour's centre, in ``(0, 1)``.
-    """
-
-    alpha_z: float
-    beta_z: float
-    overlap: float
-
-    @staticmethod
-    def _common(alpha_z, beta_z, overlap) -> dict:
-        alpha_z = checks.positive_float(alpha_z, "alpha_z")
-        return {
-            "alpha_z": alpha_z,
-            "beta_z": checks.positive_float(alpha_z / 4.0 if beta_z is None else beta_z, "beta_z"),
-            "overlap": checks.unit_interval(overlap, "overlap"),
-        }
-
-    @classmethod
-    def resolve(cls, alpha_z=25.0, beta_z=None, overlap=0.8) -> Gains:
-        """Validated gains; ``beta_z`` defaults to ``alpha_z / 4``."""
-        return cls(**cls._common(alpha_z, beta_z, overlap))
-
-
-@dataclass(frozen=True)
-class DiscreteGains(Gains):
-    """:class:`Gains` plus ``alpha_s``, the canonical-system decay (``s(tau) = exp(-alpha_s)``)."""
-
-    alpha_s: float
-
-    @classmethod
-    def resolve(cls, alpha_z=25.0, beta_z=None, alpha_s=None, overlap=0.8) -> DiscreteGains:
-        """Validated gains; ``beta_z`` defaults to ``alpha_z / 4``, ``alpha_s`` to ``alpha_z / 3``."""
-        common = cls._common(alpha_z, beta_z, overlap)
-        alpha_s = checks.positive_float(common["alpha_z"] / 3.0 if alpha_s is None else alpha_s, "alpha_s")
-        return cls(**common, alpha_s=alpha_s)
+__all__ = ["clear_caches", "discrete_operator", "rollout_batch"]
 
 
 def discrete_operator(t: Tensor, tau: Tensor, n_basis: int, gains: DiscreteGains) -> RolloutOperator:
@@ -359,12 +317,20 @@ def rollout_batch(
             raise ValueError("tau is required when the time grid has a single sample")
         tau = times[-1] - times[0]
     if coupling:
-        from .discrete import DMP  # the coupled rollout lives with the estimator (step-wise integration)
-
-        dmp = DMP(
-            np.shape(weights)[-1], gains.alpha_z, gains.beta_z, gains.alpha_s, gains.overlap, formulation
+        n_basis = checks.positive_int(np.shape(weights)[-1], "n_basis")
+        return coupled_rollout(
+            times,
+            y0,
+            goal,
+            tau,
+            weights,
+            yd0,
+            coupling,
+            return_derivatives,
+            n_basis=n_basis,
+            gains=gains,
+            formulation=formulation,
         )
-        return dmp.rollout(times, y0, goal, tau, weights, return_derivatives, yd0=yd0, coupling=coupling)
     return rollout_with_gains(
         y0, goal, weights, times, tau, gains, return_derivatives, formulation=formulation, yd0=yd0
     )

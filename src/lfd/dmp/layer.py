@@ -10,7 +10,8 @@ from torch import Tensor, nn
 from lfd import checks
 
 from .formulation import DEFAULT_FORMULATION, check_formulation
-from .functional import DiscreteGains, discrete_rollout, operator_for, time_grid
+from .functional import discrete_rollout, operator_for, time_grid
+from .gains import DiscreteGains
 from .transform import RolloutOperator
 
 __all__ = ["DMPLayer"]

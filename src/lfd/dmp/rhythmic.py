@@ -22,7 +22,8 @@ from .fitting import (
     forcing_target,
     lwr_weights,
 )
-from .functional import Gains, evaluate
+from .functional import evaluate
+from .gains import Gains
 from .transform import RolloutOperator, build_refined_operator
 
 __all__ = ["RhythmicDMP", "rhythmic_operator"]

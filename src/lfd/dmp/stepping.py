@@ -29,10 +29,10 @@ from lfd import checks
 
 from .canonical import discrete_centres, discrete_widths
 from .formulation import scale_weights
-from .functional import DiscreteGains
-from .transform import _hold_gains, transition
+from .gains import DiscreteGains
+from .transform import _hold_gains, grid_substeps, transition
 
-__all__ = ["DMPRunner", "DMPState", "advance", "integrate"]
+__all__ = ["DMPRunner", "DMPState", "advance", "coupled_rollout", "integrate"]
 
 
 @dataclass(frozen=True)
@@ -196,6 +196,59 @@ def integrate(
         positions.append(state.y)
         velocities.append(state.yd)
     return np.stack(positions, axis=-2), np.stack(velocities, axis=-2)
+
+
+def coupled_rollout(
+    times: np.ndarray,
+    y0,
+    goal,
+    tau,
+    weights,
+    yd0,
+    coupling,
+    return_derivatives: bool,
+    *,
+    n_basis: int,
+    gains: DiscreteGains,
+    formulation: str,
+):
+    """The rollout of :meth:`lfd.dmp.DMP.rollout` and :func:`lfd.dmp.rollout_batch` with coupling terms.
+
+    Integrated step-wise (:func:`integrate`) on the validated grid ``times`` ``(T,)`` (seconds,
+    the motion starting at ``times[0]``), refined like the closed form
+    (:func:`lfd.dmp.transform.grid_substeps`); numpy in and out, vectorised over the batch.
+    Returns positions ``(..., T, D)``, or with ``return_derivatives`` also velocities (units/s)
+    and accelerations (units/s^2, by finite differences).
+
+    Raises:
+        ValueError: a tensor input (the coupled rollout is not differentiable), bad shapes,
+            NaN/inf, ``tau <= 0``, or fewer than 3 samples with ``return_derivatives``.
+    """
+    if isinstance(tau, torch.Tensor) or any(isinstance(x, torch.Tensor) for x in (y0, goal, weights, yd0)):
+        raise ValueError("coupling terms need numpy inputs (the coupled rollout is not differentiable)")
+    arrays = {"y0": (y0, (1, 2)), "goal": (goal, (1, 2)), "weights": (weights, (2, 3))}
+    if yd0 is not None:
+        arrays["yd0"] = (yd0, (1, 2))
+    values = {name: checks.finite_array(x, name, ndim=dims) for name, (x, dims) in arrays.items()}
+    tau = checks.positive_float(float(tau), "tau")
+    positions, velocities = integrate(
+        times - times[0],
+        y0=values["y0"],
+        goal=values["goal"],
+        weights=values["weights"],
+        tau=tau,
+        yd0=values.get("yd0"),
+        n_basis=n_basis,
+        gains=gains,
+        formulation=formulation,
+        coupling=coupling,
+        substeps=grid_substeps(torch.from_numpy(times / tau)),
+    )
+    if not return_derivatives:
+        return positions
+    if times.shape[0] < 3:
+        raise ValueError("return_derivatives with coupling needs at least 3 samples")
+    return positions, velocities, np.gradient(velocities, times, axis=-2, edge_order=2)
 
 
 class DMPRunner:

@@ -22,7 +22,7 @@ returned with ``success = False`` and the residual of their best attempt.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 import torch
@@ -30,16 +30,47 @@ from torch import Tensor
 
 from .batch import as_batch
 
-if TYPE_CHECKING:
-    from .robot import Robot
-
-__all__ = ["IKResult", "rotation_log", "solve_ik", "solve_near"]
+__all__ = ["IKResult", "Kinematic", "rotation_log", "solve_ik", "solve_near"]
 
 _LAMBDA_INIT = 1e-2
 _LAMBDA_MIN = 1e-9
 _LAMBDA_MAX = 1e6
 _LAMBDA_DOWN = 0.3
 _LAMBDA_UP = 10.0
+
+
+class Kinematic(Protocol):
+    """What the solvers need of a robot (:class:`lfd.robots.Robot` is one): its name, ``n_dof``
+    joints with limits ``lower``/``upper`` (rad, ``(n,)``), the ``continuous`` mask and ``home``
+    configuration, the tool pose and geometric Jacobian of a batch, clamping into the limits and
+    uniform sampling within them."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def n_dof(self) -> int: ...
+
+    @property
+    def lower(self) -> Tensor: ...
+
+    @property
+    def upper(self) -> Tensor: ...
+
+    @property
+    def continuous(self) -> Tensor: ...
+
+    @property
+    def home(self) -> Tensor: ...
+
+    def kinematics(self, q) -> tuple[Tensor, Tensor]:
+        """Tool poses ``(B, 4, 4)`` and Jacobians ``(B, 6, n)`` of ``q (B, n)``."""
+
+    def clamp(self, q) -> Tensor:
+        """``q (B, n)`` moved into the joint limits."""
+
+    def sample_q(self, batch_size: int, generator=None, dtype=torch.float64, device="cpu") -> Tensor:
+        """``(batch_size, n)`` configurations uniform within the limits."""
 
 
 @dataclass(frozen=True)
@@ -88,7 +119,7 @@ def rotation_log(rotation: Tensor) -> Tensor:
     return torch.where((cos > 0)[:, None], small, large)
 
 
-def _residual(robot: Robot, q: Tensor, t_pos: Tensor, t_rot: Tensor | None) -> tuple[Tensor, Tensor]:
+def _residual(robot: Kinematic, q: Tensor, t_pos: Tensor, t_rot: Tensor | None) -> tuple[Tensor, Tensor]:
     """Error ``(A, m)`` and Jacobian ``(A, m, n)``, m = 6 (pose) or 3 (position)."""
     pose, jac = robot.kinematics(q)
     e_pos = t_pos - pose[:, :3, 3]
@@ -122,7 +153,7 @@ def _score(err: Tensor, tol_pos: float, tol_rot: float) -> Tensor:
 
 
 def _attempt(
-    robot: Robot,
+    robot: Kinematic,
     q: Tensor,
     group: Tensor,
     t_pos: Tensor,
@@ -188,7 +219,7 @@ def _targets(target) -> tuple[Tensor, Tensor | None]:
 
 
 def solve_ik(
-    robot: Robot,
+    robot: Kinematic,
     target,
     q0=None,
     *,
@@ -273,7 +304,7 @@ def solve_ik(
     )
 
 
-def solve_near(robot: Robot, poses, reference, n_seeds: int = 16, seed: int = 0) -> IKResult:
+def solve_near(robot: Kinematic, poses, reference, n_seeds: int = 16, seed: int = 0) -> IKResult:
     """Full-pose IK of each target, choosing among several seeds the solution nearest ``reference``.
 
     Seeds per target: ``reference`` itself, half of the rest near it (Gaussian, 0.3 rad) and

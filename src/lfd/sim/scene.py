@@ -33,8 +33,8 @@ import pybullet as p
 from lfd.sim.approach import TABLE_Z
 from lfd.sim.camera import Camera
 from lfd.sim.collision import overlapping_link_pairs
+from lfd.sim.joints import ArmJoints
 from lfd.sim.objects import ObjectSpec, Placement
-from lfd.sim.tracking import ArmJoints
 
 #: Table extent (m) in the torso frame: x from ``TABLE_X[0]`` to ``TABLE_X[1]``, y symmetric.
 TABLE_X = (0.35, 0.95)

@@ -13,9 +13,9 @@ One tracker, :func:`track_trajectory`, drives every replay of a joint trajectory
 A *world* is any object with ``set_joints(q)``, ``command(q, qd)``, ``step_physics(k)``,
 ``joint_state()``, ``tool_position()`` (and ``render()`` when frames are asked for):
 :class:`ArmWorld` (the arm alone) or :class:`~lfd.sim.scene.ReachScene` (arm, table,
-object). Joints are driven by :func:`command_joints`: position control towards the target
-with optional velocity feed-forward, the torque capped at the joint's force limit and the
-speed at its velocity limit. Units: rad, rad/s, s, m.
+object). Joints are driven by :func:`lfd.sim.joints.command_joints`: position control towards
+the target with optional velocity feed-forward, the torque capped at the joint's force limit and
+the speed at its velocity limit. Units: rad, rad/s, s, m.
 
 Example::
 
@@ -41,6 +41,9 @@ from typing import Any
 
 import numpy as np
 import pybullet as p
+
+from lfd.sim.joints import ArmJoints, command_joints
+from lfd.sim.scene import ReachScene
 
 __all__ = [
     "ArmWorld",
@@ -71,89 +74,6 @@ class TrackedPath:
     tool_final: np.ndarray
     clipped_samples: int
     images: tuple = ()
-
-
-def command_joints(
-    client: int,
-    body: int,
-    target: np.ndarray,
-    velocity: np.ndarray | None,
-    forces: np.ndarray,
-    max_velocities: np.ndarray,
-    position_gain: float | None = None,
-    velocity_gain: float | None = None,
-) -> None:
-    """Position control of joints ``0..n-1`` of ``body`` towards ``target (n,)`` rad.
-
-    ``velocity (n,)`` rad/s is the feed-forward (clipped to ``max_velocities``; None: none
-    given, PyBullet's default 0); ``forces (n,)`` N m cap the motor torques; a finite
-    ``max_velocities[j]`` caps joint ``j``'s speed. Gains None keep PyBullet's defaults.
-    Takes effect at the next physics step.
-    """
-    if velocity is not None:
-        velocity = np.clip(velocity, -max_velocities, max_velocities)
-    for j in range(len(target)):
-        kw: dict[str, float] = {}
-        if velocity is not None:
-            kw["targetVelocity"] = float(velocity[j])
-        if np.isfinite(max_velocities[j]):
-            kw["maxVelocity"] = float(max_velocities[j])
-        if position_gain is not None:
-            kw["positionGain"] = position_gain
-        if velocity_gain is not None:
-            kw["velocityGain"] = velocity_gain
-        p.setJointMotorControl2(
-            body,
-            j,
-            p.POSITION_CONTROL,
-            targetPosition=float(target[j]),
-            force=float(forces[j]),
-            physicsClientId=client,
-            **kw,
-        )
-
-
-class ArmJoints:
-    """The joint motors and joint state of one arm body in a PyBullet client, shared by every world
-    that holds an arm (:class:`ArmWorld`, :class:`lfd.sim.scene.ReachScene`).
-
-    A subclass sets ``client``, ``n_joints``, ``forces`` and ``max_velocities`` ``(n_joints,)``,
-    ``position_gain`` and ``velocity_gain`` (None: PyBullet's defaults) and the attribute named by
-    ``_arm_body`` that holds the arm's body id.
-    """
-
-    _arm_body = "body"
-
-    def command(self, q: np.ndarray, qd: np.ndarray | None = None) -> None:
-        """Command the joints towards ``q (n,)`` rad (feed-forward ``qd (n,)`` rad/s) within the limits
-        (:func:`command_joints`)."""
-        command_joints(
-            self.client,
-            getattr(self, self._arm_body),
-            q,
-            qd,
-            self.forces,
-            self.max_velocities,
-            self.position_gain,
-            self.velocity_gain,
-        )
-
-    def step_physics(self, steps: int = 1) -> None:
-        """Advance the physics ``steps`` steps."""
-        for _ in range(steps):
-            p.stepSimulation(physicsClientId=self.client)
-
-    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """Joint positions and velocities, each ``(n_joints,)`` float64."""
-        body = getattr(self, self._arm_body)
-        states = p.getJointStates(body, list(range(self.n_joints)), physicsClientId=self.client)
-        return np.array([s[0] for s in states]), np.array([s[1] for s in states])
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
 
 class ArmWorld(ArmJoints):
@@ -326,8 +246,6 @@ def replay_in_pybullet(
     feed-forward (``np.gradient``), ``substeps`` physics steps per sample, hold the last
     sample for ``settle_steps`` periods, and return the final tool position ``(3,)`` (m,
     robot base frame)."""
-    from lfd.sim.scene import ReachScene
-
     velocity = np.gradient(trajectory, dt, axis=0)
     steps = [0] + [substeps] * (len(trajectory) - 1)
     with ReachScene(robot, image_size=8, control_dt=dt, substeps=substeps) as scene:
