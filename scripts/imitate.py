@@ -9,7 +9,8 @@ Usage::
     python scripts/imitate.py source=outputs/teach/export/demo-20261205-101500 robot=wam4
     python scripts/imitate.py source=arm.bag robot=wam4 refine.task=reach refine.target=[0.4,0.2,0.1]
 
-Composes ``configs/imitate.yaml`` and runs :func:`lfd.imitation.run` (source -> arm analysis and
+Composes ``configs/imitate.yaml``, turns it into :class:`lfd.imitation.ImitationSettings` (every value
+checked once) and runs :func:`lfd.imitation.run` (source -> arm analysis and
 retargeting for people -> time-scaled DMP -> optional policy-search refinement -> PyBullet) in the
 Hydra run directory: ``dmp.json``, ``robot_trajectory.csv``, ``robot_trajectory.bag``,
 ``summary.json``, ``refinement.png`` when refining; for people ``arm.csv``/``arm.mot``/``arm.json``;
@@ -24,13 +25,21 @@ import sys
 from pathlib import Path
 
 import hydra
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
-from lfd.imitation import run
+from lfd.imitation import ImitationSettings, run
+from lfd.imitation.settings import ENTRY_POINT_KEYS
 
 CONFIGS = str(Path(__file__).resolve().parents[1] / "configs")
 
-__all__ = ["main", "run"]
+__all__ = ["main", "run", "settings_of"]
+
+
+def settings_of(cfg: DictConfig) -> ImitationSettings:
+    """The composed config's pipeline keys as :class:`ImitationSettings` (interpolations resolved; the
+    entry point's own keys, ``paths`` and ``task_name``, left out). Raises ``ValueError`` on a bad value."""
+    pipeline = OmegaConf.masked_copy(cfg, [k for k in cfg if k not in ENTRY_POINT_KEYS])
+    return ImitationSettings.from_mapping(OmegaConf.to_container(pipeline, resolve=True))
 
 
 @hydra.main(version_base="1.3", config_path=CONFIGS, config_name="imitate")
@@ -38,7 +47,7 @@ def main(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
     try:
-        run(cfg, HydraConfig.get().runtime.output_dir)
+        run(settings_of(cfg), HydraConfig.get().runtime.output_dir)
     except (ValueError, FileNotFoundError, FileExistsError) as e:
         print(f"imitate: {e}", file=sys.stderr)
         raise SystemExit(2) from None

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
 
 import lfd.imitation
-from lfd.imitation import basis_count
+from lfd.imitation import ImitationSettings, basis_count
+from lfd.imitation.settings import DMPSettings
 from lfd.robots import load_robot
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -18,23 +18,23 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def _cfg(*overrides):
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
-        return compose(
-            config_name="imitate", overrides=["outputs.video=false", "outputs.gif=false", *overrides]
+        return ImitationSettings.from_mapping(
+            compose(config_name="imitate", overrides=["outputs.video=false", "outputs.gif=false", *overrides])
         )
 
 
 def test_basis_count_grows_with_duration_and_rejects_bad_values():
-    auto = SimpleNamespace(n_basis="auto", get={"basis_per_second": 10.0, "min_basis": 30}.get)
+    auto = DMPSettings(n_basis="auto", basis_per_second=10.0, min_basis=30)
     assert basis_count(auto, 2.0) == 30  # short clips keep the minimum
     assert basis_count(auto, 16.2) == 162
-    assert basis_count(SimpleNamespace(n_basis=25), 100.0) == 25
+    assert basis_count(DMPSettings(n_basis=25), 100.0) == 25
     for bad in (0, -3, "many", 2.5, True):
         with pytest.raises(ValueError, match="dmp.n_basis must be a positive integer or 'auto'"):
-            basis_count(SimpleNamespace(n_basis=bad), 1.0)
+            DMPSettings(n_basis=bad)
     with pytest.raises(ValueError, match="dmp.basis_per_second must be > 0"):
-        basis_count(SimpleNamespace(n_basis="auto", get={"basis_per_second": -1.0}.get), 1.0)
+        DMPSettings(basis_per_second=-1.0)
     with pytest.raises(ValueError, match="dmp.n_basis"):
-        lfd.imitation.check_config(_cfg("dmp.n_basis=zero"))
+        _cfg("dmp.n_basis=zero")
 
 
 def test_a_long_recording_of_repetitions_is_followed(tmp_path):

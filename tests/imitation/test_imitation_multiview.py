@@ -11,6 +11,7 @@ import pytest
 from hydra import compose, initialize_config_dir
 
 import lfd.imitation
+from lfd.imitation import ImitationSettings
 from lfd.imitation.multiview import match_views
 from lfd.imitation.sources import detect_source_type
 
@@ -19,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def _cfg(overrides):
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
-        return compose(config_name="imitate", overrides=overrides)
+        return ImitationSettings.from_mapping(compose(config_name="imitate", overrides=overrides))
 
 
 @pytest.mark.slow

@@ -11,6 +11,7 @@ from hydra import compose, initialize_config_dir
 
 import lfd.imitation
 from lfd.human.retarget import retarget_wrist_path
+from lfd.imitation import ImitationSettings
 from lfd.imitation.pipeline import fill_missing
 from lfd.robots import load_robot
 
@@ -29,8 +30,8 @@ ABDUCTION = (
 
 def _cfg(*overrides):
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
-        return compose(
-            config_name="imitate", overrides=["outputs.video=false", "outputs.gif=false", *overrides]
+        return ImitationSettings.from_mapping(
+            compose(config_name="imitate", overrides=["outputs.video=false", "outputs.gif=false", *overrides])
         )
 
 

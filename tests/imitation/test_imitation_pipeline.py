@@ -2,28 +2,23 @@
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
 
 import lfd.imitation
 from lfd.dmp import DMP
+from lfd.imitation import ImitationSettings
+from lfd.imitation.settings import DMPSettings, OutputSettings, SimSettings
 from lfd.robots import load_robot
 
 
 def _cfg(**over):
-    cfg = SimpleNamespace(
-        robot="wam4",
-        side="right",
-        goal=None,
-        dmp=SimpleNamespace(n_basis=20),
-        sim=SimpleNamespace(rate=240, position_gain=0.3, velocity_gain=1.0, image_size=[32, 32]),
-        outputs=SimpleNamespace(video=False, gif=False, gif_frames=5),
+    return ImitationSettings(
+        dmp=DMPSettings(n_basis=20),
+        sim=SimSettings(image_size=(32, 32)),
+        outputs=OutputSettings(video=False, gif=False, gif_frames=5),
+        **over,
     )
-    for k, v in over.items():
-        setattr(cfg, k, v)
-    return cfg
 
 
 def test_fill_missing_interpolates_inside_and_drops_the_ends():
@@ -56,6 +51,6 @@ def test_fit_dmp_then_execute_keep_the_robot_limits(tmp_path):
 
 def test_config_errors():
     with pytest.raises(ValueError, match="robot must be one of"):
-        lfd.imitation.check_config(_cfg(robot="ur5"))
+        _cfg(robot="ur5")
     with pytest.raises(ValueError, match="side must be"):
-        lfd.imitation.check_config(_cfg(side="middle"))
+        _cfg(side="middle")

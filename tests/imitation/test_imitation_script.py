@@ -27,8 +27,9 @@ def _script():
 
 
 def _cfg(overrides):
+    """The settings scripts/imitate.py builds from the composed config and ``overrides``."""
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
-        return compose(config_name="imitate", overrides=overrides)
+        return _script().settings_of(compose(config_name="imitate", overrides=overrides))
 
 
 def test_imitate_wam_on_real_video(sports2d_video, mediapipe_ok, tmp_path):
@@ -78,7 +79,7 @@ def test_imitate_input_errors(tmp_path):
     script = _script()
     junk = tmp_path / "junk.mp4"
     junk.write_bytes(b"not a video" * 50)
-    with pytest.raises(ValueError, match="robot must be one of"):
+    with pytest.raises(ValueError, match="robot must be one of pr2_right_arm, sawyer, wam4, got 'ur5'"):
         script.run(_cfg([f"video={junk}", "robot=ur5"]), tmp_path)
     with pytest.raises(ValueError, match="cannot be decoded"):
         script.run(_cfg([f"video={junk}"]), tmp_path)

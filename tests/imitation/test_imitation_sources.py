@@ -17,6 +17,7 @@ from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
 import lfd.imitation
+from lfd.imitation import ImitationSettings
 from lfd.imitation.sources import detect_source_type
 from lfd.robots import load_robot
 
@@ -27,7 +28,7 @@ QUIET = ["outputs.video=false", "outputs.gif=false"]
 
 def _cfg(*overrides):
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
-        return compose(config_name="imitate", overrides=[*QUIET, *overrides])
+        return ImitationSettings.from_mapping(compose(config_name="imitate", overrides=[*QUIET, *overrides]))
 
 
 def _run(tmp_path, *overrides):

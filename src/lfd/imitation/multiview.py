@@ -1,6 +1,6 @@
 """The ``multiview`` source: several synchronised, calibrated videos of one person -> one 3-D skeleton.
 
-Per view, MediaPipe keypoints (:func:`lfd.human.video.estimate_keypoints`, the ``cfg.pose`` options);
+Per view, MediaPipe keypoints (:func:`lfd.human.video.estimate_keypoints`, the ``settings.pose`` options);
 then, over the views, the left/right labels are reconciled and views showing someone else left out
 (:func:`lfd.human.multiview.reconcile_left_right`), and every landmark is triangulated by confidence-
 weighted DLT, dropping the views that disagree (:func:`lfd.human.multiview.triangulate`). The result
@@ -13,9 +13,10 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
+
+from .settings import ImitationSettings
 
 __all__ = ["estimate_multiview", "match_views"]
 
@@ -41,11 +42,11 @@ def match_views(videos: Sequence[str | os.PathLike], camera_names: Sequence[str]
     return paths
 
 
-def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path):
-    """Triangulated skeleton of ``videos`` with ``cfg.calibration`` (``.qca.txt``, ``.toml`` or ``.json``).
+def estimate_multiview(settings: ImitationSettings, videos: Sequence[str | os.PathLike], out: Path):
+    """Triangulated skeleton of ``videos`` with ``settings.calibration`` (``.qca.txt``, ``.toml`` or ``.json``).
 
-    Options: ``cfg.pose`` (width, stride, max_frames, model, heavy_model, min_visibility) and
-    ``cfg.multiview``: ``max_error_px`` (views disagreeing more are dropped per joint and frame),
+    Options: ``settings.pose`` (width, stride, max_frames, model, heavy_model, min_visibility) and
+    ``settings.multiview``: ``max_error_px`` (views disagreeing more are dropped per joint and frame),
     ``other_person_px`` (null: every view shows the person), ``up`` (the world frame's up vector).
     Writes ``out/keypoints_<camera>.npz`` per view. The views are taken as synchronised: frame ``k``
     of every view is one instant (view 1's times); the shortest view sets the length.
@@ -56,7 +57,7 @@ def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path)
 
     Raises:
         ValueError: no ``calibration``, fewer than 2 videos, not one video per camera, a malformed
-            calibration, an undecodable video, a bad ``up``.
+            calibration, an undecodable video.
         FileNotFoundError: a missing video or calibration file.
     """
     from lfd.human import Skeleton
@@ -64,9 +65,7 @@ def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path)
     from lfd.human.video import estimate_keypoints
     from lfd.human.video.landmarks import ALL_LEFT, ALL_RIGHT, CANONICAL_NAMES, LEFT_RIGHT_GROUPS
 
-    from .pipeline import pose_options
-
-    if cfg.get("calibration") is None:
+    if settings.calibration is None:
         raise ValueError(
             "calibration: a multiview source needs the cameras' calibration file "
             "(calibration=<.qca.txt | .toml | .json>)"
@@ -74,21 +73,19 @@ def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path)
     for v in videos:
         if not Path(str(v)).is_file():
             raise FileNotFoundError(f"source: no video at {v}")
-    calib = read_calibration(str(cfg.calibration))
+    calib = read_calibration(settings.calibration)
     paths = match_views(videos, calib.names)
-    mv = cfg.multiview
-    up = np.asarray(list(mv.up), float)
-    if up.shape != (3,) or not np.isfinite(up).all() or np.linalg.norm(up) < 1e-9:
-        raise ValueError(f"multiview.up must be a non-zero vector [x, y, z], got {list(mv.up)}")
+    mv = settings.multiview
+    up = np.asarray(mv.up, float)
     kps = []
     for name, path in zip(calib.names, paths):
-        kp = estimate_keypoints(path, **pose_options(cfg))
+        kp = estimate_keypoints(path, **settings.pose.estimator_options())
         kp.save(out / f"keypoints_{name}.npz")
         kps.append(kp)
     T = min(k.n_frames for k in kps)
     pixels = np.stack([k.pixels[:T] for k in kps])
     conf = np.stack([k.visibility[:T] for k in kps])
-    other_px = mv.get("other_person_px")
+    other_px = mv.other_person_px
     labels = reconcile_left_right(
         calib,
         pixels,
@@ -101,7 +98,7 @@ def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path)
         calib,
         labels.pixels,
         labels.confidence,
-        min_confidence=float(cfg.pose.min_visibility),
+        min_confidence=float(settings.pose.min_visibility),
         max_error_px=float(mv.max_error_px),
     )
     tracked = np.isfinite(tri.points).all(-1)
@@ -110,13 +107,13 @@ def estimate_multiview(cfg: Any, videos: Sequence[str | os.PathLike], out: Path)
         CANONICAL_NAMES,
         tri.points,
         tracked,
-        source=f"{len(paths)} views triangulated with {cfg.calibration}",
+        source=f"{len(paths)} views triangulated with {settings.calibration}",
         up=up / np.linalg.norm(up),
     )
     detail = {
         "videos": [str(p) for p in paths],
         "cameras": list(calib.names),
-        "calibration": str(cfg.calibration),
+        "calibration": settings.calibration,
         "view_frames": T,
         "reprojection_px_median": float(np.nanmedian(tri.error)) if np.isfinite(tri.error).any() else None,
         "views_per_landmark_mean": float(tri.used.sum(0)[tracked].mean()) if tracked.any() else 0.0,

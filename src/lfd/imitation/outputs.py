@@ -14,9 +14,11 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
+
+from .results import DMPFit
+from .settings import ImitationSettings
 
 __all__ = ["limit_violations", "write_common_outputs"]
 
@@ -57,7 +59,7 @@ def _plot_refinement(path: Path, refinement) -> None:
 
 
 def write_common_outputs(
-    cfg: Any,
+    settings: ImitationSettings,
     out: Path,
     robot,
     *,
@@ -65,18 +67,18 @@ def write_common_outputs(
     source_type: str,
     t_source: np.ndarray,
     q_reference: np.ndarray,
-    fit,
+    fit: DMPFit,
     q_commanded: np.ndarray,
     q_exec: np.ndarray,
     refinement=None,
     extra: dict | None = None,
 ) -> dict:
-    """Write ``robot_trajectory.csv``, ``robot_trajectory.bag`` (or a ROS 2 bag folder, ``cfg.outputs.bag``),
+    """Write ``robot_trajectory.csv``, ``robot_trajectory.bag`` (or a ROS 2 bag folder, ``settings.outputs.bag``),
     ``refinement.png`` when refining, and ``summary.json``; returns the summary.
 
     Args:
         t_source: ``(T,)`` s, the demonstration's own times. q_reference: ``(T, n)`` rad, the retargeted or
-            recorded joints. fit: the pipeline's :class:`~lfd.imitation.pipeline.DMPFit` (robot time
+            recorded joints. fit: the pipeline's :class:`~lfd.imitation.results.DMPFit` (robot time
             ``fit.t_robot``, rollout ``fit.q_dmp``). q_commanded: ``(T, n)`` what PyBullet was sent (the DMP
             or the refined rollout). q_exec: ``(T, n)`` executed. extra: entries added to the summary.
     """
@@ -98,7 +100,7 @@ def write_common_outputs(
         out / "robot_trajectory.csv",
         "\n".join([",".join(cols)] + [",".join(f"{v:.9g}" for v in r) for r in data]) + "\n",
     )
-    bag_format = str(cfg.outputs.get("bag", "ros1")) if cfg.outputs.get("bag", "ros1") else None
+    bag_format = settings.outputs.bag
     if bag_format:
         bag = out / ("robot_trajectory.bag" if bag_format == "ros1" else "robot_trajectory_bag")
         if bag.exists():

@@ -8,12 +8,12 @@ robot render, both halves ``height`` px tall.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .pipeline import DMPFit, Execution
+from .outputs import write_common_outputs
+from .results import DMPFit, Execution
+from .settings import ImitationSettings
 
 __all__ = ["write_outputs", "write_side_by_side"]
 
@@ -95,7 +95,7 @@ def write_side_by_side(
 
 
 def write_outputs(
-    cfg: Any,
+    settings: ImitationSettings,
     out: Path,
     kp,
     robot,
@@ -106,19 +106,17 @@ def write_outputs(
     refinement=None,
     q_plan=None,
 ) -> dict:
-    """Stage 6 for a video: the side-by-side video/GIF (``cfg.outputs``) and the outputs of
+    """Stage 6 for a video: the side-by-side video/GIF (``settings.outputs``) and the outputs of
     :func:`lfd.imitation.outputs.write_common_outputs` with the video's own summary entries
     (returned as a dict)."""
-    from .outputs import write_common_outputs
-    from .pipeline import source_of
-
-    repair = bool(cfg.pose.get("repair_flips", True))
+    repair = settings.pose.repair_flips
+    outputs = settings.outputs
     lo, hi = robot.lower.numpy(), robot.upper.numpy()
     q_exec, q_dmp = run.q_exec, fit.q_dmp
-    video = Path(source_of(cfg))
+    video = Path(settings.demonstration)
     extra = {
         "video": str(video),
-        "side": cfg.side,
+        "side": settings.side,
         "frames_with_person": int(kp.detected.sum()),
         "frames_other_person": int(kp.other_person.sum()),
         "pose_fps": kp.fps,
@@ -133,20 +131,20 @@ def write_outputs(
         "executed_within_limits": bool(((q_exec >= lo - 1e-3) & (q_exec <= hi + 1e-3)).all()),
         "goal": run.goal,
     }
-    if cfg.outputs.video or cfg.outputs.gif:
+    if outputs.video or outputs.gif:
         frame_of = kp.frame_index[np.searchsorted(kp.t, t)]
         write_side_by_side(
-            out / "side_by_side.mp4" if cfg.outputs.video else None,
-            out / "side_by_side.gif" if cfg.outputs.gif else None,
+            out / "side_by_side.mp4" if outputs.video else None,
+            out / "side_by_side.gif" if outputs.gif else None,
             video,
             kp,
-            cfg.side,
+            settings.side,
             run.images,
             frame_of,
             len(t) / max(t[-1] - t[0], 1e-6),
-            int(cfg.outputs.gif_frames),
+            int(outputs.gif_frames),
         )
     return write_common_outputs(
-        cfg, out, robot, source=str(video), source_type="video", t_source=t, q_reference=rt.q, fit=fit,
+        settings, out, robot, source=str(video), source_type="video", t_source=t, q_reference=rt.q, fit=fit,
         q_commanded=q_dmp if q_plan is None else q_plan, q_exec=q_exec, refinement=refinement, extra=extra,
     )  # fmt: skip
