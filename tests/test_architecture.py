@@ -1,5 +1,6 @@
 """The written architecture is the real one: import-linter's contracts (pyproject.toml), ruff, the
-PyBullet boundary at run time, the module size limit and tests/ mirroring src/."""
+PyBullet boundary at run time, no import cycles inside lfd, the module size guideline and tests/
+mirroring src/."""
 
 from __future__ import annotations
 
@@ -60,11 +61,92 @@ def test_package_imports_without_pybullet(package):
     assert run.stdout.strip() == "False", f"import {package} loads PyBullet"
 
 
-def test_no_module_over_450_lines():
+#: Review guideline for the size of a module (one concept per module), as movement_primitives
+#: and LeRobot run: a longer module is a sign that it holds two concepts.
+MODULE_LINES_GUIDELINE = 800
+
+
+def test_modules_stay_within_the_review_guideline():
     long = {
-        str(p.relative_to(ROOT)): n for p in SRC.rglob("*.py") if (n := len(p.read_text().splitlines())) > 450
+        str(p.relative_to(ROOT)): n
+        for p in SRC.rglob("*.py")
+        if (n := len(p.read_text().splitlines())) > MODULE_LINES_GUIDELINE
     }
-    assert not long, f"split these modules (one concept each): {long}"
+    assert not long, (
+        f"modules over the review guideline of {MODULE_LINES_GUIDELINE} lines (one concept per module; "
+        f"split them or justify the length in review): {long}"
+    )
+
+
+def _import_cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan, iterative), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles: list[list[str]] = []
+    for root in sorted(edges):
+        if root in index:
+            continue
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        work = [(root, iter(sorted(edges[root])))]
+        while work:
+            node, children = work[-1]
+            child = next(children, None)
+            if child is not None:
+                if child not in index:
+                    index[child] = low[child] = len(index)
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(edges[child]))))
+                elif child in on_stack:
+                    low[node] = min(low[node], index[child])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[node])
+            if low[node] == index[node]:
+                component = []
+                while True:
+                    member = stack.pop()
+                    on_stack.discard(member)
+                    component.append(member)
+                    if member == node:
+                        break
+                if len(component) > 1:
+                    cycles.append(sorted(component))
+    return cycles
+
+
+def test_no_import_cycles_inside_lfd():
+    """No two modules of lfd import each other, directly or through others.
+
+    The rule, exactly: build grimp's graph of ``lfd`` (every ``import`` and ``from ... import``
+    between lfd's modules, at module level, inside functions and under ``TYPE_CHECKING`` alike)
+    and require that it has no strongly connected component of more than one module. A package's
+    ``__init__`` counts as the module named by the package and its re-exports of its own
+    submodules are ordinary edges: they form no cycle as long as none of those submodules imports
+    the package (or an ancestor that reaches it) back, which is then reported like any cycle.
+    Break a cycle by moving the piece both sides need down into a module both import, never by
+    hiding an import inside a function.
+    """
+    grimp = pytest.importorskip("grimp")
+    graph = grimp.build_graph("lfd", cache_dir=None)
+    modules = {m for m in graph.modules if m == "lfd" or m.startswith("lfd.")}
+    edges = {m: {i for i in graph.find_modules_directly_imported_by(m) if i in modules} for m in modules}
+    cycles = _import_cycles(edges)
+    report = [
+        f"cycle of {len(cycle)} modules: "
+        + "; ".join(f"{m} -> {', '.join(sorted(edges[m] & set(cycle)))}" for m in cycle)
+        for cycle in cycles
+    ]
+    for line in report:
+        print(line)
+    assert not cycles, (
+        "import cycles inside lfd (module -> the modules of its cycle it imports):\n" + "\n".join(report)
+    )
 
 
 def test_tests_mirror_src():
