@@ -1,31 +1,43 @@
-"""Behaviour shared by :class:`~lfd.dmp.DMP` and :class:`~lfd.dmp.RhythmicDMP`: learned-state
-bookkeeping and JSON persistence."""
+"""What the movement primitives of :mod:`lfd.dmp` share, written once (as movement_primitives' ``DMPBase``).
+
+* :class:`Parameterised`: the constructor arguments listed in ``_PARAMS`` are what is saved with
+  the learned state and what ``repr`` shows (``DMP(n_basis=20, alpha_z=25.0, ...)``, which
+  rebuilds the object); ``is_fitted``; ``_fitted(name, value)``, the value or the learned
+  ``name_`` (``ValueError`` when unfitted).
+* :class:`DMPBase`: the hyper-parameters of the DMP family, validated in one order
+  (``n_basis`` an integer >= 1, the gains (:mod:`lfd.dmp.gains`), ``formulation``, ``ridge``
+  a finite number >= 0; ``ValueError`` naming the first bad one), the gain properties
+  ``alpha_z``, ``beta_z``, ``alpha_s`` (discrete DMPs) and ``overlap``, and the arguments that
+  build a :class:`lfd.dmp.DMP` with the same settings (the DMPs that delegate to one).
+* :class:`Primitive`: the learned state (``weights_``, the per-DoF vectors ``_VECTORS``, the
+  scalars ``_SCALARS``) and its JSON persistence.
+"""
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
 from typing import ClassVar
 
 from lfd import checks
 
 from . import _io
+from .fitting import DEFAULT_RIDGE, check_ridge
+from .formulation import check_formulation
+from .gains import DiscreteGains, Gains
+
+#: The constructor arguments of a discrete DMP, in order.
+DISCRETE_PARAMS = ("n_basis", "alpha_z", "beta_z", "alpha_s", "overlap", "formulation", "ridge")
 
 
-class Primitive(ABC):
-    """Base class: subclasses set ``_KIND``, the per-DoF vectors and scalars they learn, and
-    implement ``_params`` (constructor arguments). Learned attributes end in ``_``."""
+class Parameterised:
+    """Constructor arguments (``_PARAMS``), ``repr``, ``is_fitted`` (the attribute ``_FITTED`` is
+    set) and ``_fitted`` for a primitive; learned attributes end in ``_``."""
 
-    _KIND: ClassVar[str]
-    _VECTORS: ClassVar[tuple[str, ...]] = ("y0", "goal")  # (D,) or (B, D) learned vectors
-    _SCALARS: ClassVar[dict] = {"tau": checks.positive_float, "n_steps": checks.positive_int}
-    #: Constructor arguments added after format version 1 was fixed, with the value that a
-    #: file written before they existed implies (read by :meth:`load` when one is missing).
-    _MISSING_PARAMS: ClassVar[dict] = {}
-    n_basis: int
+    _PARAMS: ClassVar[tuple[str, ...]]
+    _FITTED: ClassVar[str] = "weights_"
 
-    @abstractmethod
     def _params(self) -> dict:
         """Constructor arguments, as saved with the learned state."""
+        return {name: getattr(self, name) for name in self._PARAMS}
 
     def __repr__(self) -> str:
         args = ", ".join(f"{name}={value!r}" for name, value in self._params().items())
@@ -34,7 +46,7 @@ class Primitive(ABC):
     @property
     def is_fitted(self) -> bool:
         """Whether :meth:`fit` (or :meth:`load`) has set the learned attributes."""
-        return hasattr(self, "weights_")
+        return hasattr(self, self._FITTED)
 
     def _fitted(self, name: str, value):
         """``value``, or the learned ``name_`` when ``value`` is None (error if not fitted)."""
@@ -45,6 +57,57 @@ class Primitive(ABC):
                 f"{name} is required: the {type(self).__name__} is not fitted (call fit() or pass all arguments)"
             )
         return getattr(self, name + "_")
+
+
+class DMPBase(Parameterised):
+    """Hyper-parameters of a DMP: ``n_basis``, ``gains`` (of type ``_GAINS``), ``ridge`` and,
+    where the subclass has one, ``formulation``; see :meth:`_set_params`."""
+
+    _PARAMS: ClassVar[tuple[str, ...]] = DISCRETE_PARAMS
+    _GAINS: ClassVar[type[Gains]] = DiscreteGains
+    n_basis: int
+    gains: Gains
+    ridge: float
+    formulation: str
+
+    def _set_params(self, n_basis, gains: dict, formulation: str | None = None, ridge=DEFAULT_RIDGE) -> None:
+        """Validate and set ``n_basis``, ``gains`` (``_GAINS.resolve(**gains)``), ``formulation``
+        (unless None: the subclass has none) and ``ridge``, in this order."""
+        self.n_basis = checks.positive_int(n_basis, "n_basis")
+        self.gains = self._GAINS.resolve(**gains)
+        if formulation is not None:
+            self.formulation = check_formulation(formulation)
+        self.ridge = check_ridge(ridge)
+
+    alpha_z = property(lambda self: self.gains.alpha_z, doc="Damping gain of the transformation system.")
+    beta_z = property(lambda self: self.gains.beta_z, doc="Spring gain of the transformation system.")
+    alpha_s = property(lambda self: self.gains.alpha_s, doc="Decay rate of the canonical system.")
+    overlap = property(lambda self: self.gains.overlap, doc="Basis activation at the neighbouring centre.")
+
+    def _dmp_params(self, formulation: str | None = None) -> dict:
+        """Arguments of a :class:`lfd.dmp.DMP` with these settings (``formulation``: default this one's)."""
+        g = self.gains
+        return {
+            "n_basis": self.n_basis,
+            "alpha_z": g.alpha_z,
+            "beta_z": g.beta_z,
+            "alpha_s": g.alpha_s,
+            "overlap": g.overlap,
+            "formulation": self.formulation if formulation is None else formulation,
+            "ridge": self.ridge,
+        }
+
+
+class Primitive(DMPBase):
+    """A DMP with learned state: subclasses set ``_KIND`` (the file's type field) and the per-DoF
+    vectors and scalars they learn."""
+
+    _KIND: ClassVar[str]
+    _VECTORS: ClassVar[tuple[str, ...]] = ("y0", "goal")  # (D,) or (B, D) learned vectors
+    _SCALARS: ClassVar[dict] = {"tau": checks.positive_float, "n_steps": checks.positive_int}
+    #: Constructor arguments added after format version 1 was fixed, with the value that a
+    #: file written before they existed implies (read by :meth:`load` when one is missing).
+    _MISSING_PARAMS: ClassVar[dict] = {}
 
     def save(self, path) -> None:
         """Write hyper-parameters and learned state to a JSON file (temp file + atomic rename).

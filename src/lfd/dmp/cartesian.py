@@ -51,6 +51,7 @@ import torch
 from lfd import checks
 
 from . import quaternion as quat
+from ._base import DISCRETE_PARAMS, DMPBase
 from .canonical import discrete_features
 from .discrete import DMP
 from .fitting import DEFAULT_RIDGE
@@ -77,7 +78,7 @@ def _check_pose(name: str, value, ndims=(1, 2)) -> np.ndarray:
     return np.concatenate([pose[..., :3], quat.normalise(pose[..., 3:])], axis=-1)
 
 
-class CartesianDMP:
+class CartesianDMP(DMPBase):
     """Discrete DMP of a Cartesian pose: 3-D position + unit-quaternion orientation.
 
     Args:
@@ -98,6 +99,8 @@ class CartesianDMP:
             exceed pi); new start/goal pairs are turned the same way round.
     """
 
+    _PARAMS = (*DISCRETE_PARAMS, "orientation")
+
     def __init__(
         self,
         n_basis: int = 20,
@@ -110,22 +113,9 @@ class CartesianDMP:
         orientation: str = "log",
     ):
         self.orientation = checks.check_choice(orientation, "orientation", ORIENTATIONS)
-        self.position_ = DMP(n_basis, alpha_z, beta_z, alpha_s, overlap, formulation, ridge)
-        self.n_basis = self.position_.n_basis
-        self.gains = self.position_.gains
-        self.formulation = formulation
-        self.ridge = self.position_.ridge
-
-    def __repr__(self) -> str:
-        return (
-            f"CartesianDMP(n_basis={self.n_basis}, gains={self.gains}, formulation={self.formulation!r}, "
-            f"orientation={self.orientation!r})"
-        )
-
-    @property
-    def is_fitted(self) -> bool:
-        """Whether :meth:`fit` has run."""
-        return hasattr(self, "weights_")
+        gains = {"alpha_z": alpha_z, "beta_z": beta_z, "alpha_s": alpha_s, "overlap": overlap}
+        self._set_params(n_basis, gains, formulation, ridge)
+        self.position_ = DMP(**self._dmp_params())
 
     # ------------------------------------------------------------------ fitting
     def fit(self, t, pose) -> CartesianDMP:
@@ -158,15 +148,7 @@ class CartesianDMP:
         error = np.flip(quat.unwrap(np.flip(error, axis=-2)), axis=-2)
         # y = -e behaves as the position of a linear DMP with goal 0 (exactly so for rotations
         # about a fixed axis): its exact trajectory fit gives the orientation weights
-        self.orientation_ = DMP(
-            self.n_basis,
-            self.gains.alpha_z,
-            self.gains.beta_z,
-            self.gains.alpha_s,
-            self.gains.overlap,
-            self.formulation,
-            self.ridge,
-        ).fit(times, -error)
+        self.orientation_ = DMP(**self._dmp_params()).fit(times, -error)
         w_rot = (
             self.orientation_.weights_ if self.orientation == "log" else self._ude_weights(times, q, error)
         )

@@ -14,14 +14,12 @@ from .canonical import discrete_activations, discrete_phase
 from .fitting import (
     DEFAULT_RIDGE,
     check_demonstration,
-    check_ridge,
     demo_derivatives,
     forcing_target,
     lwr_weights,
 )
-from .formulation import DEFAULT_FORMULATION, check_formulation, unscale_weights
+from .formulation import DEFAULT_FORMULATION, unscale_weights
 from .functional import cached_trajectory_fit, grid_key, rollout_with_gains
-from .gains import DiscreteGains
 from .stepping import advance, coupled_rollout
 
 __all__ = ["DMP", "FIT_METHODS"]
@@ -88,26 +86,8 @@ class DMP(Primitive):
         formulation: str = DEFAULT_FORMULATION,
         ridge: float = DEFAULT_RIDGE,
     ):
-        self.n_basis = checks.positive_int(n_basis, "n_basis")
-        self.gains = DiscreteGains.resolve(alpha_z, beta_z, alpha_s, overlap)
-        self.formulation = check_formulation(formulation)
-        self.ridge = check_ridge(ridge)
-
-    alpha_z = property(lambda self: self.gains.alpha_z, doc="Damping gain of the transformation system.")
-    beta_z = property(lambda self: self.gains.beta_z, doc="Spring gain of the transformation system.")
-    alpha_s = property(lambda self: self.gains.alpha_s, doc="Decay rate of the canonical system.")
-    overlap = property(lambda self: self.gains.overlap, doc="Basis activation at the neighbouring centre.")
-
-    def _params(self) -> dict:
-        return {
-            "n_basis": self.n_basis,
-            "alpha_z": self.alpha_z,
-            "beta_z": self.beta_z,
-            "alpha_s": self.alpha_s,
-            "overlap": self.overlap,
-            "formulation": self.formulation,
-            "ridge": self.ridge,
-        }
+        gains = {"alpha_z": alpha_z, "beta_z": beta_z, "alpha_s": alpha_s, "overlap": overlap}
+        self._set_params(n_basis, gains, formulation, ridge)
 
     def fit(self, t, y, method: str = "trajectory", yd0=None) -> DMP:
         """Learn the forcing weights from one demonstration or a batch sharing ``t``.

@@ -38,6 +38,7 @@ from lfd import checks
 
 from . import _io
 from . import quaternion as quat
+from ._base import Primitive
 from .canonical import discrete_features
 from .cartesian import ORIENTATION_STEPS_PER_TAU, CartesianDMP, _check_pose
 from .fitting import DEFAULT_RIDGE
@@ -116,7 +117,7 @@ class RelativePoseCoupling:
         return cd, cdd
 
 
-class DualCartesianDMP:
+class DualCartesianDMP(Primitive):
     """Two Cartesian DMPs (left, right arm) with an optional relative-pose coupling.
 
     Args:
@@ -130,6 +131,7 @@ class DualCartesianDMP:
     """
 
     _KIND = "lfd.dmp.DualCartesianDMP"
+    _VECTORS = ("start", "goal")
 
     def __init__(
         self,
@@ -141,21 +143,9 @@ class DualCartesianDMP:
         formulation: str = DEFAULT_FORMULATION,
         ridge: float = DEFAULT_RIDGE,
     ):
-        arms = [
-            CartesianDMP(n_basis, alpha_z, beta_z, alpha_s, overlap, formulation, ridge, orientation="ude")
-            for _ in range(2)
-        ]
-        self.left_, self.right_ = arms
-        self.n_basis, self.gains, self.formulation, self.ridge = n_basis, arms[0].gains, formulation, ridge
-
-    def __repr__(self) -> str:
-        return (
-            f"DualCartesianDMP(n_basis={self.n_basis}, gains={self.gains}, formulation={self.formulation!r})"
-        )
-
-    @property
-    def is_fitted(self) -> bool:
-        return hasattr(self, "weights_")
+        gains = {"alpha_z": alpha_z, "beta_z": beta_z, "alpha_s": alpha_s, "overlap": overlap}
+        self._set_params(n_basis, gains, formulation, ridge)
+        self.left_, self.right_ = (CartesianDMP(**self._dmp_params(), orientation="ude") for _ in range(2))
 
     def fit(self, t, pose) -> DualCartesianDMP:
         """Learn from one demonstration ``(T, 14)`` or a batch ``(B, T, 14)`` sharing ``t``.
@@ -280,25 +270,7 @@ class DualCartesianDMP:
         return np.stack(out, axis=-2)
 
     # ------------------------------------------------------------------ persistence
-    def _params(self) -> dict:
-        g = self.gains
-        return {
-            "n_basis": self.n_basis,
-            "alpha_z": g.alpha_z,
-            "beta_z": g.beta_z,
-            "alpha_s": g.alpha_s,
-            "overlap": g.overlap,
-            "formulation": self.formulation,
-            "ridge": self.ridge,
-        }
-
-    def save(self, path) -> None:
-        """Write hyper-parameters and learned state to a JSON file (atomic; ``path`` ends in ``.json``)."""
-        fitted = None
-        if self.is_fitted:
-            fitted = {"weights": self.weights_, "start": self.start_, "goal": self.goal_}
-            fitted |= {"tau": self.tau_, "n_steps": self.n_steps_}
-        _io.write_json(path, self._KIND, self._params(), fitted)
+    # save() is Primitive's: the hyper-parameters, weights_, start_, goal_, tau_ and n_steps_
 
     @classmethod
     def load(cls, path) -> DualCartesianDMP:

@@ -92,6 +92,7 @@ class FinalVelocityDMP(Primitive):
     _KIND = "lfd.dmp.FinalVelocityDMP"
     _VECTORS = ("y0", "yd0", "ydd0", "goal", "goal_velocity", "goal_acceleration")
     _MISSING_PARAMS: ClassVar[dict] = {}
+    _PARAMS = ("n_basis", "alpha_z", "beta_z", "alpha_s", "overlap", "ridge")
 
     def __init__(
         self,
@@ -102,13 +103,9 @@ class FinalVelocityDMP(Primitive):
         overlap: float = 0.8,
         ridge: float = DEFAULT_RIDGE,
     ):
-        self._error = DMP(n_basis, alpha_z, beta_z, alpha_s, overlap, "pastor", ridge)
-        self.n_basis, self.gains, self.ridge = self._error.n_basis, self._error.gains, self._error.ridge
-
-    def _params(self) -> dict:
-        params = self._error._params()
-        del params["formulation"]
-        return params
+        gains = {"alpha_z": alpha_z, "beta_z": beta_z, "alpha_s": alpha_s, "overlap": overlap}
+        self._set_params(n_basis, gains, ridge=ridge)
+        self._error = DMP(**self._dmp_params(formulation="pastor"))
 
     def fit(self, t, y) -> FinalVelocityDMP:
         """Learn from one demonstration ``(T, D)`` or a batch ``(B, T, D)`` sharing ``t``.

@@ -30,6 +30,7 @@ import torch
 from lfd import checks
 
 from . import _io
+from ._base import Parameterised
 
 __all__ = ["ProMP"]
 
@@ -74,7 +75,7 @@ def _demonstrations(t, y) -> tuple[list[np.ndarray], list[np.ndarray]]:
     return ts, ys
 
 
-class ProMP:
+class ProMP(Parameterised):
     """Probabilistic movement primitive over ``D`` DoF with ``K`` bases per DoF.
 
     Args:
@@ -97,19 +98,14 @@ class ProMP:
         n_dims_: ``D``.
     """
 
+    _PARAMS = ("n_basis", "overlap", "ridge", "cov_reg")
+    _FITTED = "mean_"  # set by fit() and from_weight_distribution()
+
     def __init__(self, n_basis: int = 10, overlap: float = 0.7, ridge: float = 1e-12, cov_reg: float = 0.0):
         self.n_basis = checks.positive_int(n_basis, "n_basis")
         self.overlap = checks.unit_interval(overlap, "overlap")
         self.ridge = checks.check_float(ridge, "ridge", low=0.0)
         self.cov_reg = checks.check_float(cov_reg, "cov_reg", low=0.0)
-
-    def __repr__(self) -> str:
-        return f"ProMP(n_basis={self.n_basis}, overlap={self.overlap}, ridge={self.ridge}, cov_reg={self.cov_reg})"
-
-    @property
-    def is_fitted(self) -> bool:
-        """Whether :meth:`fit` (or :meth:`from_weight_distribution`) has set ``mean_``/``cov_``."""
-        return hasattr(self, "mean_")
 
     def _check_fitted(self) -> None:
         if not self.is_fitted:
@@ -185,12 +181,7 @@ class ProMP:
         Raises:
             ValueError: ``path`` does not end in ``.json``.
         """
-        params = {
-            "n_basis": self.n_basis,
-            "overlap": self.overlap,
-            "ridge": self.ridge,
-            "cov_reg": self.cov_reg,
-        }
+        params = self._params()
         fitted = None
         if self.is_fitted:
             fitted = {"mean": self.mean_, "cov": self.cov_, "duration": self.duration_, "noise": self.noise_}

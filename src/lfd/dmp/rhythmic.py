@@ -17,7 +17,6 @@ from .fitting import (
     DEFAULT_RIDGE,
     TrajectoryFit,
     check_demonstration,
-    check_ridge,
     demo_derivatives,
     forcing_target,
     lwr_weights,
@@ -75,6 +74,8 @@ class RhythmicDMP(Primitive):
     _SCALARS: ClassVar[dict] = {**Primitive._SCALARS, "duration": checks.positive_float}
 
     _MISSING_PARAMS: ClassVar[dict] = {"ridge": 0.0}  # files saved before ridge existed: pinv fit
+    _PARAMS = ("n_basis", "alpha_z", "beta_z", "overlap", "ridge")
+    _GAINS = Gains
 
     def __init__(
         self,
@@ -84,27 +85,12 @@ class RhythmicDMP(Primitive):
         overlap: float = 0.8,
         ridge: float = DEFAULT_RIDGE,
     ):
-        self.n_basis = checks.positive_int(n_basis, "n_basis")
-        self.gains = Gains.resolve(alpha_z, beta_z, overlap)
-        self.ridge = check_ridge(ridge)
-
-    alpha_z = property(lambda self: self.gains.alpha_z, doc="Damping gain of the transformation system.")
-    beta_z = property(lambda self: self.gains.beta_z, doc="Spring gain of the transformation system.")
-    overlap = property(lambda self: self.gains.overlap, doc="Basis activation at the neighbouring centre.")
+        self._set_params(n_basis, {"alpha_z": alpha_z, "beta_z": beta_z, "overlap": overlap}, ridge=ridge)
 
     @property
     def period_(self) -> float:
         """Learned period ``2 pi tau_`` in seconds."""
         return 2.0 * math.pi * self._fitted("tau", None)
-
-    def _params(self) -> dict:
-        return {
-            "n_basis": self.n_basis,
-            "alpha_z": self.alpha_z,
-            "beta_z": self.beta_z,
-            "overlap": self.overlap,
-            "ridge": self.ridge,
-        }
 
     def fit(self, t, y, period: float | None = None, method: str = "trajectory") -> RhythmicDMP:
         """Learn the periodic forcing term from a demonstration.
