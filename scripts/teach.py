@@ -8,7 +8,9 @@ Usage::
 Prints the URL (``http://127.0.0.1:8080`` by default; with ``?token=<secret>`` whenever
 ``host`` is not loopback, or with ``token=true``); open it in any browser, drag the
 gizmo on the tool (3-D mode) or use the 2-D panel, then Export / Send. Configuration:
-``configs/teach/teach.yaml``; the scene format is described in ``docs/teach.md``.
+``configs/teach/teach.yaml``, turned into :class:`lfd.teach.TeachSettings` (every value checked
+once; a bad one is one line on stderr and exit status 2); the scene format is described in
+``docs/teach.md``.
 """
 
 from __future__ import annotations
@@ -18,47 +20,34 @@ import time
 
 import hydra
 from hydra.utils import to_absolute_path
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
-from lfd.teach import TeachSession
+from lfd.teach import TeachSession, TeachSettings
 from lfd.teach.server import TeachServer
 
 
-def build(cfg: DictConfig) -> TeachServer:
-    """Session + server from the config (raises ValueError/FileNotFoundError on bad input)."""
-    scene = None if cfg.scene in (None, "", "null") else to_absolute_path(str(cfg.scene))
-    session = TeachSession(
-        robot=str(cfg.robot),
-        scene=scene,
-        mode=str(cfg.mode),
-        ik_time_budget=float(cfg.ik.time_budget),
-        max_joint_step=float(cfg.ik.max_joint_step),
-        wam_q3=str(cfg.ik.wam_q3),
-        margin=float(cfg.margin),
-    )
-    return TeachServer(
-        session,
-        host=str(cfg.host),
-        port=int(cfg.port),
-        export_dir=to_absolute_path(str(cfg.export_dir)),
-        token=token_option(cfg.get("token", "auto")),
-    )
+def settings_of(cfg: DictConfig) -> TeachSettings:
+    """The composed config as :class:`TeachSettings`, with ``scene`` and ``export_dir`` made absolute
+    (relative to where the command was started). Raises ``ValueError`` on a bad value."""
+    values = OmegaConf.to_container(cfg, resolve=True)
+    values.pop("hydra", None)
+    if values.get("scene") not in (None, "", "null"):
+        values["scene"] = to_absolute_path(str(values["scene"]))
+    if isinstance(values.get("export_dir"), str) and values["export_dir"]:
+        values["export_dir"] = to_absolute_path(values["export_dir"])
+    return TeachSettings.from_mapping(values)
 
 
-def token_option(value) -> bool | None:
-    """The ``token`` config value as ``TeachServer``'s ``token``: auto/null -> None (a token
-    exactly when host is not loopback), true -> True, false -> False."""
-    if value is None or (isinstance(value, str) and value.lower() == "auto"):
-        return None
-    if isinstance(value, bool):
-        return value
-    raise ValueError(f"token must be auto, true or false, got {value!r}")
+def build(settings: TeachSettings) -> TeachServer:
+    """Session + server of ``settings`` (raises ValueError/FileNotFoundError on bad input)."""
+    return TeachServer.from_settings(TeachSession.from_settings(settings), settings)
 
 
 @hydra.main(version_base="1.3", config_path="../configs/teach", config_name="teach")
 def main(cfg: DictConfig) -> None:
     try:
-        server = build(cfg)
+        settings = settings_of(cfg)
+        server = build(settings)
     except (ValueError, FileNotFoundError, RuntimeError) as e:
         print(f"teach: {e}", file=sys.stderr)
         raise SystemExit(2) from None
@@ -67,9 +56,9 @@ def main(cfg: DictConfig) -> None:
         if server.token
         else "this machine only, no token"
     )
-    print(f"teach: {cfg.robot} ready at {server.url}  ({access}; Ctrl-C to stop)", flush=True)
+    print(f"teach: {settings.robot} ready at {server.url}  ({access}; Ctrl-C to stop)", flush=True)
     try:
-        end = None if cfg.duration_s is None else time.monotonic() + float(cfg.duration_s)
+        end = None if settings.duration_s is None else time.monotonic() + settings.duration_s
         while end is None or time.monotonic() < end:
             time.sleep(0.2)
     except KeyboardInterrupt:

@@ -72,7 +72,9 @@ class Tab:
         )
         assert _wait(lambda: set(served.server.get_clients()) - before)
         (self.id,) = set(served.server.get_clients()) - before
-        assert _wait(lambda: self.id == served.control.owner or self.id in served.control.viewers)
+        assert _wait(
+            lambda: self.id == served.clients.control.owner or self.id in served.clients.control.viewers
+        )
 
     def _drain(self) -> None:
         try:
@@ -130,7 +132,7 @@ def fresh(served):
     """The module's server with its session cleared and nobody connected."""
     served.server._websock_server.disconnect_all_clients()
     assert _wait(lambda: not served.server.get_clients())
-    assert _wait(lambda: served.control.owner is None and not served.control.viewers)
+    assert _wait(lambda: served.clients.control.owner is None and not served.clients.control.viewers)
     served._run(served._clear)
     served.guard.refused.clear()
     return served
@@ -150,7 +152,7 @@ def test_websocket_from_a_foreign_origin_is_refused(fresh):
     for origin in (EVIL, f"{EVIL}:{fresh.port}", "null", f"http://127.0.0.1:{fresh.port + 1}"):
         assert _refused(fresh, origin=origin) == 403
     assert len(fresh.guard.refused) == 4 and "evil.example.com" in fresh.guard.refused[0]
-    assert not fresh.server.get_clients() and fresh.control.owner is None
+    assert not fresh.server.get_clients() and fresh.clients.control.owner is None
     assert fresh.session.counters["drag_updates"] == n
 
 
@@ -302,24 +304,24 @@ def test_second_tab_is_read_only_and_cannot_clear_the_first(fresh):
         for k in range(1, 5):
             first.drag(p0 + [0.0, 0.0, 0.01 * k])
             assert _wait(lambda k=k: len(fresh.session.recorded) == k + 1)
-        assert fresh.control.owner == first.id
+        assert fresh.clients.control.owner == first.id
         second = Tab(fresh)
-        assert _wait(lambda: "in use" in fresh.notices.get(second.id, ""))
+        assert _wait(lambda: "in use" in fresh.clients.notices.get(second.id, ""))
         recorded = fresh.session.recorded.q.copy()
         second.click("Clear")
         second.drag(p0 + [0.0, 0.1, 0.0])
-        assert _wait(lambda: fresh.notices.get(second.id) == READ_ONLY)
+        assert _wait(lambda: fresh.clients.notices.get(second.id) == READ_ONLY)
         time.sleep(0.3)  # let any wrongly accepted action land
         assert fresh.session.recording_state == "recording"
         np.testing.assert_array_equal(fresh.session.recorded.q, recorded)
         # an explicit take-over: the first tab is told, its recording ends untouched
         second.click("Take control")
-        assert _wait(lambda: fresh.control.owner == second.id)
-        assert _wait(lambda: "took control" in fresh.notices.get(first.id, ""))
+        assert _wait(lambda: fresh.clients.control.owner == second.id)
+        assert _wait(lambda: "took control" in fresh.clients.notices.get(first.id, ""))
         assert fresh.session.recording_state == "done"
         first.click("Clear")
         second.drag(fresh.session.tool_position + [0.0, 0.0, 0.01])
-        assert _wait(lambda: fresh.notices.get(first.id) == READ_ONLY)
+        assert _wait(lambda: fresh.clients.notices.get(first.id) == READ_ONLY)
         assert _wait(lambda: fresh.session.counters["drag_updates"] >= 5)
         np.testing.assert_array_equal(fresh.session.recorded.q, recorded)  # never merged
     finally:

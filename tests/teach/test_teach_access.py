@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 
 import pytest
+from hydra import compose, initialize_config_dir
 from teach_helpers import ROOT
 from websockets.datastructures import Headers
 
@@ -79,7 +80,11 @@ def test_entry_point_token_option():
     spec = importlib.util.spec_from_file_location("teach_script", ROOT / "scripts" / "teach.py")
     script = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(script)
-    assert script.token_option("auto") is None and script.token_option(None) is None
-    assert script.token_option(True) is True and script.token_option(False) is False
-    with pytest.raises(ValueError, match="auto, true or false"):
-        script.token_option("s3cret")
+    with initialize_config_dir(config_dir=str(ROOT / "configs" / "teach"), version_base="1.3"):
+        policies = {
+            value: script.settings_of(compose("teach", overrides=[f"token={value}"])).token_policy
+            for value in ("auto", "null", "true", "false")
+        }
+        assert policies == {"auto": None, "null": None, "true": True, "false": False}
+        with pytest.raises(ValueError, match="token must be auto, true or false, got 's3cret'"):
+            script.settings_of(compose("teach", overrides=["token=s3cret"]))

@@ -100,7 +100,7 @@ def _project(cam, point) -> np.ndarray:
 def _drag_arrow(page, server, cam, axis: int, distance: float, steps: int = 15) -> None:
     """Grab the gizmo's arrow along ``axis`` and drag it by ``distance`` m along that axis."""
     tool = server.session.tool_position
-    along = np.eye(3)[axis] * server.gizmo_scale * 0.7
+    along = np.eye(3)[axis] * server.view.gizmo_scale * 0.7
     a = _project(cam, tool + along)
     b = _project(cam, tool + along + np.eye(3)[axis] * distance)
     page.mouse.move(*a)

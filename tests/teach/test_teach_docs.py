@@ -10,10 +10,10 @@ import pytest
 from teach_helpers import ROOT
 
 import lfd.teach
-from lfd.teach import drag_ik, scene, session
+from lfd.teach import drag_ik, scene, session, settings
 
 
-@pytest.mark.parametrize("module", [drag_ik, scene, session], ids=lambda m: m.__name__)
+@pytest.mark.parametrize("module", [drag_ik, scene, session, settings], ids=lambda m: m.__name__)
 def test_doctests(module):
     result = doctest.testmod(module, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0

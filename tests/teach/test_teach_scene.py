@@ -48,7 +48,7 @@ def test_missing_and_malformed_files(tmp_path):
 
 
 def test_unknown_robot():
-    with pytest.raises(ValueError, match="unknown robot 'ur5'.*wam4, pr2_right_arm, sawyer"):
+    with pytest.raises(ValueError, match="unknown robot 'ur5'.*pr2_right_arm, sawyer, wam4"):
         TeachSession(robot="ur5")
     with pytest.raises(ValueError, match="not a teachable arm"):
         TeachSession(robot="human_arm")

@@ -3,7 +3,9 @@
 The thesis' VARM teaching system, described in docs/teach.md. :class:`TeachSession` is the
 whole logic (IK, collisions, recording, export, Send) and runs without a browser;
 :class:`~lfd.teach.server.TeachServer` puts it behind a local viser web app
-(``python scripts/teach.py robot=wam4 scene=configs/teach/boxes.yaml``).
+(``python scripts/teach.py robot=wam4 scene=configs/teach/boxes.yaml``). The settings of both are a
+:class:`TeachSettings` (``configs/teach/teach.yaml``, checked when built); the robots offered are the
+robot catalogue's entries marked ``teach`` (:func:`teach_robots`).
 
 Example (runnable)::
 
@@ -17,15 +19,18 @@ Example (runnable)::
 """
 
 from .scene import Box, Goal, TeachScene, load_scene
-from .session import TEACH_ROBOTS, DragResult, Recording, TeachSession
+from .session import DragResult, Recording, TeachSession
+from .settings import IKSettings, TeachSettings, teach_robots
 
 __all__ = [
-    "TEACH_ROBOTS",
     "Box",
     "DragResult",
     "Goal",
+    "IKSettings",
     "Recording",
     "TeachScene",
     "TeachSession",
+    "TeachSettings",
     "load_scene",
+    "teach_robots",
 ]

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Callable
 
-__all__ = ["READ_ONLY", "Control", "ControlMixin", "error_line", "escape_markdown"]
+__all__ = ["READ_ONLY", "ClientControl", "Control", "error_line", "escape_markdown"]
 
 #: What a viewer is told when its action is ignored.
 READ_ONLY = "read-only: another tab controls this teach session (press Take control to take it over)"
@@ -81,18 +82,31 @@ def escape_markdown(text: str) -> str:
     return text.translate(_MARKDOWN)
 
 
-class ControlMixin:
-    """The client side of :class:`~lfd.teach.server.TeachServer`: registers tabs with its
-    :class:`Control`, tells each one its role, and lets only the controller act. Uses the
-    server's ``lock``, ``server`` (viser), ``session``, ``status_text`` and ``_refresh_safely``;
-    the server calls :meth:`_init_control` before it serves events."""
+class ClientControl:
+    """The client side of :class:`~lfd.teach.server.TeachServer`: registers tabs with a
+    :class:`Control` (``control``), tells each one its role, and lets only the controller act.
 
-    def _init_control(self) -> None:
+    Args:
+        viser_server: the running viser server (its clients, their notifications).
+        lock: the server's lock; every change of the session holds it.
+        on_handover: called under ``lock`` when control changes hands (the server ends a recording in
+            progress there).
+        on_refresh: called under ``lock`` after an explicit take-over (the server redraws).
+
+    Attributes:
+        control: the :class:`Control`. notices: the last message shown to each client id.
+    """
+
+    def __init__(
+        self, viser_server, lock, on_handover: Callable[[], None], on_refresh: Callable[[], None]
+    ) -> None:
+        self.server, self.lock = viser_server, lock
+        self.on_handover, self.on_refresh = on_handover, on_refresh
         self.control = Control()
-        self.notices: dict[int, str] = {}  # the last message shown to each client
+        self.notices: dict[int, str] = {}
         self._noticed_at: dict[int, float] = {}
 
-    def _notify(self, client, text: str, persistent: bool = False) -> None:
+    def notify(self, client, text: str, persistent: bool = False) -> None:
         """Tell one client ``text`` (a notification in its page, the same one at most every
         5 s: a read-only tab's drag sends dozens of updates; kept in ``notices``)."""
         if client is None:
@@ -106,52 +120,50 @@ class ControlMixin:
                 "lfd teach", text, auto_close_seconds=None if persistent else 6.0, color="red"
             )
 
-    def _client(self, client_id: int | None):
+    def client(self, client_id: int | None):
+        """The viser client handle of ``client_id`` (None when gone or None)."""
         return None if client_id is None else self.server.get_clients().get(client_id)
 
-    def _may_act(self, event) -> bool:
-        """Whether ``event``'s client controls the session; tells it otherwise."""
+    def may_act(self, event) -> bool:
+        """Whether ``event``'s client controls the session (None: the server itself); tells it otherwise."""
         client_id = None if event is None else getattr(event, "client_id", None)
         with self.lock:
             if self.control.owner is None and client_id in self.server.get_clients():
                 self.control.connect(client_id)  # its connect callback has not run yet
             if self.control.allows(client_id):
                 return True
-        self._notify(getattr(event, "client", None), READ_ONLY)
+        self.notify(getattr(event, "client", None), READ_ONLY)
         return False
 
-    def _on_connect(self, client) -> None:
+    def on_connect(self, client) -> None:
+        """A tab connected: it controls the session if nobody does, else it is told it is read-only."""
         with self.lock:
             if client.client_id not in self.server.get_clients():
                 return  # it left before this callback ran (they run on a thread pool)
             if not self.control.connect(client.client_id):
-                self._notify(client, "this teach session is in use by another tab: " + READ_ONLY, True)
+                self.notify(client, "this teach session is in use by another tab: " + READ_ONLY, True)
 
-    def _on_disconnect(self, client) -> None:
+    def on_disconnect(self, client) -> None:
+        """A tab left: when it controlled the session, the longest-connected viewer takes over."""
         with self.lock:
             promoted = self.control.disconnect(client.client_id)
             self.notices.pop(client.client_id, None)
             self._noticed_at.pop(client.client_id, None)
             if promoted is not None:
-                self._handover()
-                self._notify(self._client(promoted), "the controlling tab left: you now control this session")
+                self.on_handover()
+                self.notify(self.client(promoted), "the controlling tab left: you now control this session")
 
-    def _on_take(self, event) -> None:
+    def on_take(self, event) -> None:
+        """The "Take control" button: ``event``'s client takes over; the previous controller is told."""
         client_id = getattr(event, "client_id", None)
         if client_id is None:
             return
         with self.lock:
             previous = self.control.take(client_id)
             if previous is None:
-                self._notify(event.client, "you control this session")
+                self.notify(event.client, "you control this session")
                 return
-            self._handover()
-            self._notify(event.client, "you took control of this session")
-            self._notify(self._client(previous), "another tab took control: this view is now read-only")
-            self._refresh_safely()
-
-    def _handover(self) -> None:
-        """Control changed hands: end a recording in progress (recordings are never merged)."""
-        if self.session.recording_state == "recording":
-            self.session.stop()
-            self.status_text = "recording stopped: another tab took control"
+            self.on_handover()
+            self.notify(event.client, "you took control of this session")
+            self.notify(self.client(previous), "another tab took control: this view is now read-only")
+            self.on_refresh()

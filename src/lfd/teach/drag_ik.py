@@ -4,12 +4,13 @@ Every drag update asks for the configuration that puts the tool at a new target,
 to the current configuration. :class:`DragIK` answers within ``time_budget`` seconds
 (default 20 ms) with the best configuration found so far:
 
-* **WAM, joint 3 fixed** (``wam_q3="fixed"``, default for ``wam4``): the closed form of
-  :func:`lfd.robots.wam4_ik_closed_form` with joint 3 at its current value gives up to
-  four solutions; the one nearest the current configuration is taken, so the elbow and
+* **An arm with a closed form, its held joint fixed** (``wam_q3="fixed"``, the default; the robot's
+  catalogue entry names the held joint, :class:`lfd.robots.catalogue.CatalogueEntry`): the closed form
+  of :func:`lfd.robots.wam4_ik_closed_form` (the WAM's, joint 3 held) at the held joint's current value
+  gives up to four solutions; the one nearest the current configuration is taken, so the elbow and
   shoulder branches never switch while dragging.
-* **WAM, joint 3 free** and **7-DoF arms**: damped least squares / Levenberg-Marquardt
-  from the current configuration (position only, or the full pose when an orientation
+* **The held joint free** and **arms without a closed form** (the 7-DoF arms): damped least
+  squares / Levenberg-Marquardt from the current configuration (position only, or the full pose when an orientation
   is given), with each iteration's joint step capped and the joints clamped into the
   limits.
 * **Out of reach**: the closed form has no real solution; LM from the current
@@ -18,6 +19,8 @@ to the current configuration. :class:`DragIK` answers within ``time_budget`` sec
 
 The caller (:class:`~lfd.teach.session.TeachSession`) rejects a result whose largest
 joint change exceeds ``max_joint_step`` (no branch jumps, no flips at the boundary).
+:meth:`DragIK.clamp` and :meth:`DragIK.jump` are the joint-limit clamp and the joint-change measure
+(continuous joints wrapped) that the 2-D panel shares.
 
 Example::
 
@@ -41,10 +44,11 @@ import numpy as np
 import torch
 
 from lfd.robots import ChainKinematics, Robot, wam4_ik_closed_form
+from lfd.robots.catalogue import catalogue_entry
+
+from .settings import WAM_Q3_MODES
 
 __all__ = ["DragIK", "IKStep", "as_rotation"]
-
-WAM_Q3_MODES = ("fixed", "free")
 
 
 @dataclass(frozen=True)
@@ -114,8 +118,8 @@ class DragIK:
         robot: the arm.
         time_budget: seconds one :meth:`solve` may take (default 0.02).
         tol: position tolerance, m (default 1 mm). tol_rot: orientation tolerance, rad.
-        wam_q3: ``"fixed"`` (closed form, joint 3 kept) or ``"free"`` (LM on all four
-            joints); ignored for other robots.
+        wam_q3: ``"fixed"`` (closed form, the held joint kept) or ``"free"`` (LM on every
+            joint); ignored for robots without a closed form.
         max_iters: LM iteration cap (the time budget usually binds first).
         max_iter_step: largest joint change of one LM iteration, rad.
     """
@@ -146,13 +150,17 @@ class DragIK:
         self.lower = np.asarray(robot.spec.lower, dtype=float)
         self.upper = np.asarray(robot.spec.upper, dtype=float)
         self.continuous = np.asarray(robot.spec.continuous, dtype=bool)
-        self.closed_form = robot.name == "wam4" and wam_q3 == "fixed"
+        held = catalogue_entry(robot.name).closed_form_held_joint
+        self.held_joint = held if wam_q3 == "fixed" else None
+        self.closed_form = self.held_joint is not None
 
-    def _clamp(self, q: np.ndarray) -> np.ndarray:
+    def clamp(self, q: np.ndarray) -> np.ndarray:
+        """``q (n,)`` rad inside the limits: continuous joints wrapped, the others clipped."""
         wrapped = self.lower + np.remainder(q - self.lower, 2 * np.pi)
         return np.where(self.continuous, wrapped, np.clip(q, self.lower, self.upper))
 
-    def _jump(self, q_from: np.ndarray, q_to: np.ndarray) -> float:
+    def jump(self, q_from: np.ndarray, q_to: np.ndarray) -> float:
+        """Largest joint change ``q_from -> q_to`` (n,), rad (continuous joints the short way round)."""
         d = q_to - q_from
         d = np.where(self.continuous, np.arctan2(np.sin(d), np.cos(d)), d)
         return float(np.max(np.abs(d)))
@@ -178,13 +186,15 @@ class DragIK:
             step = self._closed_form(q0, target)
             if step is not None:
                 return step
-            free = np.array([True, True, False, True])  # best effort with joint 3 still fixed
+            free = np.ones(self.robot.n_dof, dtype=bool)  # best effort with the held joint still fixed
+            free[self.held_joint] = False
         else:
             free = np.ones(self.robot.n_dof, dtype=bool)
         return self._lm(q0, target, rot, free, start)
 
     def _closed_form(self, q0: np.ndarray, target: np.ndarray) -> IKStep | None:
-        q3 = float(np.clip(q0[2], self.lower[2], self.upper[2]))
+        j = self.held_joint
+        q3 = float(np.clip(q0[j], self.lower[j], self.upper[j]))
         sols, valid = wam4_ik_closed_form(torch.from_numpy(target[None]), q3=q3, robot=self.robot)
         sols, valid = sols[0].numpy(), valid[0].numpy()
         if not valid.any():
@@ -205,7 +215,7 @@ class DragIK:
                 e = np.concatenate([e, _rotation_error(rot, f[-1, :3, :3])])
             return e, f
 
-        q = self._clamp(q0.copy())
+        q = self.clamp(q0.copy())
         err, frames = residual(q)
         cost = float(err @ err)
         lam = 1e-2
@@ -228,7 +238,7 @@ class DragIK:
                 dq_free *= self.max_iter_step / big
             dq = np.zeros_like(q)
             dq[free] = dq_free
-            q_new = self._clamp(q + dq)
+            q_new = self.clamp(q + dq)
             err_new, frames_new = residual(q_new)
             cost_new = float(err_new @ err_new)
             if cost_new < cost:
@@ -242,4 +252,4 @@ class DragIK:
                     break
         pos_err = float(np.linalg.norm(err[:3]))
         reached = pos_err <= self.tol and (rot is None or float(np.linalg.norm(err[3:])) <= self.tol_rot)
-        return IKStep(q, reached, pos_err, self._jump(q0, q), it, timed_out, "lm")
+        return IKStep(q, reached, pos_err, self.jump(q0, q), it, timed_out, "lm")

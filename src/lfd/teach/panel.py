@@ -1,83 +1,55 @@
-"""The 2-D joint panel of a teach session (the baseline interface).
+"""The 2-D joint panel of a teach session (the baseline interface): what its inputs mean.
 
-:meth:`PanelMixin.set_joints` (the sliders) and :meth:`PanelMixin.move_to` (the x/y/z
-entry, IK) move the arm under the same collision rule as a drag; :meth:`PanelMixin.store`
-appends the current configuration as a waypoint, refused when the joint-space segment
-from the previous waypoint passes through a collision. :class:`~lfd.teach.session.TeachSession`
-provides the state (``q``, ``robot``, ``ik``, ``kin``, counters) and the shared
-``_accept`` / ``_refuse`` / ``_sweep`` rule.
+:class:`Panel` turns the panel's inputs into configurations: :meth:`Panel.joints` checks the
+sliders' configuration (length, finite, within the limits) and clamps it like the drag IK;
+:meth:`Panel.solve` is the x/y/z entry's IK (the drag IK with a 0.2 s budget from the current
+configuration, then the batched IK with 32 restarts). The session
+(:class:`~lfd.teach.session.TeachSession`) moves the arm there under the same collision rule as a
+drag (:class:`~lfd.teach.guard.MoveGuard`) and records the stored waypoints
+(:class:`~lfd.teach.recording.Recorder`). Units: rad, m.
 """
 
 from __future__ import annotations
 
-import time
+import numpy as np
+
+from lfd.robots import Robot
 
 from .checks import check_joint_limits, check_vector
 from .drag_ik import DragIK, IKStep
-from .results import DragResult
 
-__all__ = ["PanelMixin"]
+__all__ = ["Panel"]
 
 
-class PanelMixin:
-    """The panel's actions (see the module docstring)."""
+class Panel:
+    """The panel's input rules (see the module docstring).
 
-    def set_joints(self, q) -> DragResult:
-        """The sliders: put the arm at ``q`` (n,) rad if it is collision-free (else refused).
+    Args:
+        robot: the arm.
+        ik: the session's drag IK (its clamp and its ``wam_q3`` choice are shared).
+    """
+
+    def __init__(self, robot: Robot, ik: DragIK) -> None:
+        self.robot, self.ik = robot, ik
+
+    def joints(self, q) -> np.ndarray:
+        """The sliders' configuration ``q (n,)`` rad, checked and clamped.
 
         Raises:
             ValueError: wrong length, NaN, a joint outside its limits (named).
         """
-        q = check_vector(q, self.n_dof, "q")
+        q = check_vector(q, self.robot.n_dof, "q")
         check_joint_limits(self.robot, q)
-        q = self.ik._clamp(q)
-        tic = time.perf_counter()
-        self.counters["panel_moves"] += 1
-        report = self._sweep(self.q, q)
-        latency = time.perf_counter() - tic
-        target = self.kin.tool_position(q)
-        if report.in_collision:
-            return self._refuse("collision", target, None, latency, report.kind or "")
-        return self._accept(q, target, True, latency)
+        return self.ik.clamp(q)
 
-    def move_to(self, position, orientation=None) -> DragResult:
-        """The x/y/z entry: IK (from the current configuration, with restarts if that
-        fails) to ``position`` (3,) m, then the same rule as :meth:`set_joints`;
-        refused (``"unreachable"``) when no configuration reaches it within 1 mm."""
-        target = self._check_vector(position, 3, "position")
-        tic = time.perf_counter()
-        rot = None if orientation is None else orientation
-        step = DragIK(self.robot, time_budget=0.2, wam_q3=self.ik.wam_q3).solve(self.q, target, rot)
+    def solve(self, q_current: np.ndarray, target: np.ndarray, orientation=None) -> IKStep:
+        """IK to the tool position ``target (3,)`` m from ``q_current (n,)`` rad, with restarts if that
+        fails; ``reached`` False when no configuration puts the tool within 1 mm."""
+        step = DragIK(self.robot, time_budget=0.2, wam_q3=self.ik.wam_q3).solve(
+            q_current, target, orientation
+        )
         if not step.reached:
-            res = self.robot.ik(target[None], self.q[None], restarts=32, tol_pos=1e-4)
+            res = self.robot.ik(target[None], q_current[None], restarts=32, tol_pos=1e-4)
             if bool(res.success[0]):
                 step = IKStep(res.q[0].numpy(), True, float(res.pos_error[0]), 0.0, 0, False, "lm")
-        if not step.reached:
-            self.counters["panel_moves"] += 1
-            return self._refuse("unreachable", target, step, time.perf_counter() - tic, "no IK solution")
-        result = self.set_joints(step.q)
-        return result
-
-    def store(self) -> bool:
-        """Store the current configuration as a waypoint (2-D). Returns False (and counts a
-        collision) when the joint-space segment from the previous waypoint collides."""
-        if self._mode != "2d":
-            raise ValueError("store() is the 2-D panel's action; this session is in mode '3d'")
-        if self.recording_state == "done":
-            return False
-        if self.recording_state == "idle":
-            self._begin()
-        self.counters["stores"] += 1
-        if self._sweep(self._waypoints[-1], self.q).in_collision:
-            self.counters["refused_stores"] += 1
-            self._refuse("collision", self.tool_position, None, 0.0, "segment")
-            return False
-        self._refusing = False
-        self._waypoints.append(self.q.copy())
-        if self.in_goal:
-            self._finish("goal")
-        return True
-
-    def go_home(self) -> None:
-        """Put the arm back at the scene's start pose (not recorded)."""
-        self.q = self.start.copy()
+        return step

@@ -1,21 +1,25 @@
-"""The recording state machine of a teach session (``idle -> recording -> done``).
+"""The recording of a teach session: the state machine ``idle -> recording -> done`` and its samples.
 
 In 3-D mode the recording is the accepted drag samples (time, configuration, tool
 position); in 2-D mode it is the path through the stored waypoints, minimum-jerk segments
-timed by the session's ``panel_speed`` (each at least 0.5 s, sampled at 50 Hz).
-:class:`RecordingMixin` holds the state; :class:`~lfd.teach.session.TeachSession` provides
-``clock``, ``kin``, ``q``, ``n_dof``, ``tool_position``, ``panel_speed`` and ``_mode``.
+timed by ``panel_speed`` (each at least 0.5 s, sampled at 50 Hz). :class:`Recorder` holds the
+state; the session (:class:`~lfd.teach.session.TeachSession`) calls :meth:`Recorder.begin`,
+:meth:`Recorder.append`, :meth:`Recorder.add_waypoint` and :meth:`Recorder.finish` and reads
+:attr:`Recorder.recorded`. Units: s, rad, m.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
+from lfd.robots import ChainKinematics
+
 from .results import Recording
 
-__all__ = ["RecordingMixin", "waypoint_path"]
+__all__ = ["Recorder", "waypoint_path"]
 
 
 def _min_jerk(s: np.ndarray) -> np.ndarray:
@@ -43,11 +47,30 @@ def waypoint_path(
     return np.array(ts), np.array(qs)
 
 
-class RecordingMixin:
-    """Recording state and its transitions (see the module docstring)."""
+class Recorder:
+    """Recording state and its transitions (see the module docstring).
 
-    def _reset_recording(self) -> None:
-        self.recording_state = "idle"  # idle -> recording -> done
+    Args:
+        kin: the arm's kinematics (tool positions of the samples).
+        n_dof: joints of the arm.
+        panel_speed: rad/s timing the 2-D waypoint segments (> 0).
+        clock: function returning seconds (sample times).
+
+    Attributes:
+        state: ``"idle"``, ``"recording"`` or ``"done"``. end_reason: ``"goal"``, ``"stop"`` or None.
+        mode: the mode the recording was begun in (``"3d"`` or ``"2d"``), None while idle.
+    """
+
+    def __init__(
+        self, kin: ChainKinematics, n_dof: int, panel_speed: float, clock: Callable[[], float]
+    ) -> None:
+        self.kin, self.n_dof, self.panel_speed, self.clock = kin, int(n_dof), float(panel_speed), clock
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget everything: back to ``idle``."""
+        self.state = "idle"
+        self.mode: str | None = None
         self._t: list[float] = []
         self._q: list[np.ndarray] = []
         self._tool: list[np.ndarray] = []
@@ -55,7 +78,18 @@ class RecordingMixin:
         self._t0 = 0.0
         self.end_reason: str | None = None
 
-    def _append(self, q: np.ndarray) -> None:
+    def begin(self, q: np.ndarray, mode: str) -> None:
+        """Start recording from the configuration ``q (n,)`` rad: the first drag sample (``"3d"``) or
+        waypoint 0 (``"2d"``)."""
+        self.state, self.mode = "recording", mode
+        self._t0 = self.clock()
+        if mode == "3d":
+            self._t, self._q, self._tool = [0.0], [q.copy()], [self.kin.tool_position(q)]
+        else:
+            self._waypoints = [q.copy()]
+
+    def append(self, q: np.ndarray) -> None:
+        """One accepted drag sample at the clock's time (kept strictly increasing)."""
         t = self.clock() - self._t0
         if self._t and t <= self._t[-1]:
             t = self._t[-1] + 1e-3
@@ -63,28 +97,35 @@ class RecordingMixin:
         self._q.append(q.copy())
         self._tool.append(self.kin.tool_position(q))
 
-    def _begin(self) -> None:
-        self.recording_state = "recording"
-        self._t0 = self.clock()
-        if self._mode == "3d":
-            self._t, self._q, self._tool = [0.0], [self.q.copy()], [self.tool_position]
-        else:
-            self._waypoints = [self.q.copy()]
+    def add_waypoint(self, q: np.ndarray) -> None:
+        """Store ``q (n,)`` rad as the next 2-D waypoint."""
+        self._waypoints.append(q.copy())
 
-    def _finish(self, reason: str) -> None:
-        self.recording_state = "done"
+    @property
+    def last_waypoint(self) -> np.ndarray | None:
+        """The last stored waypoint (n,) rad, None before any."""
+        return self._waypoints[-1].copy() if self._waypoints else None
+
+    def finish(self, reason: str) -> None:
+        """End the recording (``reason``: ``"goal"`` or ``"stop"``)."""
+        self.state = "done"
         self.end_reason = reason
 
     def stop(self) -> None:
-        """End the recording (the Stop button)."""
-        if self.recording_state == "recording":
-            self._finish("stop")
+        """End the recording if one is in progress (the Stop button)."""
+        if self.state == "recording":
+            self.finish("stop")
+
+    @property
+    def samples(self) -> int:
+        """Drag samples (3-D) or stored waypoints (2-D) so far."""
+        return len(self._waypoints) if self.mode == "2d" else len(self._t)
 
     @property
     def recorded(self) -> Recording:
         """The demonstration so far: drag samples (3-D) or the waypoint path (2-D)."""
-        if self._mode == "2d":
-            t, q = self._waypoint_path(self._waypoints)
+        if self.mode == "2d":
+            t, q = waypoint_path(self._waypoints, self.n_dof, self.panel_speed)
             tool = np.array([self.kin.tool_position(x) for x in q]).reshape(-1, 3)
         else:
             t, q = np.array(self._t, dtype=float), np.array(self._q, dtype=float).reshape(-1, self.n_dof)
@@ -95,11 +136,6 @@ class RecordingMixin:
     def waypoints(self) -> np.ndarray:
         """(W, n) stored waypoints of the 2-D panel, rad."""
         return np.array(self._waypoints, dtype=float).reshape(-1, self.n_dof)
-
-    def _waypoint_path(
-        self, waypoints: list[np.ndarray], rate: float = 50.0
-    ) -> tuple[np.ndarray, np.ndarray]:
-        return waypoint_path(waypoints, self.n_dof, self.panel_speed, rate)
 
     def playback(self, rate: float = 30.0) -> np.ndarray:
         """(F, n) configurations replaying the recording in real time at ``rate`` frames/s."""

@@ -27,6 +27,10 @@ websockets from pages of other origins, and needs the per-launch token of :attr:
 whenever ``host`` is not loopback (or ``token=True``). **One controller**
 (:mod:`lfd.teach.control`): the first tab drives the session; later tabs are read-only
 viewers until one presses "Take control" (the previous tab is told it lost control).
+
+**Composition**: the server owns the viser server, a :class:`~lfd.teach.control.ClientControl`
+(``clients``: which tab may act) and a :class:`~lfd.teach.visuals.SceneView` (``view``: what the page
+draws), built with explicit arguments; it forwards each action to the session's public methods.
 """
 
 from __future__ import annotations
@@ -40,10 +44,11 @@ from pathlib import Path
 import numpy as np
 
 from .access import AccessGuard, new_token, start_guarded_viser, token_required
-from .control import ControlMixin, error_line, escape_markdown
+from .control import ClientControl, error_line, escape_markdown
 from .export import export_new_folder
 from .session import TeachSession
-from .visuals import _GREEN, _RED, SceneMixin
+from .settings import TeachSettings
+from .visuals import GREEN, RED, SceneView
 
 __all__ = ["TeachServer", "free_port"]
 
@@ -55,7 +60,7 @@ def free_port(host: str = "127.0.0.1") -> int:
         return int(s.getsockname()[1])
 
 
-class TeachServer(ControlMixin, SceneMixin):
+class TeachServer:
     """Serve ``session`` on ``http://host:port`` (see the module docstring).
 
     Args:
@@ -92,7 +97,7 @@ class TeachServer(ControlMixin, SceneMixin):
         self.guard = AccessGuard(host, self.token, port)
         self.server = start_guarded_viser(host, port, self.guard, verbose=verbose)
         self.host, self.port = host, self.server.get_port()
-        self._init_control()
+        self.clients = ClientControl(self.server, self.lock, self._handover, self._refresh_safely)
         self.drag_errors = 0
         self.status_text = ""
         self.last_export: dict | None = None
@@ -102,13 +107,27 @@ class TeachServer(ControlMixin, SceneMixin):
         self._closed = False
         self.processed_updates = 0
         self.dropped_updates = 0
-        self._build_scene()
+        self.view = SceneView(self.server, session, self._on_gizmo)
         self._build_gui()
         self._worker = threading.Thread(target=self._drag_worker, name="teach-drag", daemon=True)
         self._worker.start()
-        self.server.on_client_connect(self._on_connect)
-        self.server.on_client_disconnect(self._on_disconnect)
+        self.server.on_client_connect(self.clients.on_connect)
+        self.server.on_client_disconnect(self.clients.on_disconnect)
         self._refresh()
+
+    @classmethod
+    def from_settings(
+        cls, session: TeachSession, settings: TeachSettings, verbose: bool = False
+    ) -> TeachServer:
+        """Serve ``session`` with the server part of ``settings`` (host, port, export_dir, token)."""
+        return cls(
+            session,
+            host=settings.host,
+            port=settings.port,
+            export_dir=settings.export_dir,
+            verbose=verbose,
+            token=settings.token_policy,
+        )
 
     @property
     def url(self) -> str:
@@ -122,7 +141,7 @@ class TeachServer(ControlMixin, SceneMixin):
         gui, s = self.server.gui, self.session
         self.status = gui.add_markdown("")
         self.buttons = {"Take control": gui.add_button("Take control")}  # label -> handle
-        self.buttons["Take control"].on_click(self._on_take)
+        self.buttons["Take control"].on_click(self.clients.on_take)
         self.mode_buttons = gui.add_button_group("Mode", ("3-D drag", "2-D panel"))
         self.mode_buttons.on_click(self._on_mode)
         with gui.add_folder("Demonstration"):
@@ -168,7 +187,7 @@ class TeachServer(ControlMixin, SceneMixin):
     def _run(self, fn, event=None) -> None:
         """Run one button's action for the client of ``event`` (None: the server itself);
         any exception becomes the status line."""
-        if not self._may_act(event):
+        if not self.clients.may_act(event):
             return
         with self.lock:
             try:
@@ -185,16 +204,16 @@ class TeachServer(ControlMixin, SceneMixin):
 
     # ------------------------------------------------------------------ drag path
     def _on_gizmo(self, event) -> None:
-        if not self._may_act(event):
+        if not self.clients.may_act(event):
             with self.lock:
-                self.gizmo.position = tuple(self.session.tool_position)
+                self.view.gizmo.position = tuple(self.session.tool_position)
             return
         pos = np.array(event.target.position, dtype=float)
         if event.phase == "end":
             with self._cond:
                 self._pending = None
             with self.lock:
-                self.gizmo.position = tuple(self.session.tool_position)
+                self.view.gizmo.position = tuple(self.session.tool_position)
             return
         with self._cond:
             if self._pending is not None:
@@ -217,7 +236,7 @@ class TeachServer(ControlMixin, SceneMixin):
                     self.drag_errors += 1
                     self.status_text = f"refused drag: {error_line(e)}"
                     with contextlib.suppress(Exception):
-                        self.gizmo.position = tuple(self.session.tool_position)
+                        self.view.gizmo.position = tuple(self.session.tool_position)
                     self._refresh_safely()
 
     def handle_drag(self, target: np.ndarray):
@@ -233,10 +252,11 @@ class TeachServer(ControlMixin, SceneMixin):
                 return None
             r = self.session.drag(target)
             self.processed_updates += 1
-            self.marker.color = _GREEN if r.accepted and r.reachable else _RED
-            self.ghost.visible = not r.reachable or r.reason == "unreachable"
-            if self.ghost.visible:
-                self.ghost.position = tuple(r.target)
+            view = self.view
+            view.marker.color = GREEN if r.accepted and r.reachable else RED
+            view.ghost.visible = not r.reachable or r.reason == "unreachable"
+            if view.ghost.visible:
+                view.ghost.position = tuple(r.target)
             self.status_text = (
                 ""
                 if r.accepted and r.reachable
@@ -248,8 +268,14 @@ class TeachServer(ControlMixin, SceneMixin):
             return r
 
     # ------------------------------------------------------------------ panel actions
+    def _handover(self) -> None:
+        """Control changed hands: end a recording in progress (recordings are never merged)."""
+        if self.session.recording_state == "recording":
+            self.session.stop()
+            self.status_text = "recording stopped: another tab took control"
+
     def _on_mode(self, event) -> None:
-        if not self._may_act(event):
+        if not self.clients.may_act(event):
             with self.lock:
                 self.mode_buttons.value = "3-D drag" if self.session.mode == "3d" else "2-D panel"
             return
@@ -257,7 +283,7 @@ class TeachServer(ControlMixin, SceneMixin):
             try:
                 mode = "3d" if str(event.target.value).startswith("3") else "2d"
                 self.session.mode = mode
-                self.gizmo.visible = mode == "3d"
+                self.view.gizmo.visible = mode == "3d"
                 self.status_text = ""
             except Exception as e:
                 self.status_text = error_line(e)
@@ -266,7 +292,7 @@ class TeachServer(ControlMixin, SceneMixin):
     def _on_slider(self, event) -> None:
         if event.client is None:  # set by the server itself
             return
-        if not self._may_act(event):
+        if not self.clients.may_act(event):
             with self.lock:
                 self._refresh_safely(sliders=True)
             return
@@ -307,7 +333,7 @@ class TeachServer(ControlMixin, SceneMixin):
             if self.session.recording_state != "done"
             else "recording finished"
         )
-        self._draw_recorded()
+        self.view.show_recorded(self.session.recorded.tool)
 
     def _home(self) -> None:
         self.session.go_home()
@@ -318,10 +344,7 @@ class TeachServer(ControlMixin, SceneMixin):
 
     def _clear(self) -> None:
         self.session.clear()
-        for line in (self.recorded_line, self.executed_line):
-            if line is not None:
-                line.remove()
-        self.recorded_line = self.executed_line = None
+        self.view.clear_paths()
         self.status_text = "cleared"
         self._refresh(sliders=True)
 
@@ -331,9 +354,9 @@ class TeachServer(ControlMixin, SceneMixin):
             raise ValueError("nothing recorded to play back")
         step = max(1, len(frames) // 150)  # at most ~5 s of animation
         for q in frames[::step]:
-            self._draw_arm(q)
+            self.view.draw_arm(q)
             time.sleep(1.0 / rate)
-        self._draw_arm(self.session.q)
+        self.view.draw_arm(self.session.q)
         self.playbacks += 1
         self.status_text = f"played back {len(frames)} frames"
 
@@ -343,9 +366,7 @@ class TeachServer(ControlMixin, SceneMixin):
 
     def _send(self) -> None:
         res = self.session.send()
-        if self.executed_line is not None:
-            self.executed_line.remove()
-        self.executed_line = self._draw_path("/paths/executed", res.executed.tool, (255, 140, 0))
+        self.view.show_executed(res.executed.tool)
         self.status_text = (
             f"sent: final error {res.final_error * 100:.2f} cm, "
             f"max deviation {res.max_path_deviation * 100:.2f} cm"
@@ -353,26 +374,19 @@ class TeachServer(ControlMixin, SceneMixin):
 
     def _add_box(self) -> None:
         box = self.session.add_obstacle(np.array(self.box_center.value), np.array(self.box_size.value))
-        self._add_box_node(len(self.session.scene.obstacles) - 1, box)
+        self.view.add_box(len(self.session.scene.obstacles) - 1, box)
         self.status_text = "box added"
 
     # ------------------------------------------------------------------ redraw
-    def _draw_recorded(self) -> None:
-        rec = self.session.recorded
-        if self.recorded_line is not None:
-            self.recorded_line.remove()
-            self.recorded_line = None
-        self.recorded_line = self._draw_path("/paths/recorded", rec.tool, (40, 90, 230))
-
     def _refresh(self, sliders: bool = True) -> None:
         s = self.session
         with self.server.atomic():
-            self._draw_arm(s.q)
+            self.view.draw_arm(s.q)
             if sliders:
                 for sl, v in zip(self.sliders, s.q, strict=True):
                     sl.value = float(np.clip(v, sl.min, sl.max))
-            if s.mode == "3d" and s.recording_state != "idle" and len(s._t) % 5 == 0:
-                self._draw_recorded()
+            if s.mode == "3d" and s.recording_state != "idle" and s.samples % 5 == 0:
+                self.view.show_recorded(s.recorded.tool)
             info = s.summary()
             send = s.last_send
             self.status.content = (

@@ -21,8 +21,17 @@ current configuration as a waypoint, refused when the joint-space segment from t
 previous waypoint passes through a collision; the recording is the waypoint path
 (minimum-jerk segments timed by ``panel_speed``). Recording starts on the first arm
 motion of the panel and ends when a stored waypoint puts the tool in the goal, or on
-:meth:`stop`. The panel's actions live in :mod:`lfd.teach.panel`, the recording state
-machine in :mod:`lfd.teach.recording`, obstacle editing in :mod:`lfd.teach.obstacles`.
+:meth:`stop`.
+
+**Composition**: the session owns one object per job, each built with explicit arguments and
+talked to through small public methods: :class:`~lfd.teach.drag_ik.DragIK` (``ik``, the
+3-D mode's IK), :class:`~lfd.teach.panel.Panel` (``panel``, the 2-D inputs' checks and IK),
+:class:`~lfd.teach.guard.MoveGuard` (``guard``, the swept collision check and the counters),
+:class:`~lfd.teach.recording.Recorder` (``recorder``, the state machine and the samples); obstacle
+editing is :func:`lfd.teach.obstacles.add_box`. The session applies the one rule that joins them:
+a move is accepted (arm moved, recorded) or refused (arm kept, counted). Its settings are a
+:class:`~lfd.teach.settings.TeachSettings` (``settings``), checked when built; the robots offered
+are the catalogue's entries marked ``teach``.
 
 **Collisions** counts collision *events*: runs of consecutive refused updates count as
 one (the user pushing into an obstacle for 20 updates made one collision);
@@ -50,35 +59,34 @@ from collections.abc import Callable
 
 import numpy as np
 
-from lfd.robots import ChainKinematics, available_robots, load_robot
+from lfd.robots import ChainKinematics, load_robot
 from lfd.sim.collision import CollisionWorld
 
-from .checks import check_vector, sweep, validate_scene
+from .checks import check_vector, validate_scene
 from .drag_ik import DragIK, IKStep
+from .guard import MoveGuard
 from .latency import latency_summary
 from .obstacles import add_box
-from .panel import PanelMixin
-from .recording import RecordingMixin
+from .panel import Panel
+from .recording import Recorder
 from .results import DragResult, Recording
 from .scene import Box, TeachScene, load_scene
+from .settings import MODES, IKSettings, TeachSettings, teach_robots
 
-__all__ = ["TEACH_ROBOTS", "DragResult", "Recording", "TeachSession"]
-
-#: Catalogue robots the teach interface supports.
-TEACH_ROBOTS = ("wam4", "pr2_right_arm", "sawyer")
-MODES = ("3d", "2d")
+__all__ = ["DragResult", "Recording", "TeachSession", "teach_robots"]
 
 
-class TeachSession(RecordingMixin, PanelMixin):
+class TeachSession:
     """Session logic of the teach interface (see the module docstring).
 
     Args:
-        robot: catalogue name, one of :data:`TEACH_ROBOTS`.
+        robot: catalogue name, one of :func:`~lfd.teach.settings.teach_robots`.
         scene: YAML path, dict (see :mod:`lfd.teach.scene`), a ``TeachScene`` or None.
         mode: ``"3d"`` (drag) or ``"2d"`` (panel); switchable while nothing is recorded.
         ik_time_budget: seconds per drag IK (default 0.02).
         max_joint_step: largest joint change one drag update may make, rad (default 0.5).
-        wam_q3: WAM joint 3 ``"fixed"`` (closed form) or ``"free"`` (LM).
+        wam_q3: ``"fixed"`` (the closed form with its held joint kept, for robots that have one) or
+            ``"free"`` (LM).
         margin: collision clearance, m.
         panel_speed: joint speed (rad/s) that times the 2-D waypoint segments.
         clock: function returning seconds (default ``time.monotonic``); scripted users
@@ -87,9 +95,12 @@ class TeachSession(RecordingMixin, PanelMixin):
         sweep_resolution: every move is collision-checked along its joint-space
             segment at this spacing (rad of the largest joint change), not only at its end.
 
+    The arguments are checked as a :class:`~lfd.teach.settings.TeachSettings`
+    (:meth:`from_settings` takes one directly).
+
     Raises:
-        ValueError: unknown robot, bad scene (field named), start pose outside the
-            limits or in collision, an obstacle overlapping the robot base, a goal out of
+        ValueError: a bad setting (field named), unknown robot, bad scene (field named), start pose
+            outside the limits or in collision, an obstacle overlapping the robot base, a goal out of
             reach.
     """
 
@@ -108,28 +119,26 @@ class TeachSession(RecordingMixin, PanelMixin):
         validate: bool = True,
         sweep_resolution: float = 0.01,
     ) -> None:
-        if robot not in TEACH_ROBOTS:
-            known = ", ".join(TEACH_ROBOTS)
-            extra = (
-                "" if robot not in available_robots() else " (it is in the catalogue but not a teachable arm)"
-            )
-            raise ValueError(f"unknown robot {robot!r}{extra}; choose one of: {known}")
-        if mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        if not max_joint_step > 0 or not panel_speed > 0:
-            raise ValueError("max_joint_step and panel_speed must be positive")
-        self.robot_name = robot
-        self.robot = load_robot(robot)
+        settings = TeachSettings(
+            robot=robot,
+            mode=mode,
+            ik=IKSettings(time_budget=ik_time_budget, max_joint_step=max_joint_step, wam_q3=wam_q3),
+            margin=margin,
+            panel_speed=panel_speed,
+            sweep_resolution=sweep_resolution,
+        )
+        self.settings = settings
+        self.robot_name = settings.robot
+        self.robot = load_robot(settings.robot)
         self.scene: TeachScene = load_scene(scene)
         self.kin = ChainKinematics(self.robot.spec)
-        self.ik = DragIK(self.robot, time_budget=ik_time_budget, wam_q3=wam_q3)
-        self.max_joint_step = float(max_joint_step)
-        self.panel_speed = float(panel_speed)
-        if not sweep_resolution > 0:
-            raise ValueError("sweep_resolution must be positive (rad)")
-        self.sweep_resolution = float(sweep_resolution)
+        self.ik = DragIK(self.robot, time_budget=settings.ik.time_budget, wam_q3=settings.ik.wam_q3)
+        self.panel = Panel(self.robot, self.ik)
+        self.max_joint_step = settings.ik.max_joint_step
+        self.panel_speed = settings.panel_speed
+        self.sweep_resolution = settings.sweep_resolution
         self.clock = clock or time.monotonic
-        self._mode = mode
+        self._mode = settings.mode
         n = self.robot.n_dof
         start = self.robot.home.numpy() if self.scene.start is None else self.scene.start
         if start.shape != (n,):
@@ -137,26 +146,38 @@ class TeachSession(RecordingMixin, PanelMixin):
                 f"scene field 'start' must have {n} joint angles for {robot}, got {start.shape[0]}"
             )
         self.start = np.asarray(start, dtype=float)
-        self.checker = CollisionWorld(self.robot, self.scene.obstacles, self.scene.table_z, margin)
+        self.checker = CollisionWorld(self.robot, self.scene.obstacles, self.scene.table_z, settings.margin)
         if validate:
-            validate_scene(self.robot, robot, self.scene, self.start, self.checker)
+            validate_scene(self.robot, settings.robot, self.scene, self.start, self.checker)
+        self.guard = MoveGuard(self.checker, settings.sweep_resolution)
+        self.recorder = Recorder(self.kin, n, settings.panel_speed, self.clock)
         self.q = self.start.copy()
-        self.collisions = 0
-        self.counters: dict[str, int] = {
-            "drag_updates": 0,
-            "accepted": 0,
-            "refused_collision": 0,
-            "refused_jump": 0,
-            "refused_unreachable": 0,
-            "best_effort": 0,
-            "panel_moves": 0,
-            "stores": 0,
-            "refused_stores": 0,
-        }
-        self.latencies: list[float] = []
-        self._refusing = False
-        self._reset_recording()
         self.last_send = None
+
+    @classmethod
+    def from_settings(
+        cls,
+        settings: TeachSettings,
+        scene=None,
+        *,
+        clock: Callable[[], float] | None = None,
+        validate: bool = True,
+    ) -> TeachSession:
+        """A session of ``settings`` (robot, ``scene`` path unless ``scene`` is given, mode, ``ik``,
+        margin, panel speed, sweep resolution)."""
+        return cls(
+            settings.robot,
+            settings.scene if scene is None else scene,
+            mode=settings.mode,
+            ik_time_budget=settings.ik.time_budget,
+            max_joint_step=settings.ik.max_joint_step,
+            wam_q3=settings.ik.wam_q3,
+            margin=settings.margin,
+            panel_speed=settings.panel_speed,
+            clock=clock,
+            validate=validate,
+            sweep_resolution=settings.sweep_resolution,
+        )
 
     # ------------------------------------------------------------------ state
     @property
@@ -185,25 +206,67 @@ class TeachSession(RecordingMixin, PanelMixin):
     def in_goal(self) -> bool:
         return self.scene.goal is not None and self.scene.goal.contains(self.tool_position)
 
+    @property
+    def collisions(self) -> int:
+        """Collision events so far (:class:`~lfd.teach.guard.MoveGuard`)."""
+        return self.guard.collisions
+
+    @property
+    def counters(self) -> dict[str, int]:
+        """Updates by outcome (:data:`lfd.teach.guard.COUNTERS`)."""
+        return self.guard.counters
+
+    @property
+    def latencies(self) -> list[float]:
+        """IK + collision check time of each checked drag update, s."""
+        return self.guard.latencies
+
+    @property
+    def recording_state(self) -> str:
+        """``"idle"``, ``"recording"`` or ``"done"``."""
+        return self.recorder.state
+
+    @property
+    def end_reason(self) -> str | None:
+        """Why the recording ended: ``"goal"``, ``"stop"`` or None."""
+        return self.recorder.end_reason
+
+    @property
+    def recorded(self) -> Recording:
+        """The demonstration so far: drag samples (3-D) or the waypoint path (2-D)."""
+        return self.recorder.recorded
+
+    @property
+    def waypoints(self) -> np.ndarray:
+        """(W, n) stored waypoints of the 2-D panel, rad."""
+        return self.recorder.waypoints
+
+    @property
+    def samples(self) -> int:
+        """Drag samples (3-D) or stored waypoints (2-D) recorded so far."""
+        return self.recorder.samples
+
+    def playback(self, rate: float = 30.0) -> np.ndarray:
+        """(F, n) configurations replaying the recording in real time at ``rate`` frames/s."""
+        return self.recorder.playback(rate)
+
+    def stop(self) -> None:
+        """End the recording (the Stop button)."""
+        self.recorder.stop()
+
     def clear(self) -> None:
         """Forget the recording (and the last Send) and put the arm back at the start
         (counters kept: they count the whole session)."""
-        self._reset_recording()
+        self.recorder.reset()
         self.last_send = None
         self.q = self.start.copy()
-        self._refusing = False
+        self.guard.settle()
 
-    # ------------------------------------------------------------------ shared rule
+    # ------------------------------------------------------------------ the rule of every move
     def _refuse(
         self, reason: str, target, step: IKStep | None, latency: float, detail: str = ""
     ) -> DragResult:
-        if reason == "collision":
-            self.counters["refused_collision"] += 1
-            if not self._refusing:
-                self.collisions += 1
-            self._refusing = True
-        else:
-            self.counters[f"refused_{'jump' if reason == 'joint_jump' else 'unreachable'}"] += 1
+        self.guard.refused(reason)
         return DragResult(
             False,
             self.q.copy(),
@@ -217,12 +280,28 @@ class TeachSession(RecordingMixin, PanelMixin):
             detail=detail,
         )
 
-    def _check_vector(self, x, length: int, name: str) -> np.ndarray:
-        return check_vector(x, length, name)
-
-    def _sweep(self, q_from: np.ndarray, q_to: np.ndarray):
-        """Collision report of the joint-space segment ``q_from -> q_to`` (:func:`~lfd.teach.checks.sweep`)."""
-        return sweep(self.checker, q_from, q_to, self.sweep_resolution)
+    def _accept(self, q: np.ndarray, target, reachable: bool, latency: float) -> DragResult:
+        self.guard.accepted(reachable)
+        recorder = self.recorder
+        if recorder.state == "idle":
+            recorder.begin(self.q, self._mode)
+        self.q = q.copy()
+        if self._mode == "3d" and recorder.state == "recording":
+            recorder.append(self.q)
+        goal = self.in_goal
+        if goal and self._mode == "3d" and recorder.state == "recording":
+            recorder.finish("goal")
+        return DragResult(
+            True,
+            self.q.copy(),
+            False,
+            goal,
+            reachable=reachable,
+            reason="ok" if reachable else "best_effort",
+            tool=self.tool_position,
+            target=np.asarray(target, dtype=float),
+            latency=latency,
+        )
 
     # ------------------------------------------------------------------ 3-D mode
     def drag(self, position, orientation=None) -> DragResult:
@@ -236,9 +315,9 @@ class TeachSession(RecordingMixin, PanelMixin):
             raise ValueError(
                 "drag() is the 3-D mode's action; this session is in mode '2d' (use set_joints/move_to)"
             )
-        target = self._check_vector(position, 3, "position")
+        target = check_vector(position, 3, "position")
         tic = time.perf_counter()
-        self.counters["drag_updates"] += 1
+        self.guard.count("drag_updates")
         step = self.ik.solve(self.q, target, orientation)
         current_error = float(np.linalg.norm(self.tool_position - target))
         if step.jump > self.max_joint_step:
@@ -247,37 +326,66 @@ class TeachSession(RecordingMixin, PanelMixin):
             )
         if not step.reached and step.error >= current_error - 1e-6:
             return self._refuse("unreachable", target, step, time.perf_counter() - tic, "target out of reach")
-        report = self._sweep(self.q, step.q)
+        report = self.guard.sweep(self.q, step.q)
         latency = time.perf_counter() - tic
-        self.latencies.append(latency)
+        self.guard.latencies.append(latency)
         if report.in_collision:
             return self._refuse("collision", target, step, latency, report.kind or "")
         return self._accept(step.q, target, step.reached, latency)
 
-    def _accept(self, q: np.ndarray, target, reachable: bool, latency: float) -> DragResult:
-        self._refusing = False
-        self.counters["accepted"] += 1
-        if not reachable:
-            self.counters["best_effort"] += 1
-        if self.recording_state == "idle":
-            self._begin()
-        self.q = q.copy()
-        if self._mode == "3d" and self.recording_state == "recording":
-            self._append(self.q)
-        goal = self.in_goal
-        if goal and self._mode == "3d" and self.recording_state == "recording":
-            self._finish("goal")
-        return DragResult(
-            True,
-            self.q.copy(),
-            False,
-            goal,
-            reachable=reachable,
-            reason="ok" if reachable else "best_effort",
-            tool=self.tool_position,
-            target=np.asarray(target, dtype=float),
-            latency=latency,
-        )
+    # ------------------------------------------------------------------ 2-D panel
+    def set_joints(self, q) -> DragResult:
+        """The sliders: put the arm at ``q`` (n,) rad if it is collision-free (else refused).
+
+        Raises:
+            ValueError: wrong length, NaN, a joint outside its limits (named).
+        """
+        q = self.panel.joints(q)
+        tic = time.perf_counter()
+        self.guard.count("panel_moves")
+        report = self.guard.sweep(self.q, q)
+        latency = time.perf_counter() - tic
+        target = self.kin.tool_position(q)
+        if report.in_collision:
+            return self._refuse("collision", target, None, latency, report.kind or "")
+        return self._accept(q, target, True, latency)
+
+    def move_to(self, position, orientation=None) -> DragResult:
+        """The x/y/z entry: IK (from the current configuration, with restarts if that
+        fails) to ``position`` (3,) m, then the same rule as :meth:`set_joints`;
+        refused (``"unreachable"``) when no configuration reaches it within 1 mm."""
+        target = check_vector(position, 3, "position")
+        tic = time.perf_counter()
+        step = self.panel.solve(self.q, target, orientation)
+        if not step.reached:
+            self.guard.count("panel_moves")
+            return self._refuse("unreachable", target, step, time.perf_counter() - tic, "no IK solution")
+        return self.set_joints(step.q)
+
+    def store(self) -> bool:
+        """Store the current configuration as a waypoint (2-D). Returns False (and counts a
+        collision) when the joint-space segment from the previous waypoint collides."""
+        if self._mode != "2d":
+            raise ValueError("store() is the 2-D panel's action; this session is in mode '3d'")
+        recorder = self.recorder
+        if recorder.state == "done":
+            return False
+        if recorder.state == "idle":
+            recorder.begin(self.q, self._mode)
+        self.guard.count("stores")
+        if self.guard.sweep(recorder.last_waypoint, self.q).in_collision:
+            self.guard.count("refused_stores")
+            self._refuse("collision", self.tool_position, None, 0.0, "segment")
+            return False
+        self.guard.settle()
+        recorder.add_waypoint(self.q)
+        if self.in_goal:
+            recorder.finish("goal")
+        return True
+
+    def go_home(self) -> None:
+        """Put the arm back at the scene's start pose (not recorded)."""
+        self.q = self.start.copy()
 
     # ------------------------------------------------------------------ scene edits
     def add_obstacle(self, center, size, yaw_deg: float = 0.0) -> Box:
@@ -321,7 +429,7 @@ class TeachSession(RecordingMixin, PanelMixin):
             "mode": self._mode,
             "recording": self.recording_state,
             "end_reason": self.end_reason,
-            "samples": len(self._t) if self._mode == "3d" else len(self._waypoints),
+            "samples": self.samples,
             "collisions": self.collisions,
             "counters": dict(self.counters),
             **latency_summary(self.latencies),

@@ -1,9 +1,11 @@
-"""The shapes of a generated URDF that the teach page draws."""
+"""The 3-D scene the teach page draws: the shapes of the arm's generated URDF, the table, the obstacles,
+the goal, the drag gizmo and the tool paths (:class:`SceneView`). Units: m."""
 
 from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -11,9 +13,9 @@ import numpy as np
 from lfd.robots.spatial import matrix_to_quaternion
 from lfd.robots.spec import rpy_to_matrix
 
-__all__ = ["SceneMixin", "urdf_visuals"]
+__all__ = ["GREEN", "RED", "SceneView", "urdf_visuals"]
 
-_GREEN, _RED, _GREY = (40, 180, 60), (220, 40, 40), (150, 150, 165)
+GREEN, RED, _GREY = (40, 180, 60), (220, 40, 40), (150, 150, 165)
 
 
 @dataclass(frozen=True)
@@ -53,12 +55,25 @@ def urdf_visuals(urdf: str, link_names: tuple[str, ...]) -> list[_Visual]:
     return out
 
 
-class SceneMixin:
+class SceneView:
     """The 3-D scene of :class:`~lfd.teach.server.TeachServer`: table, obstacles, goal, the arm's
-    URDF shapes (one frame per link), the drag gizmo with its marker and the ghost target."""
+    URDF shapes (one frame per link), the drag gizmo with its marker and the ghost target, the
+    recorded (blue) and executed (orange) tool paths.
 
-    def _build_scene(self) -> None:
-        s, sc = self.session, self.server.scene
+    Args:
+        viser_server: the running viser server.
+        session: the session drawn (its ``scene``, ``robot``, ``kin``, ``n_dof``, ``tool_position``).
+        on_gizmo: called with each gizmo update event.
+
+    Attributes:
+        visuals, link_nodes: the arm's shapes and one scene frame per link. gizmo, marker, ghost: the drag
+        gizmo, the sphere on it (green / red) and the unreachable target. gizmo_scale: m, its arrows' length.
+        recorded_line, executed_line: the drawn paths (None: none).
+    """
+
+    def __init__(self, viser_server, session, on_gizmo: Callable) -> None:
+        self.server, self.session = viser_server, session
+        s, sc = session, viser_server.scene
         self.server.initial_camera.position = (1.3, -1.3, 1.0)
         self.server.initial_camera.look_at = (0.35, 0.0, 0.2)
         sc.set_up_direction("+z")
@@ -71,10 +86,10 @@ class SceneMixin:
                 position=(0.3, 0.0, s.scene.table_z - 0.01),
             )
         for i, box in enumerate(s.scene.obstacles):
-            self._add_box_node(i, box)
+            self.add_box(i, box)
         if s.scene.goal is not None:
             g = s.scene.goal
-            sc.add_icosphere("/goal", radius=g.radius, color=_GREEN, opacity=0.35, position=tuple(g.center))
+            sc.add_icosphere("/goal", radius=g.radius, color=GREEN, opacity=0.35, position=tuple(g.center))
         # one scene frame per link (moved on every update), its URDF shapes as fixed children
         self.visuals = urdf_visuals(s.robot.to_urdf(), s.robot.spec.link_names)
         self.link_nodes = [sc.add_frame(f"/robot/link{i}", show_axes=False) for i in range(s.n_dof)]
@@ -107,13 +122,14 @@ class SceneMixin:
             depth_test=False,
             line_width=4.0,
         )
-        self.marker = sc.add_icosphere("/gizmo/marker", radius=0.025, color=_GREEN)
-        self.ghost = sc.add_icosphere("/ghost", radius=0.03, color=_RED, opacity=0.3, visible=False)
-        self.gizmo.on_update(self._on_gizmo)
+        self.marker = sc.add_icosphere("/gizmo/marker", radius=0.025, color=GREEN)
+        self.ghost = sc.add_icosphere("/ghost", radius=0.03, color=RED, opacity=0.3, visible=False)
+        self.gizmo.on_update(on_gizmo)
         self.recorded_line = None
         self.executed_line = None
 
-    def _add_box_node(self, i: int, box) -> None:
+    def add_box(self, i: int, box) -> None:
+        """Draw obstacle number ``i`` (a :class:`~lfd.teach.scene.Box`)."""
         rot = np.array(
             [[math.cos(box.yaw), -math.sin(box.yaw), 0], [math.sin(box.yaw), math.cos(box.yaw), 0], [0, 0, 1]]
         )
@@ -126,7 +142,8 @@ class SceneMixin:
             opacity=0.8,
         )
 
-    def _draw_arm(self, q: np.ndarray) -> None:
+    def draw_arm(self, q: np.ndarray) -> None:
+        """Move the arm's link frames to the configuration ``q (n,)`` rad."""
         frames = self.session.kin.frames(q)
         for node, frame in zip(self.link_nodes, frames[:-1], strict=True):
             node.position = tuple(frame[:3, 3])
@@ -137,3 +154,23 @@ class SceneMixin:
             return None
         segs = np.stack([points[:-1], points[1:]], axis=1)
         return self.server.scene.add_line_segments(name, segs, color, thickness=0.006)
+
+    def show_recorded(self, tool: np.ndarray) -> None:
+        """Draw the recorded tool path ``tool (N, 3)`` m (blue), replacing the previous one."""
+        if self.recorded_line is not None:
+            self.recorded_line.remove()
+            self.recorded_line = None
+        self.recorded_line = self._draw_path("/paths/recorded", tool, (40, 90, 230))
+
+    def show_executed(self, tool: np.ndarray) -> None:
+        """Draw the executed tool path ``tool (N, 3)`` m of a Send (orange), replacing the previous one."""
+        if self.executed_line is not None:
+            self.executed_line.remove()
+        self.executed_line = self._draw_path("/paths/executed", tool, (255, 140, 0))
+
+    def clear_paths(self) -> None:
+        """Remove both paths."""
+        for line in (self.recorded_line, self.executed_line):
+            if line is not None:
+                line.remove()
+        self.recorded_line = self.executed_line = None

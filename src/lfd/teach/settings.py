@@ -1,0 +1,172 @@
+"""Typed, validated settings of the teach app (the keys of ``configs/teach/teach.yaml``).
+
+:class:`TeachSettings` holds the session's and the server's settings, :class:`IKSettings` the ``ik``
+section. Every value is checked once, in ``__post_init__``: a bad value raises ``ValueError`` with one
+line naming the field (as the config spells it, e.g. ``ik.max_joint_step``) and what it must be.
+
+The robots offered are the catalogue's entries marked ``teach`` (:func:`teach_robots`,
+:class:`lfd.robots.catalogue.CatalogueEntry`); nothing here names a robot.
+
+Units: s, rad, m, rad/s.
+
+Example::
+
+    >>> from lfd.teach.settings import IKSettings, TeachSettings
+    >>> s = TeachSettings(robot="sawyer", ik=IKSettings(max_joint_step=0.3))
+    >>> s.ik.max_joint_step, s.token_policy
+    (0.3, None)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from lfd.robots.catalogue import available_robots, catalogue_entries
+
+__all__ = ["MODES", "WAM_Q3_MODES", "IKSettings", "TeachSettings", "teach_robots"]
+
+#: Interaction modes: the 3-D drag or the 2-D panel.
+MODES = ("3d", "2d")
+#: Joint 3 of an arm with a closed-form IK: held (closed form) or free (LM).
+WAM_Q3_MODES = ("fixed", "free")
+#: Keys of the composed Hydra config that belong to the entry point (ignored).
+ENTRY_POINT_KEYS = ("hydra",)
+
+
+def teach_robots() -> tuple[str, ...]:
+    """Catalogue robots the teach app offers (entries with ``teach``)."""
+    return tuple(e.name for e in catalogue_entries() if e.teach)
+
+
+def _positive(name: str, value: Any, *, nullable: bool = False, zero: bool = False):
+    if value is None and nullable:
+        return None
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+    if not ok or not (value >= 0 if zero else value > 0):
+        bound = ">= 0" if zero else "> 0"
+        raise ValueError(f"{name} must be a number {bound}{' (or null)' if nullable else ''}, got {value!r}")
+    return float(value)
+
+
+def _text(name: str, value: Any) -> str:
+    if not isinstance(value, str | os.PathLike) or not str(value):
+        raise ValueError(f"{name} must be a non-empty string, got {value!r}")
+    return str(value)
+
+
+@dataclass(frozen=True)
+class IKSettings:
+    """``ik``: the drag IK of the 3-D mode.
+
+    Attributes:
+        time_budget: s per drag update (> 0). max_joint_step: rad (> 0), a drag update changing a joint
+            more than this is refused. wam_q3: ``"fixed"`` (the closed form with the held joint kept, for
+            robots whose catalogue entry has one) or ``"free"`` (LM on every joint).
+    """
+
+    time_budget: float = 0.02
+    max_joint_step: float = 0.5
+    wam_q3: str = "fixed"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "time_budget", _positive("ik.time_budget", self.time_budget))
+        object.__setattr__(self, "max_joint_step", _positive("ik.max_joint_step", self.max_joint_step))
+        if self.wam_q3 not in WAM_Q3_MODES:
+            raise ValueError(f"ik.wam_q3 must be one of {', '.join(WAM_Q3_MODES)}, got {self.wam_q3!r}")
+
+
+@dataclass(frozen=True)
+class TeachSettings:
+    """Settings of one teach session and its server (see the module docstring).
+
+    Attributes:
+        robot: one of :func:`teach_robots`.
+        scene: YAML scene path; None (or ``""``/``"null"``): an empty scene.
+        host: interface the server binds. port: TCP port 0..65535 (0: a free one).
+        token: ``"auto"`` (None too: a token exactly when ``host`` is not loopback), True or False.
+        export_dir: where Export creates its ``demo-<date>-<time>`` folders.
+        duration_s: serve this many seconds (>= 0; 0: start and stop, a smoke test); None: until Ctrl-C.
+        mode: ``"3d"`` or ``"2d"``. ik: :class:`IKSettings`. margin: m (>= 0) of collision clearance.
+        panel_speed: rad/s (> 0) timing the 2-D waypoint segments.
+        sweep_resolution: rad (> 0), spacing of the collision checks along a move.
+    """
+
+    robot: str = "wam4"
+    scene: str | None = None
+    host: str = "127.0.0.1"
+    port: int = 8080
+    token: str | bool = "auto"
+    export_dir: str = "outputs/teach/export"
+    duration_s: float | None = None
+    mode: str = "3d"
+    ik: IKSettings = field(default_factory=IKSettings)
+    margin: float = 0.0
+    panel_speed: float = 0.6
+    sweep_resolution: float = 0.01
+
+    def __post_init__(self) -> None:
+        robots = teach_robots()
+        if self.robot not in robots:
+            extra = (
+                " (it is in the catalogue but not a teachable arm)"
+                if self.robot in available_robots()
+                else ""
+            )
+            raise ValueError(f"unknown robot {self.robot!r}{extra}; choose one of: {', '.join(robots)}")
+        scene = self.scene
+        object.__setattr__(self, "scene", None if scene in (None, "", "null") else _text("scene", scene))
+        object.__setattr__(self, "host", _text("host", self.host))
+        port = self.port
+        if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+            raise ValueError(f"port must be an integer in 0..65535 (0: a free port), got {port!r}")
+        token = "auto" if self.token is None else self.token
+        if not (isinstance(token, bool) or (isinstance(token, str) and token.lower() == "auto")):
+            raise ValueError(f"token must be auto, true or false, got {self.token!r}")
+        object.__setattr__(self, "token", "auto" if isinstance(token, str) else token)
+        object.__setattr__(self, "export_dir", _text("export_dir", self.export_dir))
+        object.__setattr__(self, "duration_s", _positive("duration_s", self.duration_s, nullable=True, zero=True))
+        if self.mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if not isinstance(self.ik, IKSettings):
+            raise ValueError(f"ik must be an IKSettings, got {type(self.ik).__name__}")
+        object.__setattr__(self, "margin", _positive("margin", self.margin, zero=True))
+        object.__setattr__(self, "panel_speed", _positive("panel_speed", self.panel_speed))
+        object.__setattr__(self, "sweep_resolution", _positive("sweep_resolution", self.sweep_resolution))
+
+    @property
+    def token_policy(self) -> bool | None:
+        """``token`` as :class:`~lfd.teach.server.TeachServer` takes it: None (auto), True or False."""
+        return None if self.token == "auto" else bool(self.token)
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> TeachSettings:
+        """Settings from a mapping of the config's keys (e.g. ``OmegaConf.to_container(cfg, resolve=True)``);
+        ``ik`` is a mapping of its keys; :data:`ENTRY_POINT_KEYS` are ignored.
+
+        Raises:
+            ValueError: an unknown key (named) or a bad value.
+        """
+        kwargs = {str(k): v for k, v in values.items() if k not in ENTRY_POINT_KEYS}
+        _known("", cls, kwargs)
+        if "ik" in kwargs:
+            ik = kwargs["ik"]
+            if not isinstance(ik, Mapping):
+                raise ValueError(f"ik must be a section of settings, got {ik!r}")
+            ik = {str(k): v for k, v in ik.items()}
+            _known("ik.", IKSettings, ik)
+            kwargs["ik"] = IKSettings(**ik)
+        return cls(**kwargs)
+
+
+def _known(prefix: str, cls: type, values: Mapping[str, Any]) -> None:
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(k for k in values if k not in names)
+    if unknown:
+        raise ValueError(
+            f"unknown setting(s) {', '.join(prefix + k for k in unknown)}; known: {', '.join(sorted(names))}"
+        )
