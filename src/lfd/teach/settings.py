@@ -129,7 +129,9 @@ class TeachSettings:
             raise ValueError(f"token must be auto, true or false, got {self.token!r}")
         object.__setattr__(self, "token", "auto" if isinstance(token, str) else token)
         object.__setattr__(self, "export_dir", _text("export_dir", self.export_dir))
-        object.__setattr__(self, "duration_s", _positive("duration_s", self.duration_s, nullable=True, zero=True))
+        object.__setattr__(
+            self, "duration_s", _positive("duration_s", self.duration_s, nullable=True, zero=True)
+        )
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
         if not isinstance(self.ik, IKSettings):
