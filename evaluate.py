@@ -1,15 +1,22 @@
-"""Evaluate trained models: ``python evaluate.py [ckpt_dmp=PATH] [ckpt_velocity=PATH] [ckpt_act=PATH]
-[ckpt_diffusion=PATH] [eval.scenario=FILE]``.
+"""Evaluate trained models: ``python evaluate.py [ckpt=PATH | ckpt=[PATH,...]] [eval.kinds=[...]]
+[eval.scenario=FILE] [experiment=...]``.
 
 A thin Hydra entry point (lightning-hydra-template's ``eval.py``): it composes
 ``configs/evaluate.yaml`` with your overrides, instantiates the evaluator named by
-``eval._target_`` and the datamodule it reads, finds the checkpoints, and calls
-``evaluator.run(datamodule=..., checkpoints=..., out_dir=...)`` with those plain objects in
-this run's output directory, whose path it prints. Metrics, tables and plots land there.
+``eval._target_``, finds the checkpoints (those given, else the newest of each policy kind), and
+calls ``evaluator.run(datamodule=..., checkpoints=..., out_dir=...)`` with plain objects in this
+run's output directory, whose path it prints with a summary of the results.
+
+The checkpoints remember how they were trained (:mod:`lfd.visuomotor.eval.provenance`): the
+experiment is theirs unless ``experiment=`` is given, and the data settings are theirs unless the
+command line sets ``seed``, ``data`` or a ``data.*`` key. So ``python train.py model=velocity``
+then ``python evaluate.py`` scores that checkpoint with no override repeated.
 
 Examples::
 
-    python evaluate.py experiment=quick                   # every policy kind, newest checkpoints
+    python evaluate.py                                    # every policy kind, newest checkpoints
+    python evaluate.py experiment=quick eval.split=val    # the validation objects
+    python evaluate.py ckpt=[a/last.ckpt,b/last.ckpt]     # these two (kinds read from the files)
     python evaluate.py eval.scenario=configs/scenarios/mixed.yaml
     python evaluate.py eval=sawyer                        # the Sawyer models' protocol
 """
@@ -17,19 +24,23 @@ Examples::
 from __future__ import annotations
 
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import hydra
 from hydra.errors import InstantiationException
-from omegaconf import DictConfig
+from omegaconf import DictConfig, open_dict
 
 from lfd.training import Evaluator
-from lfd.visuomotor.eval.evaluator import CKPT_KEYS
 
 #: Errors that are the user's input (a bad checkpoint, scenario file or setting; a missing
 #: file): ``main`` prints their one-line message without a traceback and exits with status 2.
 USER_ERRORS = (ValueError, FileNotFoundError)
+#: Command-line keys after which the data settings are the command line's, not the checkpoints'.
+DATA_OVERRIDES = ("seed", "data")
+#: The repository's configs (the entry points' config_path).
+CONFIGS = Path(__file__).resolve().parent / "configs"
 
 
 def instantiate_evaluator(cfg: DictConfig) -> Evaluator:
@@ -53,32 +64,126 @@ def instantiate_evaluator(cfg: DictConfig) -> Evaluator:
     return evaluator
 
 
-def evaluate(cfg: DictConfig, out_dir: str | Path) -> dict[str, Any]:
-    """Instantiate ``cfg.eval`` (which checks its scenario file first) and (for evaluators that
-    read a dataset) ``cfg.data``, resolve the checkpoints (``ckpt_dmp``, ``ckpt_velocity``,
-    ``ckpt_act``, ``ckpt_diffusion``, ``eval.checkpoint`` or the newest under
-    ``paths.output_root``) and run; returns the metrics
-    (:func:`instantiate_evaluator` raises; a bad checkpoint raises
-    :class:`lfd.training.CheckpointError`, a bad scenario file
-    :class:`lfd.visuomotor.eval.scenario.ScenarioError`, both ``ValueError``s)."""
+def register_policy_configs() -> list[str]:
+    """Import the class of every ``configs/model/<name>.yaml`` (and of model configs on
+    ``hydra.searchpath``), so that each policy kind a model config names is registered
+    (:data:`lfd.visuomotor.policies.POLICIES`); returns the model config names. The classes come
+    from the configs (trusted, as ``train.py``'s), never from a checkpoint."""
+    from hydra import compose, initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    if not GlobalHydra.instance().is_initialized():  # called outside an app (tests, notebooks)
+        with initialize_config_dir(str(CONFIGS), version_base="1.3"):
+            return register_policy_configs()
+    names = GlobalHydra.instance().config_loader().get_group_options("model")
+    for name in names:
+        target = compose(config_name="evaluate", overrides=[f"+model={name}"]).model.get("_target_")
+        if target:
+            hydra.utils.get_class(target)
+    return names
+
+
+def _keys(overrides: Sequence[str]) -> set[str]:
+    """The config keys a list of command-line overrides sets (``+a.b=1`` -> ``a.b``)."""
+    return {o.lstrip("+~").split("=")[0] for o in overrides}
+
+
+def follow_training_run(
+    cfg: DictConfig, run: dict[str, Any] | None, overrides: Sequence[str] | None
+) -> DictConfig:
+    """``cfg`` with the checkpoints' training run filled in where the command line (``overrides``)
+    left it open: the experiment (recomposing ``configs/evaluate.yaml`` with it) and the data
+    settings (only keys the data config has; never a ``_target_``). ``overrides=None`` (a config
+    composed by a caller) or ``run=None`` (checkpoints that recorded nothing) leave ``cfg`` as is."""
+    if run is None or overrides is None:
+        return cfg
+    keys = _keys(overrides)
+    extra = []
+    if "experiment" not in keys and run["experiment"] is not None:
+        extra.append(f"experiment={run['experiment']}")
+    takes_data = not any(k == top or k.startswith(f"{top}.") for k in keys for top in DATA_OVERRIDES)
+    if takes_data and run["data_config"] is not None:
+        extra.append(f"data={run['data_config']}")
+    if extra:
+        from hydra import compose
+
+        cfg = compose(config_name="evaluate", overrides=[*overrides, *extra])
+    if takes_data:
+        with open_dict(cfg):
+            for key, value in run["data"].items():
+                if key in cfg.data and not key.startswith("_") and key != "root":
+                    cfg.data[key] = value
+    return cfg
+
+
+def evaluate(cfg: DictConfig, out_dir: str | Path, overrides: Sequence[str] | None = None) -> dict[str, Any]:
+    """Instantiate ``cfg.eval`` (which checks its settings and scenario file first), resolve the
+    checkpoints (``ckpt``, ``eval.checkpoint`` or the newest under ``paths.output_root``), follow
+    their training run where ``overrides`` (the command line's) leave it open
+    (:func:`follow_training_run`), instantiate ``cfg.data`` for evaluators that read a dataset,
+    and run; returns the metrics.
+
+    Raises:
+        ValueError: a bad setting, checkpoint (:class:`lfd.training.CheckpointError`) or scenario
+            file (:class:`lfd.visuomotor.eval.scenario.ScenarioError`); checkpoints of two datasets.
+        FileNotFoundError: a missing file, or no checkpoint.
+    """
+    register_policy_configs()
     evaluator = instantiate_evaluator(cfg)
-    datamodule = hydra.utils.instantiate(cfg.data) if evaluator.needs_datamodule else None
-    given = {kind: cfg.get(key) for kind, key in CKPT_KEYS.items()}
+    if callable(
+        getattr(evaluator, "check_inputs", None)
+    ):  # e.g. a scenario out of reach: before any checkpoint
+        evaluator.check_inputs(hydra.utils.instantiate(cfg.data))
+    given = cfg.get("ckpt")
+    given = [] if given is None else [given] if isinstance(given, str) else list(given)
     checkpoints = evaluator.resolve_checkpoints(cfg.paths.output_root, given)
+    datamodule = None
+    if evaluator.needs_datamodule:
+        from lfd.training import checkpoint_kind
+        from lfd.visuomotor.eval.provenance import shared_training_run
+
+        named = {checkpoint_kind(p) for p in given}
+        run, checkpoints, notes = shared_training_run(checkpoints, named)
+        for note in notes:
+            print(f"[lfd] {note}")
+        followed = follow_training_run(cfg, run, overrides)
+        if followed is not cfg:
+            cfg, evaluator = followed, instantiate_evaluator(followed)
+        datamodule = hydra.utils.instantiate(cfg.data)
     return evaluator.run(datamodule=datamodule, checkpoints=checkpoints, out_dir=Path(out_dir))
+
+
+def summary_lines(metrics: dict[str, Any]) -> list[str]:
+    """One line per evaluated policy kind: mean final distance, success and correct approach
+    (where the metrics have them)."""
+    lines = []
+    for kind, m in metrics.items():
+        if not isinstance(m, dict) or "final_distance_m" not in m:
+            continue
+        d = m["final_distance_m"]
+        mean = d.get("mean") if isinstance(d, dict) else d
+        parts = [f"{kind}: mean final distance {100 * mean:.2f} cm"]
+        for key, label in (("success_5cm", "success"), ("approach_correct", "correct approach")):
+            if isinstance(m.get(key), (int, float)):
+                parts.append(f"{label} {100 * m[key]:.0f} %")
+        lines.append(", ".join(parts) + f" ({m.get('episodes', '?')} episodes)")
+    return lines
 
 
 @hydra.main(version_base="1.3", config_path="configs", config_name="evaluate")
 def main(cfg: DictConfig) -> str:
     import lightning as L
+    from hydra.core.hydra_config import HydraConfig
 
     L.seed_everything(cfg.seed, workers=True)
     out_dir = Path(cfg.paths.output_dir)
     try:
-        evaluate(cfg, out_dir)
+        metrics = evaluate(cfg, out_dir, overrides=list(HydraConfig.get().overrides.task))
     except USER_ERRORS as e:
         print(f"evaluate: {e}", file=sys.stderr)
         raise SystemExit(2) from None
+    for line in summary_lines(metrics):
+        print(f"[lfd] {line}")
     print(f"[lfd] evaluation written to: {out_dir}")
     return str(out_dir)
 

@@ -10,15 +10,18 @@ Examples::
     python train.py -m model=cnn_dmp,velocity         # both visuomotor policies, one after the other
     python train.py experiment=original trainer=gpu   # original-scale data on a GPU
     python train.py trainer=ddp trainer.devices=2     # Lightning DDP (gloo on CPU)
-    python train.py trainer.fast_dev_run=true         # one batch of train + val, a smoke test
+    python train.py +trainer.fast_dev_run=true        # one batch of train + val, a smoke test
     python train.py experiment=sawyer_models          # the Sawyer forward + inverse models
     python train.py -m experiment=quick +grid=policies hydra/launcher=joblib   # the policy grid
-                                                      # (issue 35; scripts/collect_grid.py tabulates it)
+                                                      # (scripts/collect_grid.py tabulates it)
 
-With ``evaluate=true`` a visuomotor policy is scored right after training, by ``evaluate.py``'s
-configuration for the same experiment, data and paths (plus ``eval_overrides``, e.g.
-``[eval.split=val]``; the test split by default), into ``<run dir>/evaluate/metrics.json``:
-one self-contained result per multirun job (and ``timing.json``: training wall time).
+A visuomotor policy (a model whose class is a registered :class:`lfd.visuomotor.policies.VisuomotorPolicy`)
+gets its dataset settings from the data config (``data_arguments``), the datamodule serves its
+item layout (``item_mode``), and its checkpoint records the run's experiment and data settings, so
+that ``python evaluate.py`` follows them. With ``evaluate=true`` it is scored right after training
+by the ``eval`` settings of this config (e.g. ``eval.split=val``; the test split by default) on this
+run's data, into ``<run dir>/evaluate/metrics.json``: one self-contained result per multirun job
+(and ``timing.json``: training wall time).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
@@ -57,11 +61,6 @@ def check_resume(ckpt_path: str | None) -> None:
         raise SystemExit(2) from None
 
 
-#: Overrides of the training run that the evaluation after it inherits (its data config is the
-#: training run's own, copied whole).
-INHERITED = ("paths", "seed", "experiment")
-
-
 def _train_size(datamodule) -> dict:
     """``train_items`` (the train dataset's length) and ``train_episodes`` (demonstrations, for a
     reaching datamodule) where the datamodule has them; empty otherwise."""
@@ -75,54 +74,68 @@ def _train_size(datamodule) -> dict:
     return out
 
 
+def policy_class(cfg: DictConfig) -> type | None:
+    """The registered visuomotor policy class ``cfg.model`` names, or None for another model
+    (e.g. the Sawyer models)."""
+    from lfd.visuomotor.policies import VisuomotorPolicy
+
+    cls = hydra.utils.get_class(cfg.model._target_)
+    return cls if isinstance(cls, type) and issubclass(cls, VisuomotorPolicy) and cls.kind else None
+
+
+def instantiate_data_and_model(cfg: DictConfig) -> tuple[Any, Any]:
+    """The datamodule and the model of ``cfg``. A policy takes its dataset settings from the data
+    config (``data_arguments``), the datamodule serves the policy's item layout (``item_mode``),
+    and the policy records this run's experiment and data settings for its checkpoints."""
+    from hydra.core.hydra_config import HydraConfig
+
+    cls = policy_class(cfg)
+    if cls is None:
+        return hydra.utils.instantiate(cfg.data), hydra.utils.instantiate(cfg.model)
+    data = OmegaConf.to_container(cfg.data, resolve=True)
+    twice = sorted(set(cls.DATA_ARGUMENTS) & set(cfg.model))
+    try:
+        if twice:
+            raise ValueError(f"model.{twice[0]}: set by the data config (data.{twice[0]}), not the model")
+        arguments = cls.data_arguments(data)
+    except ValueError as e:
+        print(f"train: model={cls.kind}: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
+    datamodule = hydra.utils.instantiate(cfg.data, mode=cls.item_mode)
+    model = hydra.utils.instantiate(cfg.model, **arguments)
+    choices = HydraConfig.get().runtime.choices if HydraConfig.initialized() else {}
+    model.training_run = {
+        "experiment": choices.get("experiment"),
+        "data_config": choices.get("data"),
+        "data": data,
+    }
+    return datamodule, model
+
+
 def check_evaluate(cfg: DictConfig) -> str | None:
     """The policy kind to evaluate after training (``evaluate=true``), or None; one line on
-    stderr and exit status 2 for a model that the reaching evaluator does not score."""
+    stderr and exit status 2 for a model that is no visuomotor policy."""
     if not cfg.get("evaluate"):
         return None
-    from hydra.core.hydra_config import HydraConfig
-
-    from lfd.visuomotor.eval.evaluator import CKPT_KEYS
-
-    kind = HydraConfig.get().runtime.choices.get("model")
-    if kind not in CKPT_KEYS:
-        print(f"train: evaluate=true: model={kind} is not a policy the reaching evaluator scores "
-              f"(expected one of {sorted(CKPT_KEYS)})", file=sys.stderr)  # fmt: skip
+    cls = policy_class(cfg)
+    if cls is None:
+        print(f"train: evaluate=true: model {cfg.model._target_} is not a policy the reaching evaluator scores",
+              file=sys.stderr)  # fmt: skip
         raise SystemExit(2)
-    return kind
+    return cls.kind
 
 
-def evaluate_checkpoint(cfg: DictConfig, kind: str, ckpt: str) -> Path:
-    """Score ``ckpt`` (policy ``kind``) with ``configs/evaluate.yaml`` composed from this run's
-    experiment, its paths/seed overrides and ``eval_overrides``, on this run's own data config
-    (the same dataset); writes ``<run dir>/evaluate/``."""
-    from hydra import compose
-    from hydra.core.hydra_config import HydraConfig
-    from omegaconf import open_dict
-
-    from lfd.visuomotor.eval.evaluator import CKPT_KEYS
-
-    here = str(Path(__file__).resolve().parent)  # evaluate.py beside this file, also in launcher workers
-    if here not in sys.path:
-        sys.path.insert(0, here)
-    import evaluate
-
-    hc = HydraConfig.get()
+def evaluate_checkpoint(cfg: DictConfig, kind: str, ckpt: str, datamodule) -> Path:
+    """Score ``ckpt`` (policy ``kind``) with this run's ``eval`` settings on this run's data
+    (the evaluator's ``run``); writes ``<run dir>/evaluate/``. Test-time colour averaging only
+    for a policy trained with colour augmentation."""
     out = Path(cfg.paths.output_dir) / "evaluate"
-    inherited = [o for o in hc.overrides.task if o.lstrip("+~").split("=")[0].split(".")[0] in INHERITED]
-    overrides = [
-        *inherited,
-        f"eval.methods=[{kind}]",
-        # test-time colour averaging only for a policy trained with colour augmentation
-        *([] if cfg.model.get("colour_augment") else ["eval.colour_tta=[]"]),
-        f"{CKPT_KEYS[kind]}={ckpt}",
-        f"paths.output_dir={out}",
-        *cfg.get("eval_overrides", []),
-    ]
-    eval_cfg = compose(config_name="evaluate", overrides=overrides)
-    with open_dict(eval_cfg):
-        eval_cfg.data = OmegaConf.create(OmegaConf.to_container(cfg.data, resolve=True))
-    evaluate.evaluate(eval_cfg, out)
+    settings = OmegaConf.to_container(cfg.eval, resolve=True)
+    settings["kinds"] = [kind]
+    if not cfg.model.get("colour_augment"):
+        settings["colour_tta"] = []
+    evaluator = hydra.utils.instantiate(settings, _convert_="all")
+    evaluator.run(datamodule=datamodule, checkpoints={kind: Path(ckpt)}, out_dir=out)
     return out
 
 
@@ -133,8 +146,7 @@ def main(cfg: DictConfig) -> str | None:
     check_resume(cfg.get("ckpt_path"))
     kind = check_evaluate(cfg)
     L.seed_everything(cfg.seed, workers=True)
-    datamodule = hydra.utils.instantiate(cfg.data)
-    model = hydra.utils.instantiate(cfg.model)
+    datamodule, model = instantiate_data_and_model(cfg)
     callbacks = _instantiate_group(cfg.get("callbacks"))
     loggers = _instantiate_group(cfg.get("logger"))
     trainer = hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False)
@@ -174,7 +186,7 @@ def main(cfg: DictConfig) -> str | None:
             {"fit_s": fit_s, "global_step": trainer.global_step, **_train_size(datamodule)},
         )
         if kind is not None and ckpt:
-            print(f"[lfd] evaluation written to: {evaluate_checkpoint(cfg, kind, ckpt)}")
+            print(f"[lfd] evaluation written to: {evaluate_checkpoint(cfg, kind, ckpt, datamodule)}")
     return ckpt
 
 

@@ -80,19 +80,21 @@ def reaching_overrides(root: Path) -> list[str]:
 
 
 # ---------------------------------------------------------------------------- pickle payloads
-def test_evaluate_ckpt_dmp_with_a_payload_runs_nothing(tmp_path):
-    """``evaluate.py ckpt_dmp=evil.ckpt`` beside a planted ``last.ckpt`` for the velocity policy:
-    the planted one is named and skipped, the given one gets one line naming it; neither
-    payload runs, and no dataset is generated for them."""
+def test_evaluate_ckpt_with_a_payload_runs_nothing(tmp_path):
+    """``evaluate.py ckpt=evil.ckpt`` beside a planted ``last.ckpt`` for the velocity policy:
+    the given one gets one line naming it; searching the outputs, the planted one is named and
+    skipped; neither payload runs, and no dataset is generated for them."""
     marker = tmp_path / "pwned"
     evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
     planted = evil_checkpoint(
         tmp_path / "outputs" / "train" / "planted" / "checkpoints" / "last.ckpt", marker, "velocity"
     )
-    proc = run_entry_point("evaluate.py", f"ckpt_dmp={evil}", *reaching_overrides(tmp_path), cwd=tmp_path)
+    proc = run_entry_point("evaluate.py", f"ckpt={evil}", *reaching_overrides(tmp_path), cwd=tmp_path)
     assert_one_line_error(
         proc, "evaluate", str(evil), "not a PyTorch Lightning checkpoint", "nothing in it was run"
     )
+    proc = run_entry_point("evaluate.py", *reaching_overrides(tmp_path), cwd=tmp_path)
+    assert_one_line_error(proc, "evaluate", "no 'cnn_dmp' checkpoint")
     assert f"skipped: {planted}: not a PyTorch Lightning checkpoint" in proc.stdout
     assert not marker.exists()
     assert not (tmp_path / "data").exists()
@@ -187,9 +189,7 @@ def test_evaluate_truncated_checkpoint_is_one_line(tmp_path, compose, capsys):
     torch.save({"state_dict": {"w": torch.zeros(1000)}, "hyper_parameters": {"kind": "velocity"}}, good)
     truncated = tmp_path / "truncated.ckpt"
     truncated.write_bytes(good.read_bytes()[:300])
-    cfg = compose(
-        "evaluate", f"ckpt_velocity={truncated}", "eval.methods=[velocity]", f"paths.root_dir={tmp_path}"
-    )
+    cfg = compose("evaluate", f"ckpt={truncated}", "eval.kinds=[velocity]", f"paths.root_dir={tmp_path}")
     line = entry_point_error(evaluate.main, cfg, capsys)
     assert line.startswith(
         f"evaluate: {truncated}: not a PyTorch Lightning checkpoint (not a zip archive: truncated"
@@ -259,7 +259,7 @@ def test_binary_scenario_is_one_line_before_any_checkpoint(tmp_path, compose, ca
     evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
     binary = tmp_path / "scenario.yaml"
     binary.write_bytes(bytes(range(256)) * 4)
-    cfg = compose("evaluate", f"eval.scenario={binary}", f"ckpt_dmp={evil}", f"paths.root_dir={tmp_path}")
+    cfg = compose("evaluate", f"eval.scenario={binary}", f"ckpt={evil}", f"paths.root_dir={tmp_path}")
     line = entry_point_error(evaluate.main, cfg, capsys)
     assert line.startswith(f"evaluate: {binary}: not UTF-8 or UTF-16 text"), line
     assert not marker.exists() and not (tmp_path / "data").exists()
@@ -279,7 +279,7 @@ def test_bad_scenario_is_refused_before_checkpoints_and_data(compose, tmp_path, 
     path.write_text(GOOD_SCENARIO.replace(content, replacement, 1))
     marker = tmp_path / "pwned"
     evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
-    cfg = compose("evaluate", f"eval.scenario={path}", f"ckpt_dmp={evil}", f"paths.root_dir={tmp_path}")
+    cfg = compose("evaluate", f"eval.scenario={path}", f"ckpt={evil}", f"paths.root_dir={tmp_path}")
     with pytest.raises(ScenarioError) as info:
         evaluate.evaluate(cfg, tmp_path / "run")
     assert str(path) in str(info.value) and expected in str(info.value) and "\n" not in str(info.value)
@@ -296,7 +296,7 @@ def test_out_of_reach_scenario_is_refused_before_checkpoints_and_data(compose, t
     ReachEvaluator(scenario=str(path))  # fields, table and camera are fine
     marker = tmp_path / "pwned"
     evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
-    cfg = compose("evaluate", f"eval.scenario={path}", f"ckpt_dmp={evil}", f"paths.root_dir={tmp_path}")
+    cfg = compose("evaluate", f"eval.scenario={path}", f"ckpt={evil}", f"paths.root_dir={tmp_path}")
     with pytest.raises(ScenarioError, match=r"far.yaml: objects\[0\] \(block\) .* is out of reach"):
         evaluate.evaluate(cfg, tmp_path / "run")
     assert not marker.exists() and not (tmp_path / "data").exists() and not (tmp_path / "run").exists()

@@ -12,6 +12,8 @@ import math
 import numpy as np
 import pytest
 import torch
+import yaml
+from omegaconf import OmegaConf
 
 import evaluate
 import train
@@ -51,6 +53,11 @@ TINY = [
     "data.progress=false",
 ]
 TINY_MODEL = ["model.channels=[4,4,8]", "model.hidden=[16,16]"]
+
+
+def _tiny_data() -> dict:
+    """:data:`TINY` as ReachDataModule arguments."""
+    return {k.removeprefix("data."): yaml.safe_load(v) for k, v in (o.split("=", 1) for o in TINY)}
 
 
 def _ray_to_plane(camera, u: float, v: float, plane_z: float) -> float:
@@ -200,8 +207,7 @@ def test_depth_policies_evaluate_in_closed_loop(depth_checkpoints, compose, work
         "eval.colour_tta=[]",
         "eval.max_steps=8",
         "eval.n_gifs=1",
-        f"ckpt_dmp={depth_checkpoints['cnn_dmp']}",
-        f"ckpt_velocity={depth_checkpoints['velocity']}",
+        f"ckpt=[{depth_checkpoints['cnn_dmp']},{depth_checkpoints['velocity']}]",
     )
     out_dir = workspace / "eval"
     evaluate.evaluate(cfg, out_dir)
@@ -238,14 +244,12 @@ def test_evaluation_renders_each_policy_its_input(depth_checkpoints, compose, wo
         "data.name=tinyrgb",
         "eval.n_gifs=0",
     ]
-    cfg = compose(
-        *common, "eval.max_steps=4", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]"
-    )
+    cfg = compose(*common, "eval.max_steps=4", f"ckpt={depth_checkpoints['cnn_dmp']}", "eval.kinds=[cnn_dmp]")
     metrics = evaluate.evaluate(cfg, workspace / "eval-rgb-cases")
     assert metrics["cnn_dmp"]["episodes"] == 2 and "tinyrgb" in metrics["cnn_dmp"]["cases"]
     assert not load_dataset(workspace / "data" / "tinyrgb").config.depth
     cfg = compose(
-        *common, "data.image_size=24", f"ckpt_dmp={depth_checkpoints['cnn_dmp']}", "eval.methods=[cnn_dmp]"
+        *common, "data.image_size=24", f"ckpt={depth_checkpoints['cnn_dmp']}", "eval.kinds=[cnn_dmp]"
     )
     with pytest.raises(ValueError, match="built with image_size=32, the dataset has image_size=24"):
         evaluate.evaluate(cfg, workspace / "eval-mix")
@@ -257,13 +261,15 @@ def test_quick_gives_cnn_dmp_depth_and_velocity_rgb(compose):
     seen = {}
     for model in ("cnn_dmp", "velocity"):
         cfg = compose("train", "experiment=quick", f"model={model}", "seed=5")
-        seen[model] = (cfg.model.depth, cfg.model.depth_encoding, cfg.data.depth_encoding, cfg.data.name)
+        data = OmegaConf.to_container(cfg.data, resolve=True)
+        args = POLICIES[model].data_arguments(data)  # what train.py gives the policy
+        seen[model] = (args["depth"], args["depth_encoding"], cfg.data.depth_encoding, cfg.data.name)
     assert seen == {
         "cnn_dmp": (True, "relief", "relief", "quick96o300d_s5"),
         "velocity": (False, "range", "range", "quick96o300d_s5"),
     }
     train_cfg = compose("train", "experiment=quick", "model=velocity", "seed=5")
-    assert train_cfg.data.depth and train_cfg.model.depth is False  # one RGB-D dataset, RGB input
+    assert train_cfg.data.depth and not train_cfg.data.input_depth  # one RGB-D dataset, RGB input
     cfg = compose("evaluate", "experiment=quick", "seed=5")
     assert (cfg.data.depth, cfg.data.name) == (True, "quick96o300d_s5")
 
@@ -390,7 +396,9 @@ def test_relief_training_items_are_what_evaluation_renders(relief_checkpoint, wo
     assert first.shape == (32, 32, 4)
 
 
-def test_depth_encoding_mismatches_are_refused(relief_checkpoint, depth_checkpoints, compose, workspace):
+def test_depth_encoding_mismatches_are_refused(
+    relief_checkpoint, depth_checkpoints, compose, workspace, capsys
+):
     with pytest.raises(
         ValueError, match="depth_encoding: 'relief' is an encoding of the depth channel; the input is RGB"
     ):
@@ -402,10 +410,8 @@ def test_depth_encoding_mismatches_are_refused(relief_checkpoint, depth_checkpoi
     ):
         ReachDataModule(name="x", root=workspace / "data", depth=True, depth_encoding="height")
     with pytest.raises(ValueError, match="depth_encoding: 'relief' needs depth=true"):
-        POLICIES["cnn_dmp"](
-            name="cnn_dmp", n_basis=5, channels=[4, 4], hidden=[8], image_size=32, depth_encoding="relief"
-        )
-    # resuming a range checkpoint's training on relief items names both encodings
+        POLICIES["cnn_dmp"](n_basis=5, channels=[4, 4], hidden=[8], image_size=32, depth_encoding="relief")
+    # a model config that sets a data setting is refused (train.py gives the data config's)
     cfg = compose(
         "train",
         f"paths.root_dir={workspace}",
@@ -413,12 +419,23 @@ def test_depth_encoding_mismatches_are_refused(relief_checkpoint, depth_checkpoi
         *TINY_MODEL,
         "model=cnn_dmp",
         "data.depth_encoding=relief",
-        "model.depth_encoding=range",
+        "+model.depth_encoding=range",
         "++trainer.max_steps=1",
         "++trainer.limit_val_batches=1",
         f"paths.output_dir={workspace / 'outputs' / 'run-mismatch'}",
     )
+    with pytest.raises(SystemExit):
+        train.main(cfg)
+    assert "model.depth_encoding: set by the data config (data.depth_encoding)" in capsys.readouterr().err
+    # training a range checkpoint on relief items names both encodings
+    import lightning as L
+
+    policy = load_policy(depth_checkpoints["cnn_dmp"]).train()
+    relief = ReachDataModule(
+        **{**_tiny_data(), "seed": 42, "depth_encoding": "relief", "root": workspace / "data"}
+    )
+    trainer = L.Trainer(max_steps=1, logger=False, enable_checkpointing=False, enable_progress_bar=False)
     with pytest.raises(
         ValueError, match="built with depth_encoding='range', the datamodule serves depth_encoding='relief'"
     ):
-        train.main(cfg)
+        trainer.fit(policy, datamodule=relief)

@@ -22,7 +22,7 @@ import evaluate  # the repository's entry points (pytest's pythonpath holds the 
 import lfd.visuomotor.eval.evaluator as evaluator_module
 import train
 from lfd.visuomotor.eval import ReachEvaluator
-from lfd.visuomotor.policies import POLICIES, load_policy
+from lfd.visuomotor.policies import POLICIES, KeypointPolicy, load_policy
 
 TINY_MODEL = ["model.channels=[4,4,4,8]", "model.hidden=[16,16]", "model.plot_every_n_val=1"]
 
@@ -39,9 +39,10 @@ def tiny(compose, workspace, tiny_data):
     return _compose
 
 
-def given(cfg) -> dict:
-    """The checkpoints named on the command line, as ``evaluate.py`` passes them."""
-    return {"cnn_dmp": cfg.ckpt_dmp, "velocity": cfg.ckpt_velocity}
+def given(cfg) -> list:
+    """The checkpoints named on the command line (``ckpt=...``), as ``evaluate.py`` passes them."""
+    ckpt = cfg.get("ckpt")
+    return [] if ckpt is None else [ckpt] if isinstance(ckpt, str) else list(ckpt)
 
 
 @pytest.fixture(scope="module")
@@ -52,10 +53,11 @@ def workspace(tmp_path_factory) -> Path:
 @pytest.mark.parametrize("model", sorted(POLICIES))
 def test_fast_dev_run(tiny, model):
     """The composed config instantiates and fits one train + one val batch; both losses are finite."""
-    cfg = tiny("train", f"model={model}", "++trainer.fast_dev_run=true", *TINY_MODEL)
-    assert cfg.data.mode == POLICIES[model].item_mode
-    datamodule = hydra.utils.instantiate(cfg.data)
-    policy = hydra.utils.instantiate(cfg.model)
+    keypoint = issubclass(POLICIES[model], KeypointPolicy)  # the chunking policies have no keypoint MLP
+    shrink = [o for o in TINY_MODEL if keypoint or not o.startswith("model.hidden")]
+    cfg = tiny("train", f"model={model}", "++trainer.fast_dev_run=true", *shrink)
+    datamodule, policy = train.instantiate_data_and_model(cfg)  # the layout and settings the policy names
+    assert datamodule.mode == POLICIES[model].item_mode and policy.hparams.image_size == cfg.data.image_size
     trainer = hydra.utils.instantiate(cfg.trainer, logger=False, enable_checkpointing=False)
     trainer.fit(policy, datamodule=datamodule)
     metrics = trainer.callback_metrics
@@ -254,20 +256,24 @@ def test_missing_checkpoint_says_which_and_how(tiny, tmp_path):
     with pytest.raises(FileNotFoundError) as info:
         ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
     msg = str(info.value)
-    assert (
-        "no 'cnn_dmp' checkpoint" in msg and "python train.py model=cnn_dmp" in msg and "ckpt_dmp=PATH" in msg
-    )
+    assert "no 'cnn_dmp' checkpoint" in msg and "python train.py model=cnn_dmp" in msg and "ckpt=PATH" in msg
     assert "no 'velocity' checkpoint" in msg and "python train.py model=velocity" in msg
-    cfg = tiny("evaluate", f"ckpt_dmp={tmp_path / 'nope.ckpt'}")
-    with pytest.raises(FileNotFoundError, match="ckpt_dmp=.*nope.ckpt"):
+    cfg = tiny("evaluate", f"ckpt={tmp_path / 'nope.ckpt'}")
+    with pytest.raises(FileNotFoundError, match="ckpt=.*nope.ckpt"):
         ReachEvaluator().resolve_checkpoints(cfg.paths.output_root, given(cfg))
+    with pytest.raises(ValueError, match=r"eval.kinds: unknown \['cnn'\]"):
+        ReachEvaluator(kinds=["cnn"])
 
 
 def test_newest_checkpoint_of_each_kind_is_found(checkpoints, tiny, capsys):
     """`python evaluate.py` scores every kind by default; the kinds without a checkpoint (here
     ACT and Diffusion Policy) are skipped with one line saying how to train them."""
     cfg = tiny("evaluate")
-    assert tuple(cfg.eval.methods) == tuple(POLICIES) == ("cnn_dmp", "velocity", "act", "diffusion")
+    assert cfg.eval.kinds is None and tuple(POLICIES)[:4] == ("cnn_dmp", "velocity", "act", "diffusion")
+    found = evaluate.instantiate_evaluator(cfg).resolve_checkpoints(cfg.paths.output_root, given(cfg))
+    assert found == checkpoints  # every kind with a checkpoint, no note about the others
+    assert "checkpoint" not in capsys.readouterr().out
+    cfg = tiny("evaluate", "eval.kinds=[cnn_dmp,velocity,act,diffusion]")
     with pytest.warns(RuntimeWarning, match="no 'act' checkpoint.*python train.py model=act"):
         found = evaluate.instantiate_evaluator(cfg).resolve_checkpoints(cfg.paths.output_root, given(cfg))
     assert found == checkpoints
@@ -332,19 +338,18 @@ def test_colour_tta_is_set_per_method_and_refused_without_colour_augment(checkpo
         "eval.n_gifs=0",
         "eval.max_steps=4",
         "eval.limit=1",
-        f"ckpt_dmp={ckpt}",
-        f"ckpt_velocity={checkpoints['velocity']}",
+        f"ckpt=[{ckpt},{checkpoints['velocity']}]",
     )
     metrics = evaluate.evaluate(cfg, workspace / "eval-tta")
     assert metrics["cnn_dmp"]["colour_tta"] is True and metrics["velocity"]["colour_tta"] is False
     from lfd.visuomotor.eval.evaluator import ReachEvaluator
 
-    with pytest.raises(ValueError, match="colour_tta: unknown methods"):
+    with pytest.raises(ValueError, match=r"eval.colour_tta: unknown \['cnn'\]"):
         ReachEvaluator(colour_tta=["cnn"])
 
 
 def test_quick_evaluates_cnn_dmp_with_colour_averaging_and_nothing_else_does(compose):
-    """experiment=quick (evaluate.py's default) turns colour averaging on for CNN -> DMP only,
+    """experiment=quick (the main job's checkpoints record it) turns colour averaging on for CNN -> DMP only,
     as chosen on validation; the original scale and an explicit override leave it off."""
     assert list(compose("evaluate", "experiment=quick").eval.colour_tta) == ["cnn_dmp"]
     assert list(compose("evaluate", "experiment=quick", "eval.colour_tta=[]").eval.colour_tta) == []

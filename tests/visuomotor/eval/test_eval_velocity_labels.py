@@ -90,7 +90,7 @@ def test_command_velocities_are_the_next_periods_mean_velocity():
 def test_output_statistics_are_those_of_the_labels():
     """Fit-time output normalisation uses the commands, not the recorded velocities."""
     small = dict(image_size=24, duration=1.1, n_steps=12, channels=[4, 4, 4, 4], hidden=[8], bias_dim=2)
-    vel = VelocityPolicy(name="velocity", **small)
+    vel = VelocityPolicy(**small)
     command = torch.randn(50, 7) * torch.linspace(0.1, 1.0, 7) + 0.3
     stats = {name: {"mean": torch.zeros(7), "std": torch.ones(7)} for name in ("joints", "velocity")}
     dm = SimpleNamespace(
@@ -112,6 +112,6 @@ def test_evaluator_split_option():
     """Tuning reads `eval.split=val` (held-out validation objects); only test and val exist."""
     from lfd.visuomotor.eval.evaluator import ReachEvaluator
 
-    assert ReachEvaluator().split == "test" and ReachEvaluator(split="val").split == "val"
+    assert ReachEvaluator().settings.split == "test" and ReachEvaluator(split="val").settings.split == "val"
     with pytest.raises(ValueError, match="split: expected 'test' or 'val'"):
         ReachEvaluator(split="train")

@@ -37,7 +37,6 @@ def checkpoints(compose, workspace, tiny_data) -> dict[str, Path]:
             "++trainer.limit_val_batches=1",
             f"paths.output_dir={run_dir}",
         )
-        assert cfg.data.mode == "velocity"
         out[model] = Path(train.main(cfg))
         assert out[model] == run_dir / "checkpoints" / "last.ckpt" and out[model].is_file()
     return out
@@ -64,7 +63,7 @@ def test_checkpoints_load_with_weights_only_and_run_alone(checkpoints, workspace
 
 
 def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, compose, workspace, tiny_data):
-    """``python evaluate.py eval.methods=[act,diffusion]`` finds the newest checkpoint of each
+    """``python evaluate.py eval.kinds=[act,diffusion]`` finds the newest checkpoint of each
     kind under outputs/train and writes one metrics.json entry per kind."""
     out_dir = workspace / "eval"
     cfg = compose(
@@ -72,7 +71,7 @@ def test_evaluate_scores_every_chunking_kind_with_the_usual_keys(checkpoints, co
         f"paths.root_dir={workspace}",
         *tiny_data,
         "eval.colour_tta=[]",
-        "eval.methods=[act,diffusion]",
+        "eval.kinds=[act,diffusion]",
         "eval.n_gifs=0",
         "eval.max_steps=8",
     )
@@ -101,7 +100,7 @@ def test_chunk_execution_ablation_is_applied_recorded_and_checked(checkpoints, c
     cfg = compose(
         "evaluate",
         *args,
-        "eval.methods=[act,diffusion]",
+        "eval.kinds=[act,diffusion]",
         "eval.chunk_execution={act:{replan_every:null,ensemble_m:null}}",
     )
     evaluate.evaluate(cfg, out_dir)
@@ -109,15 +108,15 @@ def test_chunk_execution_ablation_is_applied_recorded_and_checked(checkpoints, c
     assert saved["act"]["chunk_execution"] == {"replan_every": None, "ensemble_m": None}
     assert saved["diffusion"]["chunk_execution"] is None and saved["act"]["episodes"] == 2
     for bad in ({"cnn_dmp": {"replan_every": 2}}, {"act": {"every": 2}}):
-        with pytest.raises(ValueError, match="ReachEvaluator.chunk_execution: expected"):
+        with pytest.raises(ValueError, match="eval.chunk_execution: expected"):
             ReachEvaluator(chunk_execution=bad)
     cfg = compose(
-        "evaluate", *args, "eval.methods=[act]", "eval.limit=1", "eval.chunk_execution={act:{replan_every:3}}"
+        "evaluate", *args, "eval.kinds=[act]", "eval.limit=1", "eval.chunk_execution={act:{replan_every:3}}"
     )
     evaluate.evaluate(cfg, workspace / "eval_partial")  # ensemble_m left out: the trained 0.01 kept
     saved = json.loads((workspace / "eval_partial" / "metrics.json").read_text())
     assert saved["act"]["chunk_execution"] == {"replan_every": 3, "ensemble_m": 0.01}
-    cfg = compose("evaluate", *args, "eval.methods=[act]", "eval.chunk_execution={act:{replan_every:7}}")
+    cfg = compose("evaluate", *args, "eval.kinds=[act]", "eval.chunk_execution={act:{replan_every:7}}")
     with pytest.raises(ValueError, match=r"eval.chunk_execution.act: .*chunk_size=6"):
         evaluate.evaluate(cfg, workspace / "eval_bad")
 

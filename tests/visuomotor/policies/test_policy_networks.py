@@ -33,7 +33,7 @@ def dmp_batch(b=3, n_basis=5, steps=12, size=24, seed=0):
 @pytest.fixture
 def dmp_policy():
     torch.manual_seed(0)
-    return CNNDMPPolicy(name="cnn_dmp", n_basis=5, **SMALL)
+    return CNNDMPPolicy(n_basis=5, **SMALL)
 
 
 def test_dmp_policy_shapes(dmp_policy):
@@ -93,7 +93,7 @@ def test_trajectory_loss_covers_rest_samples_after_the_demonstration(dmp_policy,
     dmp_policy.hparams.final_weight = 2.0  # the rest samples count as the end of the motion
     assert torch.equal(dmp_policy.time_weights(), torch.tensor([1.0] * 9 + [3.0] * 11))
     with pytest.raises(ValueError, match="rest_steps"):
-        CNNDMPPolicy(name="x", rest_steps=-1, **SMALL)
+        CNNDMPPolicy(rest_steps=-1, **SMALL)
 
 
 def test_parameter_loss_is_the_normalised_mse(dmp_policy):
@@ -104,7 +104,7 @@ def test_parameter_loss_is_the_normalised_mse(dmp_policy):
     expected = ((goal_n - batch["goal"]) ** 2).mean() + ((weights_n - batch["weights"]) ** 2).mean()
     torch.testing.assert_close(out["loss"], expected)
     with pytest.raises(ValueError, match="loss"):
-        CNNDMPPolicy(name="x", loss="nope", **SMALL)
+        CNNDMPPolicy(loss="nope", **SMALL)
 
 
 def test_ee_term_uses_forward_kinematics(dmp_policy):
@@ -136,8 +136,8 @@ def test_outputs_are_denormalised_with_the_statistics(dmp_policy):
 
 def test_plan_and_act_take_camera_frames_and_joints():
     torch.manual_seed(0)
-    dmp = CNNDMPPolicy(name="cnn_dmp", n_basis=5, **SMALL)
-    vel = VelocityPolicy(name="velocity", **SMALL)
+    dmp = CNNDMPPolicy(n_basis=5, **SMALL)
+    vel = VelocityPolicy(**SMALL)
     frame = np.random.default_rng(0).integers(0, 256, size=(24, 24, 3), dtype=np.uint8)
     q = np.zeros(7)
     plan = dmp.plan(frame, q)
@@ -170,7 +170,7 @@ def test_longer_plans_continue_the_same_dmp_to_rest_at_its_goal(dmp_policy):
 
 def test_velocity_labels_at_perturbed_states_are_the_experts_correction(monkeypatch):
     torch.manual_seed(0)
-    vel = VelocityPolicy(name="velocity", state_noise=0.1, correction_gain=2.0, **SMALL)
+    vel = VelocityPolicy(state_noise=0.1, correction_gain=2.0, **SMALL)
     batch = {
         "image": torch.rand(4, 3, 24, 24),
         "joints": torch.randn(4, 7) * 0.1,
@@ -188,14 +188,14 @@ def test_velocity_labels_at_perturbed_states_are_the_experts_correction(monkeypa
     vel.eval()  # validation and closed loop: the demonstrated states, unperturbed
     assert torch.equal(vel.perturbation(batch["joints"]), torch.zeros(4, 7))
     with pytest.raises(ValueError, match="state_noise"):
-        VelocityPolicy(name="velocity", state_noise=-0.1, **SMALL)
+        VelocityPolicy(state_noise=-0.1, **SMALL)
 
 
 def test_velocity_policy_sees_the_phase_of_the_episode():
     """The clock is an input (the demonstrations start at rest: without it the start pose
     is a fixed point of the closed loop); the phase t / duration is held at 1 after the end."""
     torch.manual_seed(0)
-    vel = VelocityPolicy(name="velocity", **SMALL)
+    vel = VelocityPolicy(**SMALL)
     frame = np.random.default_rng(0).integers(0, 256, size=(24, 24, 3), dtype=np.uint8)
     q = np.zeros(7)
     early, late = vel.act(frame, q, 0.0), vel.act(frame, q, 0.8)
@@ -213,7 +213,7 @@ def test_velocity_policy_sees_the_phase_of_the_episode():
     loss1 = vel.losses({**batch, "t": torch.full((4,), 0.9)})["loss"]
     assert loss0 != loss1
     # without the phase input the head is one input narrower and time is not needed
-    blind = VelocityPolicy(name="velocity", phase_input=False, **SMALL)
+    blind = VelocityPolicy(phase_input=False, **SMALL)
     assert blind.head[0].in_features == vel.head[0].in_features - 1
     np.testing.assert_allclose(blind.act(frame, q), blind.act(frame, q, 0.5))
 
@@ -222,7 +222,7 @@ def test_auxiliary_labels_train_the_shared_features_and_are_checked():
     """aux_weight > 0: the head's extra outputs learn the approach mode and target point,
     their loss reaches the trunk, and the policy's outputs keep their shape."""
     torch.manual_seed(0)
-    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=1.0, global_pool=True, **SMALL)
+    policy = CNNDMPPolicy(n_basis=5, aux_weight=1.0, global_pool=True, **SMALL)
     assert policy.n_aux == 4 and "target_point" in policy.stat_names
     batch = dmp_batch()
     with pytest.raises(ValueError, match="'top'"):
@@ -246,16 +246,16 @@ def test_auxiliary_labels_train_the_shared_features_and_are_checked():
     assert policy.losses(batch)["aux_mode_error"] == 0
     assert policy(batch["image"], batch["joints"]).shape == (3, 12, 7)
     with pytest.raises(ValueError, match="aux_weight"):
-        CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=-1.0, **SMALL)
-    velocity = VelocityPolicy(name="velocity", aux_weight=0.5, **SMALL)
+        CNNDMPPolicy(n_basis=5, aux_weight=-1.0, **SMALL)
+    velocity = VelocityPolicy(aux_weight=0.5, **SMALL)
     assert velocity.head[-1].out_features == 7 + 4
 
 
 def test_mode_heads_follow_the_demonstrated_mode_in_training_and_the_logit_at_run_time():
     torch.manual_seed(0)
     with pytest.raises(ValueError, match="mode_heads"):
-        CNNDMPPolicy(name="cnn_dmp", n_basis=5, mode_heads=True, **SMALL)
-    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, aux_weight=1.0, mode_heads=True, **SMALL).eval()
+        CNNDMPPolicy(n_basis=5, mode_heads=True, **SMALL)
+    policy = CNNDMPPolicy(n_basis=5, aux_weight=1.0, mode_heads=True, **SMALL).eval()
     k = 7 + 7 * 5
     assert policy.head[-1].out_features == 2 * k + 4
     batch = dmp_batch()
@@ -288,10 +288,10 @@ def test_kinds_and_item_modes():
         "act": "velocity",
         "diffusion": "velocity",
     }
-    vel = VelocityPolicy(name="velocity", **SMALL)
+    vel = VelocityPolicy(**SMALL)
     assert vel.hparams.kind == "velocity"
     with pytest.raises(ValueError, match="holds 'cnn_dmp' policies"):
-        CNNDMPPolicy(name="x", kind="velocity", **SMALL)
+        CNNDMPPolicy(kind="velocity", **SMALL)
 
 
 def test_colour_tta_is_the_mean_over_the_six_channel_orders_and_ignores_colour_order():
@@ -300,7 +300,7 @@ def test_colour_tta_is_the_mean_over_the_six_channel_orders_and_ignores_colour_o
     nothing; the depth channel is never moved, and training batches are not averaged."""
     torch.manual_seed(0)
     policy = CNNDMPPolicy(
-        name="cnn_dmp", n_basis=5, aux_weight=1.0, mode_heads=True, colour_augment=True, depth=True, **SMALL
+        n_basis=5, aux_weight=1.0, mode_heads=True, colour_augment=True, depth=True, **SMALL
     ).eval()
     g = torch.Generator().manual_seed(3)
     image, joints = torch.rand(4, 4, 24, 24, generator=g), torch.randn(4, 7, generator=g) * 0.1
@@ -329,7 +329,7 @@ def test_colour_tta_is_the_mean_over_the_six_channel_orders_and_ignores_colour_o
 
 
 def test_colour_tta_needs_a_colour_augmented_policy():
-    policy = VelocityPolicy(name="velocity", **SMALL)
+    policy = VelocityPolicy(**SMALL)
     with pytest.raises(ValueError, match="colour_tta.*colour_augment"):
         policy.colour_tta = True
     assert policy.colour_tta is False
@@ -338,11 +338,11 @@ def test_colour_tta_needs_a_colour_augmented_policy():
 
 def test_brightness_augment_is_checked_and_changes_only_training_batches(monkeypatch):
     with pytest.raises(ValueError, match="brightness_augment: needs depth=true"):
-        CNNDMPPolicy(name="cnn_dmp", n_basis=5, brightness_augment=[0.5, 2.0], **SMALL)
+        CNNDMPPolicy(n_basis=5, brightness_augment=[0.5, 2.0], **SMALL)
     for bad in ([2.0, 0.5], [0.0, 1.0], [0.5], [0.5, float("nan")], "bright"):
         with pytest.raises(ValueError, match=r"brightness_augment: expected \[low, high\]"):
-            CNNDMPPolicy(name="cnn_dmp", n_basis=5, brightness_augment=bad, depth=True, **SMALL)
-    policy = CNNDMPPolicy(name="cnn_dmp", n_basis=5, brightness_augment=[0.25, 0.5], depth=True, **SMALL)
+            CNNDMPPolicy(n_basis=5, brightness_augment=bad, depth=True, **SMALL)
+    policy = CNNDMPPolicy(n_basis=5, brightness_augment=[0.25, 0.5], depth=True, **SMALL)
     assert policy.hparams.brightness_augment == [0.25, 0.5]
     batch = dmp_batch()
     g = torch.Generator().manual_seed(5)

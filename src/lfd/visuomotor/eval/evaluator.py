@@ -23,6 +23,7 @@ import math
 import time
 import warnings
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +34,7 @@ from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
 from lfd.sim.camera import Camera
 from lfd.sim.scene import ReachScene
-from lfd.training import CHECKPOINT_GLOB, find_checkpoints
+from lfd.training import CHECKPOINT_GLOB, checkpoint_kind, find_checkpoints
 from lfd.visuomotor.data.datasets import load_dataset
 from lfd.visuomotor.data.fingerprint import training_overlap
 from lfd.visuomotor.eval.cases import Case, evaluation_cases
@@ -50,38 +51,38 @@ from lfd.visuomotor.eval.scenario import Scenario, load_scenario
 from lfd.visuomotor.policies import POLICIES, load_policy
 from lfd.visuomotor.protocols import Controller, EpisodeReport, Observation
 
-#: Checkpoint config key per policy kind (``python evaluate.py ckpt_dmp=... ckpt_velocity=...``).
-CKPT_KEYS = {
-    "cnn_dmp": "ckpt_dmp",
-    "velocity": "ckpt_velocity",
-    "act": "ckpt_act",
-    "diffusion": "ckpt_diffusion",
-}
-#: Training command per policy kind, quoted when a checkpoint is missing.
-TRAIN_COMMANDS = {kind: f"python train.py model={kind}" for kind in CKPT_KEYS}
+#: The evaluator's settings that are lists of policy kinds.
+KIND_LISTS = ("kinds", "colour_tta")
 
 
-class ReachEvaluator:
-    """Closed-loop evaluation of the visuomotor policies (CNN -> DMP, velocity CNN, ACT, Diffusion
-    Policy; an :class:`lfd.training.Evaluator`).
+def train_command(kind: str) -> str:
+    """The command that trains a policy of ``kind``, quoted when its checkpoint is missing."""
+    return f"python train.py model={kind}"
+
+
+@dataclass(frozen=True)
+class ReachEvalSettings:
+    """The closed-loop reaching evaluation's settings (``configs/eval/reach.yaml``), checked once
+    when built: every bad value raises ``ValueError`` naming the field and the expectation.
 
     Args:
         scenario: scenario YAML file (:mod:`lfd.visuomotor.eval.scenario`); None = the ``split`` of
-            the ``data`` config's dataset.
+            the ``data`` config's dataset. Its fields, values, table and camera are checked here.
         split: dataset split evaluated without a scenario: ``"test"`` (the report) or
             ``"val"`` (model selection and tuning: the val split's held-out validation
             objects at their placements; its training objects' other placements are left
             out, the overlap check refuses them as training objects).
-        methods: policy kinds to evaluate (default: all four); :meth:`resolve_checkpoints` skips
-            the kinds without a checkpoint with a one-line note, and raises when none has one.
-        colour_tta: methods whose policies average their output over the 6 orders of the
-            RGB channels (:attr:`lfd.visuomotor.policies.base.VisuomotorPolicy.colour_tta`; only for
+        kinds: policy kinds to evaluate (registered ones, :data:`lfd.visuomotor.policies.POLICIES`);
+            None = every kind with a checkpoint. :meth:`ReachEvaluator.resolve_checkpoints` skips a
+            listed kind without a checkpoint with a one-line note, and raises when none has one.
+        colour_tta: kinds whose policies average their output over the 6 orders of the RGB
+            channels (:attr:`lfd.visuomotor.policies.KeypointPolicy.colour_tta`; only for
             checkpoints trained with ``colour_augment``).
         chunk_execution: ``{kind: {"replan_every": ..., "ensemble_m": ...}}`` for chunking policies
             (ACT, Diffusion Policy): run their chunks otherwise than trained (an ablation; a key left
             out keeps the trained value; :meth:`~lfd.visuomotor.policies.chunking.ChunkPolicy.set_execution`).
-        n_gifs: rollout GIFs per method (the first cases).
-        gif_every: keep every this many control steps in a GIF.
+        n_gifs: rollout GIFs per kind (the first cases).
+        gif_every: keep every this many control steps in a GIF (at least 1).
         max_steps: control steps per episode; None = twice the demonstrations' length
             (``2 (n_steps - 1)``): the velocity policy, started at rest, is slower than the
             demonstrations, and the DMP policy holds its final point once its plan ends.
@@ -95,87 +96,146 @@ class ReachEvaluator:
             ``configs/eval/reach.yaml``: LeRobot's, :func:`lfd.interop.lerobot.report.write_lerobot_eval`).
     """
 
+    scenario: str | None = None
+    split: str = "test"
+    kinds: tuple[str, ...] | None = None
+    colour_tta: tuple[str, ...] = ()
+    chunk_execution: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    n_gifs: int = 2
+    gif_every: int = 2
+    max_steps: int | None = None
+    approach_tol_deg: float = 30.0
+    limit: int | None = None
+    torch_threads: int = 1
+    episode_reports: tuple[EpisodeReport, ...] = ()
+
+    def __post_init__(self) -> None:
+        def fix(name: str, value: Any) -> None:
+            object.__setattr__(self, name, value)
+
+        if self.split not in ("test", "val"):
+            raise ValueError(f"eval.split: expected 'test' or 'val', got {self.split!r}")
+        for name in KIND_LISTS:
+            value = getattr(self, name)
+            if value is None and name == "kinds":
+                continue
+            if isinstance(value, str) or not all(isinstance(k, str) for k in value):
+                raise ValueError(f"eval.{name}: expected a list of policy kinds, got {value!r}")
+            unknown = sorted(set(value) - set(POLICIES))
+            if unknown:
+                raise ValueError(f"eval.{name}: unknown {unknown}; expected a subset of {sorted(POLICIES)}")
+            fix(name, tuple(value))
+        if self.kinds == ():
+            raise ValueError("eval.kinds: expected a non-empty list of policy kinds, or null for every kind")
+        for name in ("n_gifs", "torch_threads", "gif_every"):
+            value = getattr(self, name)
+            least = 0 if name == "n_gifs" else 1
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise ValueError(f"eval.{name}: expected an int >= {least}, got {value!r}")
+        for name in ("max_steps", "limit"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+                raise ValueError(f"eval.{name}: expected an int >= 1 or null, got {value!r}")
+        if not (isinstance(self.approach_tol_deg, (int, float)) and 0 < self.approach_tol_deg <= 180):
+            raise ValueError(
+                f"eval.approach_tol_deg: expected degrees in (0, 180], got {self.approach_tol_deg!r}"
+            )
+        fix("approach_tol_deg", float(self.approach_tol_deg))
+        execution = {k: dict(v) for k, v in (self.chunk_execution or {}).items()}
+        chunking = sorted(k for k, c in POLICIES.items() if hasattr(c, "set_execution"))
+        for kind, settings in execution.items():
+            if kind not in chunking or set(settings) - {"replan_every", "ensemble_m"}:
+                raise ValueError(
+                    f"eval.chunk_execution: expected {{kind: {{replan_every, ensemble_m}}}} with a chunking "
+                    f"policy's kind {chunking}, got {kind!r}: {settings!r}"
+                )
+        fix("chunk_execution", execution)
+        fix("episode_reports", tuple(self.episode_reports))
+        if self.scenario is not None:  # fields, values, table and camera: before any checkpoint or data
+            load_scenario(self.scenario)
+
+
+class ReachEvaluator:
+    """Closed-loop evaluation of the visuomotor policies (CNN -> DMP, velocity CNN, ACT, Diffusion
+    Policy, or any registered kind; an :class:`lfd.training.Evaluator`).
+
+    Built from its settings (:class:`ReachEvalSettings`), or from their fields as keywords
+    (``configs/eval/reach.yaml``: ``ReachEvaluator(scenario=..., split=..., ...)``).
+
+    Raises:
+        ValueError: a bad setting (one line naming it).
+    """
+
     #: :meth:`run` reads the policies' dataset (``evaluate.py`` instantiates ``cfg.data`` for it).
     needs_datamodule = True
 
-    def __init__(
-        self,
-        scenario: str | None = None,
-        methods: tuple[str, ...] | list[str] = tuple(POLICIES),
-        n_gifs: int = 2,
-        gif_every: int = 2,
-        max_steps: int | None = None,
-        approach_tol_deg: float = 30.0,
-        limit: int | None = None,
-        torch_threads: int = 1,
-        split: str = "test",
-        colour_tta: tuple[str, ...] | list[str] = (),
-        chunk_execution: Mapping[str, Mapping[str, Any]] | None = None,
-        episode_reports: Sequence[EpisodeReport] = (),
-    ) -> None:
-        if split not in ("test", "val"):
-            raise ValueError(f"ReachEvaluator.split: expected 'test' or 'val', got {split!r}")
-        unknown = sorted(set(methods) - set(POLICIES))
-        if unknown:
-            raise ValueError(
-                f"ReachEvaluator.methods: unknown {unknown}; expected a subset of {sorted(POLICIES)}"
-            )
-        if max_steps is not None and max_steps < 1:
-            raise ValueError(f"ReachEvaluator.max_steps: expected an int >= 1 or null, got {max_steps}")
-        bad = sorted(set(colour_tta) - set(POLICIES))
-        if bad:
-            raise ValueError(
-                f"ReachEvaluator.colour_tta: unknown methods {bad}; expected a subset of {sorted(POLICIES)}"
-            )
-        self.chunk_execution = {k: dict(v) for k, v in (chunk_execution or {}).items()}
-        chunking = sorted(k for k, c in POLICIES.items() if hasattr(c, "set_execution"))  # act, diffusion
-        for kind, settings in self.chunk_execution.items():
-            if kind not in chunking or set(settings) - {"replan_every", "ensemble_m"}:
-                raise ValueError(
-                    f"ReachEvaluator.chunk_execution: expected {{kind: {{replan_every, ensemble_m}}}} with a chunking "
-                    f"policy's kind {chunking}, got {kind!r}: {settings!r}"
-                )
-        if scenario is not None:  # fields, values, table and camera: before any checkpoint or data
-            load_scenario(scenario)
-        self.colour_tta = tuple(colour_tta)
-        self.episode_reports = tuple(episode_reports)
-        self.scenario = scenario
-        self.methods = tuple(methods)
-        self.n_gifs, self.gif_every = int(n_gifs), max(1, int(gif_every))
-        self.max_steps = max_steps
-        self.approach_tol_deg = float(approach_tol_deg)
-        self.limit = limit
-        self.torch_threads = int(torch_threads)
-        self.split = split
+    def __init__(self, settings: ReachEvalSettings | None = None, **fields: Any) -> None:
+        if settings is not None and fields:
+            raise TypeError("ReachEvaluator: give its settings or their fields, not both")
+        self.settings = settings if settings is not None else ReachEvalSettings(**fields)
 
     # ------------------------------------------------------------------ inputs
     def resolve_checkpoints(
-        self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None
+        self, output_root: str | Path, given: Sequence[str | Path] | str | Path | None = None
     ) -> dict[str, Path]:
-        """Checkpoint per method: ``given[kind]`` when set (must exist; ``evaluate.py`` passes
-        ``ckpt_dmp`` / ``ckpt_velocity``), else the newest found under ``output_root``.
-        Missing ones are reported with the command that makes them; none at all raises."""
-        given = {kind: (given or {}).get(kind) for kind in self.methods}
-        for kind, path in given.items():
-            if path is not None and not Path(path).is_file():
-                raise FileNotFoundError(f"{CKPT_KEYS[kind]}={path}: no such checkpoint file")
-        searched = [k for k, p in given.items() if p is None]
-        found = find_checkpoints(output_root, tuple(searched)) if searched else {}
-        out = {
-            kind: Path(given[kind]) if given[kind] is not None else found.get(kind) for kind in self.methods
-        }
-        missing = [k for k, p in out.items() if p is None]
+        """``{kind: path}`` of the checkpoints to evaluate, in the registry's order: the ``given``
+        files (``evaluate.py ckpt=[...]``; each one's kind is read from it), and for the kinds
+        without one (``kinds``; None = every registered kind) the newest ``last.ckpt`` under
+        ``output_root``. A listed kind without a checkpoint is reported with the command that
+        makes it.
+
+        Raises:
+            FileNotFoundError: a given file does not exist, or no checkpoint at all was found.
+            ValueError: a given file is not a registered policy's, two are of one kind, or one
+                is of a kind that ``kinds`` leaves out (one line naming the file).
+        """
+        if given is None:
+            given = ()
+        elif isinstance(given, (str, Path)):
+            given = (given,)
+        wanted = self.settings.kinds
+        chosen: dict[str, Path] = {}
+        for path in map(Path, given):
+            if not path.is_file():
+                raise FileNotFoundError(f"ckpt={path}: no such checkpoint file")
+            kind = checkpoint_kind(path)
+            if kind not in POLICIES:
+                raise ValueError(
+                    f"ckpt={path}: kind {kind!r} is not a policy; expected one of {sorted(POLICIES)}"
+                )
+            if kind in chosen:
+                raise ValueError(
+                    f"ckpt: two '{kind}' checkpoints ({chosen[kind]}, {path}); evaluate them apart"
+                )
+            if wanted is not None and kind not in wanted:
+                raise ValueError(f"ckpt={path}: a '{kind}' checkpoint, but eval.kinds={list(wanted)}")
+            chosen[kind] = path
+        searched = tuple(k for k in (wanted or tuple(POLICIES)) if k not in chosen)
+        if searched and (wanted is not None or not chosen):
+            chosen.update(find_checkpoints(output_root, searched))
+        missing = [k for k in (wanted or ()) if k not in chosen]
         hints = "; ".join(
             f"no '{k}' checkpoint under {Path(output_root) / CHECKPOINT_GLOB}: train one with "
-            f"`{TRAIN_COMMANDS[k]}` or pass {CKPT_KEYS[k]}=PATH"
-            for k in missing
+            f"`{train_command(k)}` or pass ckpt=PATH"
+            for k in (missing or (tuple(POLICIES) if not chosen else ()))
         )
-        if len(missing) == len(out):
+        if not chosen:
             raise FileNotFoundError(hints)
         if missing:
             warnings.warn(hints, RuntimeWarning, stacklevel=2)
             print(f"[lfd] {hints}")
-        return {k: p for k, p in out.items() if p is not None}
+        return {k: chosen[k] for k in POLICIES if k in chosen}
+
+    def check_inputs(self, datamodule) -> None:
+        """Everything that can be checked before any checkpoint is opened: the scenario file
+        against the ``datamodule``'s robot (reach), camera and training ranges.
+
+        Raises:
+            lfd.visuomotor.eval.scenario.ScenarioError: a bad scenario file (one line).
+        """
+        gen = datamodule.config
+        camera = Camera(width=gen.image_size, height=gen.image_size)
+        self.load_scenario(gen, load_robot(gen.robot), camera)
 
     def load_scenario(self, gen, robot, camera: Camera) -> Scenario | None:
         """This evaluator's scenario file fully checked for the data config ``gen``: fields,
@@ -184,16 +244,20 @@ class ReachEvaluator:
         Raises:
             lfd.visuomotor.eval.scenario.ScenarioError: a bad scenario file (one line).
         """
-        if self.scenario is None:
+        if self.settings.scenario is None:
             return None
-        return load_scenario(self.scenario, camera=camera, robot=robot, training=gen)
+        return load_scenario(self.settings.scenario, camera=camera, robot=robot, training=gen)
 
     def cases(self, data, scene, scenario: Scenario | None = None) -> tuple[list[Case], str]:
         """The evaluation cases and a description of their source
         (:func:`~lfd.visuomotor.eval.cases.evaluation_cases` of this evaluator's settings;
         ``scenario``: this evaluator's scenario already loaded by :meth:`load_scenario`)."""
         return evaluation_cases(
-            data, scene, scenario if scenario is not None else self.scenario, self.split, self.limit
+            data,
+            scene,
+            scenario if scenario is not None else self.settings.scenario,
+            self.settings.split,
+            self.settings.limit,
         )
 
     # ------------------------------------------------------------------ run
@@ -221,7 +285,7 @@ class ReachEvaluator:
         out_dir.mkdir(parents=True, exist_ok=True)
         checkpoints = {kind: Path(path) for kind, path in checkpoints.items()}
         policies = {kind: load_policy(path) for kind, path in checkpoints.items()}
-        for kind in set(self.colour_tta) & set(policies):
+        for kind in set(self.settings.colour_tta) & set(policies):
             try:
                 policies[kind].colour_tta = True
             except ValueError as e:
@@ -229,9 +293,9 @@ class ReachEvaluator:
                     f"eval.colour_tta: {kind} checkpoint {checkpoints[kind]}: {e}; evaluate it without: "
                     "eval.colour_tta=[]"
                 ) from e
-        for kind in set(self.chunk_execution) & set(policies):
+        for kind in set(self.settings.chunk_execution) & set(policies):
             try:
-                policies[kind].set_execution(**self.chunk_execution[kind])
+                policies[kind].set_execution(**self.settings.chunk_execution[kind])
             except ValueError as e:
                 raise ValueError(f"eval.chunk_execution.{kind}: {e}") from e
         for kind, policy in policies.items():
@@ -245,9 +309,9 @@ class ReachEvaluator:
                 ) from e
         datamodule.prepare_data()
         data = load_dataset(datamodule.path, gen)
-        steps = self.max_steps or 2 * (gen.n_steps - 1)
+        steps = self.settings.max_steps or 2 * (gen.n_steps - 1)
         threads = torch.get_num_threads()
-        torch.set_num_threads(self.torch_threads)
+        torch.set_num_threads(self.settings.torch_threads)
         try:
             with ReachScene(
                 robot,
@@ -309,12 +373,16 @@ class ReachEvaluator:
                     "checkpoint": str(checkpoints[kind]),
                     "cases": source,
                     "steps_per_episode": steps,
-                    "colour_tta": kind in self.colour_tta,
-                    "chunk_execution": policies[kind].execution if kind in self.chunk_execution else None,
+                    "colour_tta": kind in self.settings.colour_tta,
+                    "chunk_execution": policies[kind].execution
+                    if kind in self.settings.chunk_execution
+                    else None,
                 }
             )
         self._write(out_dir, metrics, rows, cases, traces)
-        for report in self.episode_reports:  # e.g. LeRobot's layout: <method>/eval_info.json, videos/
+        for (
+            report
+        ) in self.settings.episode_reports:  # e.g. LeRobot's layout: <method>/eval_info.json, videos/
             report(
                 out_dir,
                 rows,
@@ -323,8 +391,8 @@ class ReachEvaluator:
                 gen,
                 seed=gen.seed,
                 eval_s=time.perf_counter() - t0,
-                n_videos=self.n_gifs,
-                frame_every=self.gif_every,
+                n_videos=self.settings.n_gifs,
+                frame_every=self.settings.gif_every,
             )
         return metrics
 
@@ -342,14 +410,19 @@ class ReachEvaluator:
         for i, case in enumerate(cases):
             scene.reset(case.obj, case.placement, q=robot.home.numpy())
             trace = run_episode(
-                scene, controller, steps, lower, upper, record_every=self.gif_every if i < self.n_gifs else 0
+                scene,
+                controller,
+                steps,
+                lower,
+                upper,
+                record_every=self.settings.gif_every if i < self.settings.n_gifs else 0,
             )
             if trace.frames:
                 (out_dir / "rollouts").mkdir(exist_ok=True)
                 write_gif(
                     out_dir / "rollouts" / f"{kind}_{case.obj.name}_p{case.placement_index}.gif",
                     trace.frames,
-                    dt * self.gif_every,
+                    dt * self.settings.gif_every,
                 )
             traces.append(trace)
         return traces
@@ -405,8 +478,8 @@ class ReachEvaluator:
             "success_5cm": near and still,
             "success_2cm": distance < 0.02 and still,
             "approach_angle_deg": angle,
-            "approach_angle_ok": angle <= self.approach_tol_deg,
-            "approach_correct": near and angle <= self.approach_tol_deg,
+            "approach_angle_ok": angle <= self.settings.approach_tol_deg,
+            "approach_correct": near and angle <= self.settings.approach_tol_deg,
             "jerk": float(integrated_squared_jerk(trace.ee_poses[:, :3, 3], dt)),
             "demo_jerk": float(integrated_squared_jerk(case.demo_ee, dt))
             if case.demo_ee is not None

@@ -23,6 +23,8 @@ from typing import Any
 
 import yaml
 
+from lfd.visuomotor.policies import POLICIES
+
 __all__ = ["collect", "markdown_table", "plot_data_efficiency", "summarise"]
 
 
@@ -113,7 +115,7 @@ def summarise(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for row in rows:
         groups[(row["policy"], row["train_objects"])].append(row)
-    order = {"cnn_dmp": 0, "velocity": 1, "act": 2, "diffusion": 3}
+    order = {kind: i for i, kind in enumerate(POLICIES)}  # the registry's order
     out = []
     for (policy, objects), group in sorted(
         groups.items(), key=lambda kv: (order.get(kv[0][0], 9), kv[0][0], kv[0][1] or math.inf)
@@ -173,7 +175,7 @@ def plot_data_efficiency(
 
     from lfd.io.files import write_bytes_atomic
 
-    from .plots import METHOD_COLOURS, METHOD_LABELS, plt
+    from .plots import plt, policy_colour, policy_label
 
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     policies = list(dict.fromkeys(s["policy"] for s in summaries))
@@ -195,8 +197,8 @@ def plot_data_efficiency(
             yerr=[scale * (s[f"{metric}_std"] or 0.0) for s in points],
             marker="o",
             capsize=3,
-            color=METHOD_COLOURS.get(policy, "tab:gray"),
-            label=METHOD_LABELS.get(policy, policy),
+            color=policy_colour(policy),
+            label=policy_label(policy),
         )
     ax.set_xlabel("training objects (2 demonstrations each)")
     ax.set_ylabel(metric.replace("_", " ") + (" (%)" if scale == 100.0 else ""))

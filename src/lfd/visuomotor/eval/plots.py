@@ -13,22 +13,19 @@ import matplotlib.pyplot as plt
 import numpy as np
 from PIL import Image
 
-#: Colour per method in every figure.
-METHOD_COLOURS = {"cnn_dmp": "tab:blue", "velocity": "tab:orange", "act": "tab:green", "diffusion": "tab:red"}
-METHOD_LABELS = {
-    "cnn_dmp": "CNN -> DMP",
-    "velocity": "velocity CNN",
-    "act": "ACT",
-    "diffusion": "Diffusion Policy",
-}
+from lfd.visuomotor.policies import POLICIES
 
 
-def _colour(method: str) -> str:
-    return METHOD_COLOURS.get(method, "tab:gray")
+def policy_colour(kind: str) -> str:
+    """The colour of a policy kind in every figure (its class's ``colour``; grey if unknown)."""
+    cls = POLICIES.get(kind)
+    return cls.colour if cls is not None else "tab:gray"
 
 
-def _label(method: str) -> str:
-    return METHOD_LABELS.get(method, method)
+def policy_label(kind: str) -> str:
+    """The name of a policy kind in tables and legends (its class's ``label``; the kind if unknown)."""
+    cls = POLICIES.get(kind)
+    return cls.label if cls is not None else kind
 
 
 def distance_bars(
@@ -52,8 +49,8 @@ def distance_bars(
             x + (i - (len(methods) - 1) / 2) * width,
             np.asarray(distances_m[method]) * 100,
             width,
-            label=_label(method),
-            color=_colour(method),
+            label=policy_label(method),
+            color=policy_colour(method),
         )
     for level in (2, 5):
         ax.axhline(level, color="k", lw=0.8, ls=":")
@@ -88,8 +85,8 @@ def paths_3d(
             ax.plot(*demo.T, color="k", lw=1.0, label="demonstration" if k == 0 else None)
     for method, paths in rollouts.items():
         for k, p in enumerate(paths):
-            ax.plot(*p.T, color=_colour(method), lw=1.2, label=_label(method) if k == 0 else None)
-            ax.scatter(*p[-1], color=_colour(method), s=12)
+            ax.plot(*p.T, color=policy_colour(method), lw=1.2, label=policy_label(method) if k == 0 else None)
+            ax.scatter(*p[-1], color=policy_colour(method), s=12)
     ax.scatter(*np.asarray(targets).T, marker="*", s=80, color="red", label="grasp target")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")

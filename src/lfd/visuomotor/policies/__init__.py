@@ -15,13 +15,18 @@ Example (closed loop from a checkpoint)::
 
 from __future__ import annotations
 
+# isort: off
+# The built-in policies register themselves in this order, the order of every evaluation table.
+from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
+from lfd.visuomotor.policies.velocity import VelocityPolicy
 from lfd.visuomotor.policies.act import ACTPolicy
+from lfd.visuomotor.policies.diffusion import DiffusionPolicy
+
+# isort: on
 from lfd.visuomotor.policies.base import VisuomotorPolicy
 from lfd.visuomotor.policies.chunking import ChunkPolicy
-from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
-from lfd.visuomotor.policies.diffusion import DiffusionPolicy
-from lfd.visuomotor.policies.factory import POLICIES, checkpoint_kind, load_policy
-from lfd.visuomotor.policies.velocity import VelocityPolicy
+from lfd.visuomotor.policies.factory import POLICIES, checkpoint_kind, get_policy_class, load_policy
+from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.vision import KeypointEncoder, SpatialSoftmax, image_to_tensor
 
 __all__ = [
@@ -31,10 +36,12 @@ __all__ = [
     "ChunkPolicy",
     "DiffusionPolicy",
     "KeypointEncoder",
+    "KeypointPolicy",
     "SpatialSoftmax",
     "VelocityPolicy",
     "VisuomotorPolicy",
     "checkpoint_kind",
+    "get_policy_class",
     "image_to_tensor",
     "load_policy",
 ]

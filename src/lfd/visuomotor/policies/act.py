@@ -62,6 +62,8 @@ class ACTPolicy(ChunkPolicy):
     """
 
     kind = "act"
+    label = "ACT"
+    colour = "tab:green"
 
     def __init__(
         self,
@@ -94,7 +96,6 @@ class ACTPolicy(ChunkPolicy):
             raise ValueError(f"ACTPolicy.query_every: expected an int >= 1, got {query_every!r}")
         n = self.hparams.n_joints
         self.backbone = ImageBackbone(backbone, self.input_channels, self.hparams.channels, norm="batch")
-        self.encoder = self.backbone  # the base class reads `encoder.in_channels`
         self.input_proj = nn.Conv2d(self.backbone.out_channels, d_model, kernel_size=1)
         self.joints_proj = nn.Linear(n, d_model)
         self.latent_proj = nn.Linear(latent_dim, d_model)

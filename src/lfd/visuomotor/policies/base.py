@@ -1,9 +1,16 @@
-"""Base LightningModule of the visuomotor policies: normalisation, optimisation, logging.
+"""The visuomotor policies' training harness (a LightningModule): settings shared by every
+policy, the data checks, normalisation, optimisation, logging, and the policy registry.
 
 A policy sees only what a robot's own sensors give it: the fixed camera's RGB image and
 the arm's joint angles. Subclasses define the network, the loss, the dataset item mode
 they train on and their one inference interface, :meth:`VisuomotorPolicy.controller`
-(a :class:`~lfd.visuomotor.protocols.Controller` the closed-loop evaluator steps).
+(a :class:`~lfd.visuomotor.protocols.Controller` the closed-loop evaluator steps). The
+harness holds no network of its own: the keypoint head of the CNN -> DMP and velocity
+policies is :class:`~lfd.visuomotor.policies.keypoint.KeypointPolicy`, the chunking
+policies' networks are theirs.
+
+Every subclass that sets :attr:`VisuomotorPolicy.kind` is registered under it when its class
+is defined (:data:`POLICIES`): a new policy is its module and its ``configs/model/<kind>.yaml``.
 
 Normalisation statistics (train split of the dataset, see :mod:`lfd.visuomotor.data.stats`) are
 copied from the datamodule (:class:`~lfd.visuomotor.protocols.PolicyData`) at ``setup("fit")``
@@ -13,24 +20,19 @@ carries them and ``Policy.load_from_checkpoint(path)`` runs on its own.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import lightning as L
 import numpy as np
 import torch
-from torch import nn
-from torch.nn import functional as F
 
 from lfd.sim.depth import DEPTH_ENCODINGS
 from lfd.training import SCHEDULERS, make_optimizer
 from lfd.visuomotor.policies.plots import log_sample_figure
 from lfd.visuomotor.policies.vision import (
-    COLOUR_ORDERS,
-    KeypointEncoder,
-    all_colour_orders,
     brightness_range,
     image_to_tensor,
-    mlp,
     permute_colour_channels,
     scale_foreground_brightness,
 )
@@ -40,24 +42,21 @@ from lfd.visuomotor.protocols import Controller, GeneratedPolicyData, PolicyData
 ONECYCLE_PCT_START = 0.3
 #: Hyper-parameters that must equal the dataset's (``GeneratorConfig``) ones.
 DATA_KEYS = ("image_size", "depth", "duration", "n_steps", "robot")
-#: Auxiliary head outputs with ``aux_weight > 0``: the top-approach logit, the normalised target point (3).
-AUX_DIM = 4
 #: Checkpoint key of the training dataset's fingerprint.
 FINGERPRINT_KEY = "lfd_dataset_fingerprint"
+#: Checkpoint key of the training run's settings (:attr:`VisuomotorPolicy.training_run`).
+TRAINING_RUN_KEY = "lfd_training_run"
+
+#: The policy registry: kind (``VisuomotorPolicy.kind``, stored in every checkpoint) -> class.
+#: Filled by :meth:`VisuomotorPolicy.__init_subclass__`; read it, do not write it.
+POLICIES: dict[str, type[VisuomotorPolicy]] = {}
 
 
 class VisuomotorPolicy(L.LightningModule):
-    """Image + joints -> action. Common constructor arguments (the subclasses add theirs):
+    """Image + joints -> action: the training harness every policy shares. Its constructor
+    arguments (each policy adds its own):
 
     Args:
-        name: label of the model config (``"cnn_dmp"``, ``"velocity"``...), kept as
-            :attr:`config_name`; not a hyper-parameter (Lightning merges the model's and the
-            datamodule's hyper-parameters, and the dataset has a ``name`` too).
-        channels: conv channels of the trunk, one entry per layer.
-        temperature: initial spatial soft-argmax temperature.
-        hidden: widths of the fully connected ReLU layers after the keypoints.
-        bias_dim: size of the learned bias input concatenated to the keypoints and joints
-            (0 disables it).
         lr, weight_decay: AdamW settings.
         scheduler: ``"cosine"`` (per step, to 0), ``"onecycle"`` (per step, peak ``lr``)
             or ``"none"``.
@@ -76,40 +75,88 @@ class VisuomotorPolicy(L.LightningModule):
             times a random factor in that range (log-uniform;
             :func:`~lfd.visuomotor.policies.vision.scale_foreground_brightness`), or None. Needs
             ``depth`` (the depth channel tells the object from the table).
-        global_pool: the encoder also gives each channel's spatial maximum
-            (:class:`~lfd.visuomotor.policies.vision.KeypointEncoder`).
-        aux_weight: weight of the auxiliary losses on training-only labels (0: none). The
-            head gets :data:`AUX_DIM` more outputs, trained to give the demonstration's
-            approach mode (logit of "top", binary cross-entropy) and its grasp target point
-            (normalised, mean squared error). They are never used at run time: they make the
-            shared features encode *what* the object is and *where* its target lies.
-        mode_heads: one output head per approach mode (side, top) instead of one for both
-            (needs ``aux_weight > 0``: the auxiliary mode logit picks the head at run time;
-            in training the demonstration's own mode does).
         plot_every_n_val: a validation sample plot goes to TensorBoard at every this many
             validation runs (0: never).
         kind: when given (from a checkpoint), must equal the class's :attr:`kind` (checked
             before ``unknown``, so loading another kind's checkpoint names the kinds).
         unknown: any other keyword raises ``TypeError``.
 
-    Subclasses set :attr:`kind` and :attr:`item_mode`, call :meth:`_build` at the end of
-    ``__init__`` and define ``losses(batch) -> {"loss": ..., ...}`` (scalar tensors),
-    ``sample_figure(batch) -> matplotlib figure`` and :meth:`controller`.
+    The dataset settings (:attr:`DATA_ARGUMENTS`) are not written in a model config: ``train.py``
+    takes them from the data config (:meth:`data_arguments`), and the datamodule serves the
+    items of :attr:`item_mode`.
+
+    Subclasses set :attr:`kind` (which registers them in :data:`POLICIES`) and :attr:`item_mode`,
+    register their normalisation statistics (:meth:`register_statistics`) and define
+    ``losses(batch) -> {"loss": ..., ...}`` (scalar tensors), ``sample_figure(batch) ->
+    matplotlib figure`` and :meth:`controller`.
     """
 
     #: Fixed identifier of the policy family, stored in the checkpoint's hyper-parameters.
     kind: str = ""
     #: Dataset item layout this policy trains on (``ReachDataModule(mode=...)``).
     item_mode: str = ""
+    #: Name in tables and figure legends (default: the kind).
+    label: str = ""
+    #: Matplotlib colour in every figure (default: grey).
+    colour: str = "tab:gray"
+    #: Constructor arguments taken from the dataset's settings (:meth:`data_arguments`).
+    DATA_ARGUMENTS: tuple[str, ...] = (
+        "image_size",
+        "depth",
+        "depth_encoding",
+        "duration",
+        "n_steps",
+        "robot",
+    )
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        """Register a subclass that sets its own :attr:`kind` in :data:`POLICIES`.
+
+        Raises:
+            ValueError: another class already holds that kind (a kind names one policy).
+        """
+        super().__init_subclass__(**kwargs)
+        kind = cls.__dict__.get("kind")
+        if not kind:
+            return
+        if not isinstance(kind, str) or not kind.isidentifier():
+            raise ValueError(f"{cls.__qualname__}.kind: expected an identifier, got {kind!r}")
+        if cls.item_mode not in ("dmp", "velocity"):
+            raise ValueError(
+                f"{cls.__qualname__}.item_mode: expected 'dmp' or 'velocity', got {cls.item_mode!r}"
+            )
+        held = POLICIES.get(kind)
+        if held is not None and (held.__module__, held.__qualname__) != (cls.__module__, cls.__qualname__):
+            raise ValueError(
+                f"policy kind {kind!r} is already registered by {held.__module__}.{held.__qualname__}"
+            )
+        POLICIES[kind] = cls
+        if not cls.__dict__.get("label"):
+            cls.label = kind
+
+    @classmethod
+    def data_arguments(cls, data: Mapping[str, Any]) -> dict[str, Any]:
+        """The constructor arguments :attr:`DATA_ARGUMENTS` from a data config's plain values
+        (``data.image_size``, ...): ``depth`` is what the policy sees (``input_depth``, else
+        ``depth``), ``depth_encoding`` defaults to ``"range"``.
+
+        Raises:
+            ValueError: the data config lacks one of them (one line naming it).
+        """
+        values = dict(data)
+        depth = values.get("input_depth")
+        values["depth"] = values.get("depth", False) if depth is None else depth
+        values.setdefault("depth_encoding", "range")
+        missing = [k for k in cls.DATA_ARGUMENTS if k not in values]
+        if missing:
+            raise ValueError(
+                f"{cls.__name__}: the data config has no {missing}; the policy takes them from its dataset"
+            )
+        return {k: values[k] for k in cls.DATA_ARGUMENTS}
 
     def __init__(
         self,
         *,
-        name: str | None = None,
-        channels: tuple[int, ...] | list[int] = (32, 32, 32, 32),
-        temperature: float = 1.0,
-        hidden: tuple[int, ...] | list[int] = (200, 200, 200),
-        bias_dim: int = 10,
         lr: float = 1e-3,
         weight_decay: float = 1e-4,
         scheduler: str = "cosine",
@@ -123,9 +170,6 @@ class VisuomotorPolicy(L.LightningModule):
         plot_every_n_val: int = 5,
         colour_augment: bool = False,
         brightness_augment: tuple[float, float] | list[float] | None = None,
-        global_pool: bool = False,
-        aux_weight: float = 0.0,
-        mode_heads: bool = False,
         kind: str | None = None,
         **unknown,
     ) -> None:
@@ -140,13 +184,6 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(
                 f"{type(self).__name__}.scheduler: expected one of {SCHEDULERS}, got {scheduler!r}"
             )
-        if not aux_weight >= 0:
-            raise ValueError(f"{type(self).__name__}.aux_weight: expected a number >= 0, got {aux_weight}")
-        if mode_heads and not aux_weight > 0:
-            raise ValueError(
-                f"{type(self).__name__}.mode_heads: needs aux_weight > 0 (the mode logit picks the head), "
-                f"got aux_weight={aux_weight}"
-            )
         if n_steps < 2 or not duration > 0:
             raise ValueError(
                 f"{type(self).__name__}: need n_steps >= 2 and duration > 0, got {n_steps}, {duration}"
@@ -158,23 +195,42 @@ class VisuomotorPolicy(L.LightningModule):
         if depth_encoding != "range" and not depth:
             raise ValueError(f"{type(self).__name__}.depth_encoding: {depth_encoding!r} needs depth=true")
         brightness_augment = brightness_range(brightness_augment, depth, type(self).__name__)
-        self.save_hyperparameters(ignore=["name"])
+        self.save_hyperparameters()
         self.hparams["kind"] = self.kind
-        self.config_name = name or self.kind
         if not isinstance(depth, bool):
             raise ValueError(f"{type(self).__name__}.depth: expected a bool, got {depth!r}")
-        self.encoder = KeypointEncoder(
-            channels, temperature, global_pool=global_pool, in_channels=4 if depth else 3
-        )
-        self.bias_input = nn.Parameter(torch.zeros(bias_dim))
+        self.stat_names: tuple[str, ...] = ()
         self._robot = None
         self._val_runs = 0
-        self._colour_tta = False
 
     @property
     def input_channels(self) -> int:
         """Image channels the policy takes: 3 (RGB) or 4 (RGB-D, ``depth``)."""
-        return self.encoder.in_channels
+        return 4 if self.hparams.depth else 3
+
+    @property
+    def colour_tta(self) -> bool:
+        """Test-time colour averaging (a policy that supports it overrides this; the evaluator
+        sets it from ``eval.colour_tta``)."""
+        return False
+
+    @colour_tta.setter
+    def colour_tta(self, on: bool) -> None:
+        if on:
+            raise ValueError(f"{type(self).__name__}.colour_tta: test-time colour averaging is not supported")
+
+    #: Settings of the training run that made this policy (``train.py``: the experiment and the
+    #: data config's plain values), saved in the checkpoint under :data:`TRAINING_RUN_KEY` so that
+    #: an evaluation can use them; None when unknown (e.g. a checkpoint of an older release).
+    training_run: dict | None = None
+
+    def register_statistics(self, stat_shapes: Mapping[str, tuple[int, ...]]) -> None:
+        """One persistent (mean, std) buffer pair per statistic (``<stat>_mean`` zeros,
+        ``<stat>_std`` ones of that shape), filled from the datamodule at ``setup("fit")``."""
+        self.stat_names = tuple(stat_shapes)
+        for stat, shape in stat_shapes.items():
+            self.register_buffer(f"{stat}_mean", torch.zeros(shape))
+            self.register_buffer(f"{stat}_std", torch.ones(shape))
 
     @property
     def depth_encoding(self) -> str:
@@ -186,27 +242,6 @@ class VisuomotorPolicy(L.LightningModule):
         period ``dt`` (s), which the evaluator starts once per episode and steps every period
         (:func:`lfd.visuomotor.eval.rollout.run_episode`)."""
         raise NotImplementedError(f"{type(self).__name__} defines no controller")
-
-    def _build(self, output_dim: int, stat_shapes: dict[str, tuple[int, ...]], extra_inputs: int = 0) -> None:
-        """Subclasses call this at the end of ``__init__``: the fully connected head with
-        ``output_dim`` outputs (and ``extra_inputs`` more inputs besides keypoints, joints
-        and bias, see :meth:`features`), and one persistent (mean, std) buffer pair per
-        statistic."""
-        hp = self.hparams
-        self.output_dim = output_dim
-        self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
-        self.n_heads = 2 if hp.mode_heads else 1
-        self.head = mlp(
-            self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs,
-            hp.hidden,
-            self.n_heads * output_dim + self.n_aux,
-        )
-        if self.n_aux:
-            stat_shapes = {**stat_shapes, "target_point": (3,)}
-        self.stat_names = tuple(stat_shapes)
-        for stat, shape in stat_shapes.items():
-            self.register_buffer(f"{stat}_mean", torch.zeros(shape))
-            self.register_buffer(f"{stat}_std", torch.ones(shape))
 
     # ------------------------------------------------------------------ shared pieces
     @property
@@ -229,102 +264,12 @@ class VisuomotorPolicy(L.LightningModule):
     def denormalise(self, stat: str, x: torch.Tensor) -> torch.Tensor:
         return x * getattr(self, f"{stat}_std") + getattr(self, f"{stat}_mean")
 
-    def head_outputs(
-        self,
-        image: torch.Tensor,
-        joints: torch.Tensor,
-        extra: torch.Tensor | None = None,
-        top: torch.Tensor | None = None,
-    ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Head outputs for images ``(B, 3, H, W)`` in [0, 1], joints ``(B, n)`` rad and, when
-        the head was built with ``extra_inputs``, those inputs ``(B, e)``: the policy's
-        ``(B, output_dim)`` and the auxiliary ``(B, n_aux)`` (``n_aux = 0`` without ``aux_weight``).
-
-        With ``mode_heads`` the policy's output is that of the head of mode ``top`` (``(B,)``,
-        1 = top; training passes the demonstrations' modes) or, when ``top`` is None, of the
-        mode the auxiliary logit predicts; with one head ``top`` is ignored."""
-        out = self._head_raw(image, joints, extra)
-        k = self.n_heads * self.output_dim
-        main, aux = out[:, :k], out[:, k:]
-        if self.n_heads == 1:
-            return main, aux
-        pick = (aux[:, 0] > 0) if top is None else (top > 0.5)
-        heads = main.view(-1, self.n_heads, self.output_dim)
-        return heads[torch.arange(len(heads), device=heads.device), pick.long()], aux
-
-    def _head_raw(
-        self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None
-    ) -> torch.Tensor:
-        """Raw head output ``(B, n_heads * output_dim + n_aux)``; with :attr:`colour_tta`
-        (outside training) the mean over the 6 orders of the RGB channels."""
-        tta = self.colour_tta and not self.training
-        b = image.shape[0]
-        if tta:
-            image = all_colour_orders(image)
-            joints = joints.repeat(len(COLOUR_ORDERS), 1)
-            extra = None if extra is None else extra.repeat(len(COLOUR_ORDERS), 1)
-        keypoints = self.encoder(image)
-        bias = self.bias_input.expand(image.shape[0], -1)
-        parts = [keypoints, self.normalise("joints", joints), bias]
-        if extra is not None:
-            parts.append(extra)
-        out = self.head(torch.cat(parts, dim=1))
-        return out.view(len(COLOUR_ORDERS), b, -1).mean(dim=0) if tta else out
-
-    @property
-    def colour_tta(self) -> bool:
-        """Test-time colour averaging: outside training, the head output is the mean over
-        the 6 orders of the RGB channels (each head's output and the mode logit averaged
-        before the logit picks the head), so the decision does not hang on the colour the
-        object happens to have. Only for a policy trained with ``colour_augment`` (it saw
-        every order); off by default, the evaluator sets it (``eval.colour_tta``)."""
-        return self._colour_tta
-
-    @colour_tta.setter
-    def colour_tta(self, on: bool) -> None:
-        if on and not self.hparams.get("colour_augment", False):
-            raise ValueError(
-                f"{type(self).__name__}.colour_tta: needs a policy trained with colour_augment=true "
-                "(it never saw permuted colours otherwise)"
-            )
-        self._colour_tta = bool(on)
-
-    def features(
-        self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None = None
-    ) -> torch.Tensor:
-        """The policy's head output ``(B, output_dim)`` (see :meth:`head_outputs`)."""
-        return self.head_outputs(image, joints, extra)[0]
-
-    def add_aux_losses(
-        self, out: dict[str, torch.Tensor], aux: torch.Tensor, batch: dict[str, torch.Tensor]
-    ) -> dict[str, torch.Tensor]:
-        """``out`` (a policy's losses) with the auxiliary losses of the ``(B, AUX_DIM)`` outputs
-        against the batch's ``top`` (1 for a top approach, ``(B,)``) and ``target_point``
-        (``(B, 3)`` m): ``aux_loss`` (unweighted sum, added to ``out["loss"]`` times
-        ``aux_weight``) and ``aux_mode_error``; ``out`` unchanged without ``aux_weight``."""
-        if not self.n_aux:
-            return out
-        for key in ("top", "target_point"):
-            if key not in batch:
-                raise ValueError(
-                    f"{type(self).__name__}(aux_weight > 0): batches need the '{key}' key, got {sorted(batch)}"
-                )
-        mode = F.binary_cross_entropy_with_logits(aux[:, 0], batch["top"].to(aux))
-        point = F.mse_loss(aux[:, 1:4], self.normalise("target_point", batch["target_point"]))
-        wrong = ((aux[:, 0] > 0) != (batch["top"] > 0.5)).float().mean()
-        return {
-            **out,
-            "loss": out["loss"] + self.hparams.aux_weight * (mode + point),
-            "aux_loss": mode + point,
-            "aux_mode_error": wrong,
-        }
-
     def _observation(self, image, joints) -> tuple[torch.Tensor, torch.Tensor, bool]:
         """Closed-loop inputs as batched tensors on this module's device; ``batched`` says
         whether the caller gave a batch. Closed-loop calls switch the module to eval mode
         (batch-norm running statistics)."""
         self.eval()
-        img = image_to_tensor(image, self.encoder.in_channels)
+        img = image_to_tensor(image, self.input_channels)
         q = torch.as_tensor(np.asarray(joints), dtype=torch.float32)
         batched = q.ndim == 2
         q = q.reshape(-1, self.hparams.n_joints)
@@ -356,9 +301,13 @@ class VisuomotorPolicy(L.LightningModule):
 
     def on_save_checkpoint(self, checkpoint: dict[str, Any]) -> None:
         checkpoint[FINGERPRINT_KEY] = self.dataset_fingerprint
+        if self.training_run is not None:
+            checkpoint[TRAINING_RUN_KEY] = self.training_run
 
     def on_load_checkpoint(self, checkpoint: dict[str, Any]) -> None:
         self.dataset_fingerprint = checkpoint.get(FINGERPRINT_KEY)
+        run = checkpoint.get(TRAINING_RUN_KEY)
+        self.training_run = run if isinstance(run, dict) else None
 
     # ------------------------------------------------------------------ Lightning hooks
     def setup(self, stage: str) -> None:

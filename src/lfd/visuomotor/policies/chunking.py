@@ -23,9 +23,15 @@ import torch
 from lfd.visuomotor.policies.base import VisuomotorPolicy
 from lfd.visuomotor.policies.control import ChunkController, chunk_execution
 from lfd.visuomotor.policies.plots import joint_figure
+from lfd.visuomotor.policies.vision import KeypointEncoder
 
 #: Batch keys the chunk lookup needs (the velocity items carry them).
 LOOKUP_KEYS = ("index", "step")
+#: Keypoint-head settings that checkpoints of earlier releases carry, at these no-op values.
+RETIRED = {"hidden": [], "bias_dim": 0, "global_pool": False, "aux_weight": 0.0, "mode_heads": False}
+#: State-dict entries of those checkpoints that no chunking policy has any more (the unused
+#: keypoint head's bias input, and the backbone's second name).
+RETIRED_STATE = ("bias_input", "encoder.")
 
 
 class ChunkPolicy(VisuomotorPolicy):
@@ -39,10 +45,11 @@ class ChunkPolicy(VisuomotorPolicy):
             learns to steer back to the demonstrated path from states near it (noise injection,
             DART, Laskey et al. 2017, as the velocity CNN's ``state_noise``; absolute position
             targets make the correction implicit). Not in the ACT or Diffusion Policy papers.
-        **common: :class:`~lfd.visuomotor.policies.base.VisuomotorPolicy` arguments; those of
-            its keypoint head (``hidden``, ``bias_dim``, ``global_pool``, ``aux_weight``,
-            ``mode_heads``) must stay at their no-op values (the chunking policies have
-            their own heads).
+        channels: the conv channels of the project's trunk (``backbone="trunk"``).
+        temperature: initial spatial soft-argmax temperature (Diffusion Policy's keypoints).
+        **common: :class:`~lfd.visuomotor.policies.base.VisuomotorPolicy` arguments. Checkpoints
+            of earlier releases also hold the keypoint head's settings at their no-op values
+            (:data:`RETIRED`); they are accepted and dropped, any other value is refused.
 
     Subclasses define :meth:`predict_chunk` and ``losses``; :attr:`replan_every` and
     :attr:`ensemble_m` say how :meth:`controller` runs the chunks.
@@ -50,15 +57,22 @@ class ChunkPolicy(VisuomotorPolicy):
 
     item_mode = "velocity"
 
-    def __init__(self, *, chunk_size: int, state_noise: float = 0.0, **common) -> None:
-        common.setdefault("bias_dim", 0)
-        common.setdefault("hidden", [])
-        for key in ("aux_weight", "mode_heads", "global_pool"):
-            if common.get(key):
-                raise ValueError(
-                    f"{type(self).__name__}.{key}: not supported by chunking policies, got {common[key]!r}"
-                )
+    def __init__(
+        self,
+        *,
+        chunk_size: int,
+        state_noise: float = 0.0,
+        channels: tuple[int, ...] | list[int] = (32, 32, 32, 32),
+        temperature: float = 1.0,
+        **common,
+    ) -> None:
+        for key, no_op in RETIRED.items():
+            if common.pop(key, no_op):
+                raise ValueError(f"{type(self).__name__}.{key}: not supported by chunking policies")
         super().__init__(**common)
+        # The random draws of the keypoint trunk these policies were first built with (never
+        # used by them): the initial weights, and so every documented result, stay reproducible.
+        KeypointEncoder(channels, temperature, in_channels=self.input_channels)
         if not (isinstance(chunk_size, int) and chunk_size >= 1):
             raise ValueError(f"{type(self).__name__}.chunk_size: expected an int >= 1, got {chunk_size!r}")
         if not (isinstance(state_noise, (int, float)) and 0 <= state_noise < float("inf")):
@@ -66,13 +80,7 @@ class ChunkPolicy(VisuomotorPolicy):
                 f"{type(self).__name__}.state_noise: expected a number >= 0 (rad), got {state_noise!r}"
             )
         n = self.hparams.n_joints
-        self.stat_names = ("joints",)
-        self.register_buffer("joints_mean", torch.zeros(n))
-        self.register_buffer("joints_std", torch.ones(n))
-        self.n_aux = 0
-        self.bias_input.requires_grad_(
-            False
-        )  # the keypoint head's, unused here (DDP needs every trained one used)
+        self.register_statistics({"joints": (n,)})
         # episode index -> demonstrated joints (T, n); filled at fit time, not saved
         self.register_buffer("_trajectories", torch.zeros(0, self.hparams.n_steps, n), persistent=False)
 
@@ -103,14 +111,12 @@ class ChunkPolicy(VisuomotorPolicy):
         """How :meth:`controller` runs the chunks: ``{"replan_every": ..., "ensemble_m": ...}``."""
         return {"replan_every": self.replan_every, "ensemble_m": self.ensemble_m}
 
-    @property
-    def colour_tta(self) -> bool:
-        return False
-
-    @colour_tta.setter
-    def colour_tta(self, on: bool) -> None:
-        if on:
-            raise ValueError(f"{type(self).__name__}.colour_tta: test-time colour averaging is not supported")
+    def on_load_checkpoint(self, checkpoint: dict) -> None:
+        """Drop the :data:`RETIRED_STATE` entries of an earlier release's checkpoint."""
+        super().on_load_checkpoint(checkpoint)
+        state = checkpoint.get("state_dict", {})
+        for key in [k for k in state if k.startswith(RETIRED_STATE)]:
+            del state[key]
 
     # ------------------------------------------------------------------ targets
     def setup(self, stage: str) -> None:

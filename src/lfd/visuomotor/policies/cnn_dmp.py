@@ -16,14 +16,14 @@ import torch
 from torch.nn import functional as F
 
 from lfd.dmp import DMPLayer
-from lfd.visuomotor.policies.base import VisuomotorPolicy
 from lfd.visuomotor.policies.control import PlanController
+from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.plots import joint_figure
 
 LOSSES = ("trajectory", "params")
 
 
-class CNNDMPPolicy(VisuomotorPolicy):
+class CNNDMPPolicy(KeypointPolicy):
     """Image + start joints -> DMP parameters -> joint trajectory ``(T, n)``.
 
     Args:
@@ -44,11 +44,15 @@ class CNNDMPPolicy(VisuomotorPolicy):
             loop does. 0 compares only the demonstrated ``T`` samples.
         n_basis: DMP basis functions per joint (must match the dataset's).
         alpha_z: DMP damping gain.
-        **common: :class:`~lfd.visuomotor.policies.base.VisuomotorPolicy` arguments.
+        **common: :class:`~lfd.visuomotor.policies.keypoint.KeypointPolicy` arguments (the
+            keypoint head's and the harness's).
     """
 
     kind = "cnn_dmp"
+    label = "CNN -> DMP"
+    colour = "tab:blue"
     item_mode = "dmp"
+    DATA_ARGUMENTS = (*KeypointPolicy.DATA_ARGUMENTS, "n_basis")
 
     def __init__(
         self,

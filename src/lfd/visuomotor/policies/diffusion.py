@@ -57,6 +57,8 @@ class DiffusionPolicy(ChunkPolicy):
     """
 
     kind = "diffusion"
+    label = "Diffusion Policy"
+    colour = "tab:red"
 
     def __init__(
         self,
@@ -93,7 +95,6 @@ class DiffusionPolicy(ChunkPolicy):
         n = self.hparams.n_joints
         norm = "group" if backbone == "resnet18" else "batch"
         self.backbone = ImageBackbone(backbone, self.input_channels, self.hparams.channels, norm=norm)
-        self.encoder = self.backbone  # the base class reads `encoder.in_channels`
         self.keypoints = nn.Sequential(
             nn.Conv2d(self.backbone.out_channels, n_keypoints, 1), SpatialSoftmax(self.hparams.temperature)
         )

@@ -1,7 +1,10 @@
 """The policy factory: policy classes by kind, and loading any policy checkpoint.
 
-A checkpoint's kind is the ``kind`` hyper-parameter every :class:`VisuomotorPolicy` saves;
-:func:`load_policy` picks the class from it, so a caller never branches on file names.
+The registry is :data:`POLICIES` (kind -> class), filled as each policy class is defined
+(:meth:`~lfd.visuomotor.policies.base.VisuomotorPolicy.__init_subclass__`); importing
+:mod:`lfd.visuomotor.policies` registers the built-in ones. A checkpoint's kind is the ``kind``
+hyper-parameter every policy saves; :func:`load_policy` picks the class from it, so a caller
+never branches on file names.
 
 Example::
 
@@ -18,29 +21,31 @@ from pathlib import Path
 import torch
 
 from lfd.training import CheckpointError, checkpoint_kind, read_checkpoint
-from lfd.visuomotor.policies.act import ACTPolicy
-from lfd.visuomotor.policies.base import VisuomotorPolicy
-from lfd.visuomotor.policies.cnn_dmp import CNNDMPPolicy
-from lfd.visuomotor.policies.diffusion import DiffusionPolicy
-from lfd.visuomotor.policies.velocity import VelocityPolicy
+from lfd.visuomotor.policies.base import POLICIES, VisuomotorPolicy
 
-__all__ = ["POLICIES", "checkpoint_kind", "load_policy"]
+__all__ = ["POLICIES", "checkpoint_kind", "get_policy_class", "load_policy"]
 
-#: Policy kind (``Policy.kind``, stored in the checkpoint's hyper-parameters) -> class.
-POLICIES: dict[str, type[VisuomotorPolicy]] = {
-    cls.kind: cls for cls in (CNNDMPPolicy, VelocityPolicy, ACTPolicy, DiffusionPolicy)
-}
+
+def get_policy_class(kind: str) -> type[VisuomotorPolicy]:
+    """The registered policy class of ``kind``.
+
+    Raises:
+        KeyError: no policy of that kind is registered (the message names the known kinds).
+    """
+    if kind not in POLICIES:
+        raise KeyError(f"no policy kind {kind!r}; registered: {sorted(POLICIES)}")
+    return POLICIES[kind]
 
 
 def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> VisuomotorPolicy:
-    """Load a policy checkpoint of any kind, in eval mode. The file is checked by
+    """Load a policy checkpoint of any registered kind, in eval mode. The file is checked by
     :func:`lfd.training.read_checkpoint` and loaded with ``weights_only=True``: no code
     from it runs.
 
     Raises:
         FileNotFoundError: no file at ``path``.
         lfd.training.CheckpointError: not a Lightning checkpoint (empty, truncated, foreign,
-            a pickled payload), or its kind is no known policy (one line naming the file).
+            a pickled payload), or its kind is no registered policy (one line naming the file).
     """
     path = Path(path)
     if not path.exists():

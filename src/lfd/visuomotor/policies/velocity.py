@@ -32,25 +32,28 @@ import torch
 from torch.nn import functional as F
 
 from lfd.visuomotor.data.stats import STD_FLOOR
-from lfd.visuomotor.policies.base import VisuomotorPolicy
 from lfd.visuomotor.policies.control import VelocityController
+from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.plots import joint_figure
 
 #: Item key of the training label (rad/s, the velocity to command for the next period).
 LABEL = "command"
 
 
-class VelocityPolicy(VisuomotorPolicy):
+class VelocityPolicy(KeypointPolicy):
     """Image ``(3, H, W)`` + joints ``(n,)`` (+ time) at step t -> joint velocity ``(n,)`` rad/s at step t.
 
     Args:
         phase_input: give the head the phase ``min(t / duration, 1)`` as one more input.
         state_noise: std (rad) of the Gaussian noise added to the training joints (0: none).
         correction_gain: gain (1/s) of the corrective term of the perturbed labels.
-        **common: :class:`~lfd.visuomotor.policies.base.VisuomotorPolicy` arguments.
+        **common: :class:`~lfd.visuomotor.policies.keypoint.KeypointPolicy` arguments (the
+            keypoint head's and the harness's).
     """
 
     kind = "velocity"
+    label = "velocity CNN"
+    colour = "tab:orange"
     item_mode = "velocity"
 
     def __init__(
