@@ -71,16 +71,22 @@ def register_policy_configs() -> list[str]:
     from the configs (trusted, as ``train.py``'s), never from a checkpoint."""
     from hydra import compose, initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.hydra_config import HydraConfig
 
     if not GlobalHydra.instance().is_initialized():  # called outside an app (tests, notebooks)
         with initialize_config_dir(str(CONFIGS), version_base="1.3"):
             return register_policy_configs()
-    names = GlobalHydra.instance().config_loader().get_group_options("model")
-    for name in names:
-        target = compose(config_name="evaluate", overrides=[f"+model={name}"]).model.get("_target_")
-        if target:
-            hydra.utils.get_class(target)
-    return names
+    names = set(GlobalHydra.instance().config_loader().get_group_options("model"))
+    searchpath = list(HydraConfig.get().searchpath) if HydraConfig.initialized() else []
+    for entry in searchpath:  # the group listing above does not see hydra.searchpath
+        if entry.startswith("file://"):
+            names |= {p.stem for p in Path(entry.removeprefix("file://"), "model").glob("*.yaml")}
+    extra = [f"hydra.searchpath=[{','.join(searchpath)}]"] if searchpath else []
+    for name in sorted(names):
+        model = compose(config_name="evaluate", overrides=[*extra, f"+model={name}"]).model
+        if model.get("_target_"):
+            hydra.utils.get_class(model._target_)
+    return sorted(names)
 
 
 def _keys(overrides: Sequence[str]) -> set[str]:

@@ -47,7 +47,7 @@ def tiny_reaching() -> tuple[str, ...]:
 
 #: A tiny dataset with a test split, for the tests that train and evaluate through the entry points:
 #: 2 training objects x 3 placements (1 of them validation), 1 test object x 2 placements, 32 px,
-#: 30 steps, RGB (the data keys are explicit: experiment=quick, evaluate.py's default, sets its own).
+#: 30 steps, RGB (the data keys are explicit: an experiment may set its own).
 TINY_DATA = (
     "data.name=tiny",
     "data.n_train_objects=2",
