@@ -35,8 +35,8 @@ from lfd.visuomotor.policies import ACTPolicy, CNNDMPPolicy, DiffusionPolicy, Ve
 def policies(size: int, backbone: str) -> dict[str, torch.nn.Module]:
     common = dict(image_size=size, channels=[16, 32, 32], n_steps=100, duration=4.0)
     return {
-        "cnn_dmp": CNNDMPPolicy(name="cnn_dmp", global_pool=True, aux_weight=1.0, mode_heads=True, **common),
-        "velocity": VelocityPolicy(name="velocity", **common),
+        "cnn_dmp": CNNDMPPolicy(global_pool=True, aux_weight=1.0, mode_heads=True, **common),
+        "velocity": VelocityPolicy(**common),
         f"act ({backbone})": ACTPolicy(backbone=backbone, **common),
         f"diffusion ({backbone})": DiffusionPolicy(backbone=backbone, **common),
     }
