@@ -149,6 +149,8 @@ def test_hydra_data_config(tiny_lerobot):
     from hydra import compose, initialize_config_dir
     from hydra.utils import instantiate
 
+    import train
+
     configs = Path(__file__).resolve().parents[3] / "configs"
     with initialize_config_dir(config_dir=str(configs), version_base="1.3"):
         over = [
@@ -160,10 +162,10 @@ def test_hydra_data_config(tiny_lerobot):
             "model.hidden=[8]",
         ]
         cfg = compose("train", overrides=["data=lerobot", "model=cnn_dmp", *over])
-        dm, model = instantiate(cfg.data), instantiate(cfg.model)
+        dm, model = train.instantiate_data_and_model(cfg)  # the policy takes the folder's settings
         dm.setup("fit")
         model.check_data(dm.config)
-        assert dm.mode == "dmp" and len(dm.datasets["train"]) == 4
+        assert dm.mode == "dmp" and len(dm.datasets["train"]) == 4 and model.hparams.n_basis == 8
         bad = instantiate(compose("train", overrides=["data=lerobot", *over, "data.n_steps=100"]).data)
         with pytest.raises(ValueError, match="n_steps=100"):
             bad.setup("fit")

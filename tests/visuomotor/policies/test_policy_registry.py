@@ -67,23 +67,8 @@ gain: 0.5
 lr: 1.0e-3
 plot_every_n_val: 0
 """
-#: The tiny dataset (tests/conftest.py's TINY_DATA) and a few optimiser steps.
-TRAIN = [
-    "data.name=tiny",
-    "data.n_train_objects=2",
-    "data.n_train_placements=3",
-    "data.val_fraction=0.34",
-    "data.n_test_objects=1",
-    "data.n_test_placements=2",
-    "data.n_val_objects=1",
-    "data.n_val_object_placements=1",
-    "data.image_size=32",
-    "data.n_steps=12",
-    "data.batch_size=4",
-    "data.progress=false",
-    "++trainer.max_steps=3",
-    "++trainer.limit_val_batches=1",
-]
+#: A few optimiser steps (on tests/conftest.py's tiny dataset).
+STEPS = ["++trainer.max_steps=3", "++trainer.limit_val_batches=1"]
 
 
 def _run(script: str, *overrides: str, cwd: Path, pythonpath: Path | None = None) -> str:
@@ -105,7 +90,7 @@ def _metrics(cwd: Path) -> dict:
     return json.loads(found.read_text())
 
 
-def test_a_fifth_policy_is_its_module_and_its_config(tmp_path):
+def test_a_fifth_policy_is_its_module_and_its_config(tmp_path, tiny_data):
     """The toy kind trains and is scored through the entry points; no file of the repository
     names it. ``evaluate.py`` gets nothing but the config search path: the checkpoint's kind
     comes from the file, its data from the run it recorded."""
@@ -116,7 +101,7 @@ def test_a_fifth_policy_is_its_module_and_its_config(tmp_path):
     search = f"hydra.searchpath=[file://{code}]"
     work = tmp_path / "work"
     work.mkdir()
-    out = _run("train.py", "model=toy", search, *TRAIN, cwd=work, pythonpath=code)
+    out = _run("train.py", "model=toy", search, *tiny_data, *STEPS, cwd=work, pythonpath=code)
     assert "[lfd] checkpoint:" in out
     out = _run("evaluate.py", search, "eval.n_gifs=0", cwd=work, pythonpath=code)
     metrics = _metrics(work)
@@ -127,10 +112,18 @@ def test_a_fifth_policy_is_its_module_and_its_config(tmp_path):
 
 
 @pytest.mark.slow
-def test_train_then_evaluate_with_no_other_override(tmp_path):
+def test_train_then_evaluate_with_no_other_override(tmp_path, tiny_data):
     """``python train.py model=velocity`` (here on the tiny data) then a bare ``python evaluate.py``
     in the same folder: the checkpoint is found and scored on the test split of its own dataset."""
-    _run("train.py", "model=velocity", "model.channels=[4,4]", "model.hidden=[8]", *TRAIN, cwd=tmp_path)
+    _run(
+        "train.py",
+        "model=velocity",
+        "model.channels=[4,4]",
+        "model.hidden=[8]",
+        *tiny_data,
+        *STEPS,
+        cwd=tmp_path,
+    )
     out = _run("evaluate.py", cwd=tmp_path)
     metrics = _metrics(tmp_path)
     assert set(metrics) == {"velocity"} and "tiny" in metrics["velocity"]["cases"]
