@@ -19,7 +19,7 @@ import pickle
 import re
 import warnings
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -231,10 +231,11 @@ class Evaluator(Protocol):
     needs_datamodule: bool
 
     def resolve_checkpoints(
-        self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None
+        self, output_root: str | Path, given: Sequence[str | Path] | str | Path | None = None
     ) -> dict[str, Path]:
-        """``{kind: path}`` of the checkpoints to evaluate: those ``given`` (by kind), else the
-        newest under ``output_root``. Raises ``FileNotFoundError`` when none can be found."""
+        """``{kind: path}`` of the checkpoints to evaluate: the files ``given`` (``evaluate.py
+        ckpt=...``; each one's kind is read from it), else the newest under ``output_root``.
+        Raises ``FileNotFoundError`` when none can be found."""
         ...
 
     def run(

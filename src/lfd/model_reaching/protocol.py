@@ -141,11 +141,19 @@ class SawyerProtocol:
         self.n_fk_test, self.fk_seed = int(n_fk_test), int(fk_seed)
 
     def resolve_checkpoints(
-        self, output_root: str | Path, given: Mapping[str, str | Path | None] | None = None
+        self, output_root: str | Path, given: Sequence[str | Path] | str | Path | None = None
     ) -> dict[str, Path]:
-        """``{"sawyer_models": path}``: the configured checkpoint (or ``given["sawyer_models"]``),
-        else the newest ``sawyer_models`` one under ``output_root``."""
-        path = self.checkpoint if self.checkpoint is not None else (given or {}).get(SawyerModels.kind)
+        """``{"sawyer_models": path}``: the configured checkpoint (``eval.checkpoint``), else the one
+        ``given`` (``evaluate.py ckpt=PATH``), else the newest ``sawyer_models`` one under ``output_root``.
+
+        Raises:
+            ValueError: more than one checkpoint given.
+            FileNotFoundError: the file does not exist, or none is found.
+        """
+        given = [given] if isinstance(given, (str, Path)) else list(given or [])
+        if len(given) > 1:
+            raise ValueError(f"ckpt: the Sawyer protocol runs one models checkpoint, got {len(given)}")
+        path = self.checkpoint if self.checkpoint is not None else (given[0] if given else None)
         if path is not None:
             if not Path(path).is_file():
                 raise FileNotFoundError(f"eval.checkpoint={path}: no such Sawyer models checkpoint")
