@@ -30,7 +30,7 @@ from typing import Any
 
 import hydra
 from hydra.errors import InstantiationException
-from omegaconf import DictConfig, open_dict
+from omegaconf import DictConfig, ListConfig, OmegaConf, open_dict
 
 from lfd.training import Evaluator
 
@@ -94,31 +94,77 @@ def _keys(overrides: Sequence[str]) -> set[str]:
     return {o.lstrip("+~").split("=")[0] for o in overrides}
 
 
+def _same_kind(composed: Any, recorded: Any) -> bool:
+    """Whether a recorded data value may replace the composed one: the same kind of value (a bool
+    for a bool, a number for a number, a string for a string, a list for a list), or anything plain
+    where either is null."""
+    if composed is None or recorded is None:
+        return True
+    if isinstance(composed, bool) or isinstance(recorded, bool):
+        return isinstance(composed, bool) and isinstance(recorded, bool)
+    kinds = ((int, float), str, (list, tuple, ListConfig))
+    return any(isinstance(composed, k) and isinstance(recorded, k) for k in kinds)
+
+
 def follow_training_run(
-    cfg: DictConfig, run: dict[str, Any] | None, overrides: Sequence[str] | None
+    cfg: DictConfig,
+    run: dict[str, Any] | None,
+    overrides: Sequence[str] | None,
+    source: str = "the checkpoints",
 ) -> DictConfig:
     """``cfg`` with the checkpoints' training run filled in where the command line (``overrides``)
-    left it open: the experiment (recomposing ``configs/evaluate.yaml`` with it) and the data
-    settings (only keys the data config has; never a ``_target_``). ``overrides=None`` (a config
-    composed by a caller) or ``run=None`` (checkpoints that recorded nothing) leave ``cfg`` as is."""
+    left it open: the experiment and the data config (recomposing ``configs/evaluate.yaml`` with
+    them), the seed, and the data settings (only keys the data config has, with values of the same
+    kind; never a ``_target_``, never ``root``). ``overrides=None`` (a config composed by a caller)
+    or ``run=None`` (checkpoints that recorded nothing) leave ``cfg`` as is.
+
+    Raises:
+        ValueError: a recorded config choice that is no config here, a recorded value of another
+            kind than the config's, or a data config that still misses a value (one line each).
+    """
     if run is None or overrides is None:
         return cfg
-    keys = _keys(overrides)
-    extra = []
-    if "experiment" not in keys and run["experiment"] is not None:
-        extra.append(f"experiment={run['experiment']}")
-    takes_data = not any(k == top or k.startswith(f"{top}.") for k in keys for top in DATA_OVERRIDES)
-    if takes_data and run["data_config"] is not None:
-        extra.append(f"data={run['data_config']}")
-    if extra:
-        from hydra import compose
+    from hydra import compose
+    from hydra.core.global_hydra import GlobalHydra
 
+    keys = _keys(overrides)
+    takes_data = not any(k == top or k.startswith(f"{top}.") for k in keys for top in DATA_OVERRIDES)
+    extra = []
+    for group, choice, wanted in (
+        ("experiment", run["experiment"], "experiment" not in keys),
+        ("data", run["data_config"], takes_data),
+    ):
+        if choice is None or not wanted:
+            continue
+        options = GlobalHydra.instance().config_loader().get_group_options(group)
+        if choice not in options:
+            raise ValueError(
+                f"{source} were trained with {group}={choice}, which is no config here (one of {options}); "
+                f"pass {group}=..."
+            )
+        extra.append(f"{group}={choice}")
+    if extra:
         cfg = compose(config_name="evaluate", overrides=[*overrides, *extra])
-    if takes_data:
-        with open_dict(cfg):
-            for key, value in run["data"].items():
-                if key in cfg.data and not key.startswith("_") and key != "root":
-                    cfg.data[key] = value
+    if not takes_data:
+        return cfg
+    with open_dict(cfg):
+        if run.get("seed") is not None:
+            cfg.seed = run["seed"]
+        for key, value in run["data"].items():
+            if key not in cfg.data or key == "root":
+                continue
+            if not _same_kind(cfg.data[key], value):
+                raise ValueError(
+                    f"{source}: the recorded data.{key}={value!r} is not of the kind of the config's "
+                    f"{cfg.data[key]!r}; pass data.{key}=..."
+                )
+            cfg.data[key] = value
+    missing = sorted(OmegaConf.missing_keys(cfg.data))
+    if missing:
+        raise ValueError(
+            f"data.{missing[0]}: not set; {source} were trained with data={run['data_config']}, which needs "
+            "it on the command line"
+        )
     return cfg
 
 
@@ -134,12 +180,13 @@ def evaluate(cfg: DictConfig, out_dir: str | Path, overrides: Sequence[str] | No
             file (:class:`lfd.visuomotor.eval.scenario.ScenarioError`); checkpoints of two datasets.
         FileNotFoundError: a missing file, or no checkpoint.
     """
+    import lightning as L
+
     register_policy_configs()
     evaluator = instantiate_evaluator(cfg)
-    if callable(
-        getattr(evaluator, "check_inputs", None)
-    ):  # e.g. a scenario out of reach: before any checkpoint
-        evaluator.check_inputs(hydra.utils.instantiate(cfg.data))
+    check_inputs = getattr(evaluator, "check_inputs", None)
+    if check_inputs is not None:  # e.g. a scenario out of reach: refused before any checkpoint is read
+        check_inputs(hydra.utils.instantiate(cfg.data))
     given = cfg.get("ckpt")
     given = [] if given is None else [given] if isinstance(given, str) else list(given)
     checkpoints = evaluator.resolve_checkpoints(cfg.paths.output_root, given)
@@ -156,6 +203,7 @@ def evaluate(cfg: DictConfig, out_dir: str | Path, overrides: Sequence[str] | No
         if followed is not cfg:
             cfg, evaluator = followed, instantiate_evaluator(followed)
         datamodule = hydra.utils.instantiate(cfg.data)
+    L.seed_everything(cfg.seed, workers=True)
     return evaluator.run(datamodule=datamodule, checkpoints=checkpoints, out_dir=Path(out_dir))
 
 
@@ -178,10 +226,8 @@ def summary_lines(metrics: dict[str, Any]) -> list[str]:
 
 @hydra.main(version_base="1.3", config_path="configs", config_name="evaluate")
 def main(cfg: DictConfig) -> str:
-    import lightning as L
     from hydra.core.hydra_config import HydraConfig
 
-    L.seed_everything(cfg.seed, workers=True)
     out_dir = Path(cfg.paths.output_dir)
     try:
         metrics = evaluate(cfg, out_dir, overrides=list(HydraConfig.get().overrides.task))

@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 import hydra
+from hydra.errors import InstantiationException
 from omegaconf import DictConfig, OmegaConf
 
 from lfd.io.files import write_json_atomic
@@ -102,11 +103,18 @@ def instantiate_data_and_model(cfg: DictConfig) -> tuple[Any, Any]:
         print(f"train: model={cls.kind}: {e}", file=sys.stderr)
         raise SystemExit(2) from None
     datamodule = hydra.utils.instantiate(cfg.data, mode=cls.item_mode)
-    model = hydra.utils.instantiate(cfg.model, **arguments)
+    try:
+        model = hydra.utils.instantiate(cfg.model, **arguments)
+    except InstantiationException as e:  # a misspelt or out-of-range model setting: its one line
+        if not isinstance(e.__cause__, (TypeError, ValueError)):
+            raise
+        print(f"train: model={cls.kind}: {e.__cause__}", file=sys.stderr)
+        raise SystemExit(2) from None
     choices = HydraConfig.get().runtime.choices if HydraConfig.initialized() else {}
     model.training_run = {
         "experiment": choices.get("experiment"),
         "data_config": choices.get("data"),
+        "seed": cfg.get("seed"),
         "data": data,
     }
     return datamodule, model
@@ -118,8 +126,9 @@ def check_evaluate(cfg: DictConfig) -> str | None:
     if not cfg.get("evaluate"):
         return None
     cls = policy_class(cfg)
-    if cls is None:
-        print(f"train: evaluate=true: model {cfg.model._target_} is not a policy the reaching evaluator scores",
+    if cls is None or "kinds" not in cfg.eval:
+        what = f"model {cfg.model._target_}" if cls is None else f"eval {cfg.eval._target_}"
+        print(f"train: evaluate=true: {what} is not a policy and evaluator that score one policy kind",
               file=sys.stderr)  # fmt: skip
         raise SystemExit(2)
     return cls.kind

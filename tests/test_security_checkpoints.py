@@ -300,3 +300,21 @@ def test_out_of_reach_scenario_is_refused_before_checkpoints_and_data(compose, t
     with pytest.raises(ScenarioError, match=r"far.yaml: objects\[0\] \(block\) .* is out of reach"):
         evaluate.evaluate(cfg, tmp_path / "run")
     assert not marker.exists() and not (tmp_path / "data").exists() and not (tmp_path / "run").exists()
+
+
+def test_evaluate_never_instantiates_a_checkpoints_recorded_run(tmp_path):
+    """A checkpoint whose recorded training run holds a Hydra ``_target_`` (or a path out of the
+    data folder) is refused in one line naming it: nothing of the record is instantiated, no
+    folder is made."""
+    marker = tmp_path / "pwned"
+    ckpt = tmp_path / "recorded.ckpt"
+    run = {
+        "experiment": None,
+        "data_config": "quick",
+        "seed": 1,
+        "data": {"batch_size": {"_target_": "os.mkdir", "path": str(marker)}},
+    }
+    torch.save({"state_dict": {}, "hyper_parameters": {"kind": "velocity"}, "lfd_training_run": run}, ckpt)
+    proc = run_entry_point("evaluate.py", f"ckpt={ckpt}", f"paths.root_dir={tmp_path}", cwd=tmp_path)
+    assert_one_line_error(proc, "evaluate", str(ckpt), "data.batch_size must be a plain value")
+    assert not marker.exists() and not (tmp_path / "data").exists()

@@ -106,6 +106,11 @@ class EpisodeReport(Protocol):
     ) -> Any: ...
 
 
+#: Item layouts a policy trains on (its ``item_mode``): one item per demonstration (``"dmp"``) or
+#: one per time step (``"velocity"``). The datamodules serve each of them.
+ITEM_MODES = ("dmp", "velocity")
+
+
 @runtime_checkable
 class PolicyData(Protocol):
     """What every visuomotor policy takes from its datamodule at ``setup("fit")``.

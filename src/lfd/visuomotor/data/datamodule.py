@@ -21,10 +21,11 @@ from lfd.visuomotor.data.datasets import (
     load_dataset,
 )
 from lfd.visuomotor.data.generate import GenerationReport, dataset_dir, generate_dataset
+from lfd.visuomotor.protocols import ITEM_MODES
 
 __all__ = ["ReachDataModule"]
 
-MODES = {"dmp": DMPReachDataset, "velocity": VelocityReachDataset}
+MODES = dict(zip(ITEM_MODES, (DMPReachDataset, VelocityReachDataset), strict=True))
 
 
 class ReachDataModule(L.LightningDataModule):

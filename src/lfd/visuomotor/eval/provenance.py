@@ -6,12 +6,15 @@ under :data:`~lfd.visuomotor.policies.base.TRAINING_RUN_KEY`::
 
     {"experiment": "quick" | None,          # the experiment config of the run
      "data_config": "quick" | "lerobot" ..., # the data config group's choice
+     "seed": 42,                            # the run's seed
      "data": {...}}                         # the data config's plain values (resolved)
 
 ``evaluate.py`` uses them so that ``python train.py model=X`` then ``python evaluate.py`` scores
 the checkpoint on the data it was trained for, with no override repeated. Nothing in them is
-instantiated or run: they are plain values, read with ``weights_only=True``, and only keys the
-evaluation's own data config already has are taken over (never a ``_target_``).
+instantiated or run: they are plain values, read with ``weights_only=True`` and checked by
+:func:`training_run` (names, one-component dataset names, scalars without interpolations), and
+only keys the evaluation's own data config already has, with values of the same type, are taken
+over (never a ``_target_`` or a nested mapping).
 
 Example::
 
@@ -22,6 +25,7 @@ Example::
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Collection, Mapping
 from pathlib import Path
 from typing import Any
@@ -34,22 +38,62 @@ from lfd.visuomotor.policies.base import TRAINING_RUN_KEY
 DATASET_KEYS = ("name", *(f.name for f in dataclasses.fields(GeneratorConfig)))
 
 
+#: A recorded config choice (experiment, data config): a config file's name, nothing else.
+CHOICE = re.compile(r"[A-Za-z0-9_]+")
+
+
+def _plain(value: Any) -> bool:
+    """A scalar, or a list of scalars, with no interpolation (``${...}``) in any string."""
+    if isinstance(value, (list, tuple)):
+        return all(_plain(v) and not isinstance(v, (list, tuple)) for v in value)
+    if isinstance(value, str):
+        return "${" not in value
+    return value is None or isinstance(value, (bool, int, float))
+
+
 def training_run(path: str | Path) -> dict[str, Any] | None:
     """The training run a policy checkpoint recorded (module docstring), or None for a
-    checkpoint that recorded none (an earlier release's) or a malformed record.
+    checkpoint of an earlier release, which recorded none.
+
+    Only plain values pass: config choices that are names (``[A-Za-z0-9_]+``), a dataset ``name``
+    that is one path component, data values that are scalars or lists of scalars without
+    interpolations (a ``_target_``-style key or a nested mapping never reaches Hydra).
 
     Raises:
         FileNotFoundError, lfd.training.CheckpointError: see :func:`lfd.training.read_checkpoint`.
+        ValueError: a malformed record (one line naming the file and the field).
     """
     run = read_checkpoint(path).get(TRAINING_RUN_KEY)
-    if not isinstance(run, Mapping) or not isinstance(run.get("data", {}), Mapping):
+    if run is None:
         return None
-    experiment, choice = run.get("experiment"), run.get("data_config")
-    if not (experiment is None or isinstance(experiment, str)) or not (
-        choice is None or isinstance(choice, str)
-    ):
-        return None
-    return {"experiment": experiment, "data_config": choice, "data": dict(run.get("data", {}))}
+
+    def bad(field: str, expected: str) -> ValueError:
+        return ValueError(f"{path}: the recorded training run's {field} must be {expected}")
+
+    if not isinstance(run, Mapping):
+        raise bad("record", "a mapping")
+    for field in ("experiment", "data_config"):
+        value = run.get(field)
+        if value is not None and not (isinstance(value, str) and CHOICE.fullmatch(value)):
+            raise bad(field, "a config name ([A-Za-z0-9_]+) or null")
+    seed = run.get("seed")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+        raise bad("seed", "an integer or null")
+    data = run.get("data", {})
+    if not isinstance(data, Mapping) or not all(isinstance(k, str) for k in data):
+        raise bad("data", "a mapping of settings")
+    for key, value in data.items():
+        if not key.startswith("_") and not _plain(value):
+            raise bad(f"data.{key}", "a plain value (a number, a string without ${...}, a list of them)")
+    name = data.get("name")
+    if name is not None and (not isinstance(name, str) or Path(name).name != name or name in ("", ".", "..")):
+        raise bad("data.name", "a dataset folder's name (one path component)")
+    return {
+        "experiment": run.get("experiment"),
+        "data_config": run.get("data_config"),
+        "seed": seed,
+        "data": {k: v for k, v in data.items() if not k.startswith("_")},
+    }
 
 
 def same_dataset(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:

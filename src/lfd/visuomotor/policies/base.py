@@ -36,7 +36,7 @@ from lfd.visuomotor.policies.vision import (
     permute_colour_channels,
     scale_foreground_brightness,
 )
-from lfd.visuomotor.protocols import Controller, GeneratedPolicyData, PolicyData
+from lfd.visuomotor.protocols import ITEM_MODES, Controller, GeneratedPolicyData, PolicyData
 
 #: Warm-up fraction of the policies' one-cycle schedule (torch's ``OneCycleLR`` default).
 ONECYCLE_PCT_START = 0.3
@@ -121,9 +121,9 @@ class VisuomotorPolicy(L.LightningModule):
             return
         if not isinstance(kind, str) or not kind.isidentifier():
             raise ValueError(f"{cls.__qualname__}.kind: expected an identifier, got {kind!r}")
-        if cls.item_mode not in ("dmp", "velocity"):
+        if cls.item_mode not in ITEM_MODES:
             raise ValueError(
-                f"{cls.__qualname__}.item_mode: expected 'dmp' or 'velocity', got {cls.item_mode!r}"
+                f"{cls.__qualname__}.item_mode: expected one of {ITEM_MODES}, got {cls.item_mode!r}"
             )
         held = POLICIES.get(kind)
         if held is not None and (held.__module__, held.__qualname__) != (cls.__module__, cls.__qualname__):
@@ -328,7 +328,8 @@ class VisuomotorPolicy(L.LightningModule):
             )
         if dm.mode != self.item_mode:
             raise ValueError(
-                f"{type(self).__name__} trains on data.mode={self.item_mode!r} items, the datamodule serves {dm.mode!r}"
+                f"{type(self).__name__} trains on {self.item_mode!r} items (its item_mode), "
+                f"the datamodule serves {dm.mode!r}"
             )
         generated = isinstance(dm, GeneratedPolicyData)
         if dm.config is not None:

@@ -1,7 +1,7 @@
 """Base of the action-chunking policies (ACT, Diffusion Policy): image + joints at step ``t``
 -> a chunk of future joint positions ``q[t+1], ..., q[t+k]`` (rad).
 
-They train on the velocity policy's items (one per time step, ``data.mode=velocity``:
+They train on the velocity policy's items (one per time step, ``item_mode = "velocity"``:
 image, joints, episode ``index`` and ``step``). The chunk target of an item is read from
 the demonstrations' joint trajectories, which :meth:`ChunkPolicy.setup` collects from the
 datamodule's split datasets into a lookup table (episode index -> ``(T, n)``); past the
@@ -141,7 +141,9 @@ class ChunkPolicy(VisuomotorPolicy):
             t = getattr(d, "tensors", {})
             missing = [k for k in ("joints", *LOOKUP_KEYS) if k not in t]
             if missing:
-                raise ValueError(f"{type(self).__name__}: the items need {missing} (data.mode=velocity)")
+                raise ValueError(
+                    f"{type(self).__name__}: the items need {missing} (the velocity items, one per time step)"
+                )
             parts.append((t["index"].long(), t["step"].long(), t["joints"].float()))
         size = 1 + max(int(i.max()) for i, _, _ in parts)
         table = torch.zeros(size, steps, n)
