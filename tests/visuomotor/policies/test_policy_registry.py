@@ -140,3 +140,16 @@ def test_registry_names_each_kind_once_with_its_item_layout():
     with pytest.raises(ValueError, match="item_mode: expected one of"):
         type("Odd", (VisuomotorPolicy,), {"kind": "odd", "item_mode": "frames"})
     assert "odd" not in POLICIES
+
+
+def test_a_misspelt_model_setting_is_one_line(compose, tmp_path, capsys):
+    """The policy's constructor is its schema: train.py reports a setting it refuses in one line."""
+    import train
+
+    cfg = compose("train", "model=velocity", "+model.hiden=[8]", f"paths.root_dir={tmp_path}")
+    with pytest.raises(SystemExit) as info:
+        train.main(cfg)
+    assert info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == "train: model=velocity: VelocityPolicy: unexpected arguments ['hiden']"
+    assert not (tmp_path / "data").exists()
