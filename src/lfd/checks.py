@@ -4,28 +4,37 @@ Every helper takes the value first and the argument's name second, returns the v
 (a float64 array, an ``int``, a ``float``, a ``str``) and otherwise raises one ``ValueError`` whose
 message is a single line naming the argument and what was expected:
 
-* ``"<name> must be <expectation>, got <what came>"``: wrong type, bounds, shape, choice;
+* ``"<name> must be <expectation>, got <what came>"``: wrong type, bounds, shape, choice, keys;
 * ``"<name> contains NaN or inf"``: a non-finite entry.
+
+Helpers taking ``optional=True`` also accept None (returned as is) and then say so in the message
+(``"<name> must be <expectation> (or None), got <what came>"``).
 
 Arrays: :func:`finite_array` (any numeric array-like, torch tensors included: they are detached
 and moved to the CPU), :func:`check_vector` (a ``(length,)`` vector a user typed), :func:`time_grid`
 (sample times in seconds). Scalars: :func:`check_int`, :func:`positive_int`, :func:`check_float`,
-:func:`positive_float`, :func:`unit_interval`. Names: :func:`check_choice`.
+:func:`positive_float`, :func:`unit_interval`, :func:`check_flag`. Names: :func:`check_choice`,
+:func:`check_text`. Settings mappings: :func:`check_keys`, :data:`ENTRY_POINT_KEYS`.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Sequence
+import os
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 __all__ = [
+    "ENTRY_POINT_KEYS",
     "check_choice",
+    "check_flag",
     "check_float",
     "check_int",
+    "check_keys",
+    "check_text",
     "check_vector",
     "finite_array",
     "positive_float",
@@ -34,6 +43,24 @@ __all__ = [
     "to_numpy",
     "unit_interval",
 ]
+
+
+#: Keys of an entry point's composed Hydra config that belong to the entry point, never to the settings
+#: it builds (Hydra's own node, the shared ``configs/paths`` and the run's ``task_name``): settings
+#: readers drop them before :func:`check_keys`.
+ENTRY_POINT_KEYS = ("hydra", "paths", "task_name")
+
+
+def _or_none(optional: bool) -> str:
+    """The message's note that None is accepted too."""
+    return " (or None)" if optional else ""
+
+
+def _shown(value: Any) -> str:
+    """``value`` as a message shows it: a sequence (a tuple, a config's list) as a list."""
+    if isinstance(value, Sequence) and not isinstance(value, str | bytes):
+        return repr(list(value))
+    return repr(value)
 
 
 def to_numpy(value) -> np.ndarray:
@@ -93,29 +120,46 @@ def finite_array(
     return array
 
 
-def check_vector(value: Any, length: int, name: str) -> np.ndarray:
+def check_vector(
+    value: Any, length: int, name: str, *, what: str | None = None, optional: bool = False
+) -> np.ndarray | None:
     """``value`` (a vector a user gave: a position, joint angles) as a finite float ``(length,)`` array.
+
+    Args:
+        what: the expectation the message states (``"a tool position [x, y, z] in metres"``) for
+            a value that is not ``length`` numbers; None: ``"<length> numbers"`` and, for a wrong
+            length, the shape (``"<name> must have shape (3,), got (2,)"``).
+        optional: accept None (returned as is).
 
     Raises:
         ValueError: not numbers (``"<name> must be <length> numbers, got ..."``), wrong shape,
             NaN or inf.
     """
+    if value is None and optional:
+        return None
+    expectation = (what or f"{length} numbers") + _or_none(optional)
     try:
+        if isinstance(value, str | bytes):
+            raise TypeError
         array = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be {length} numbers, got {value!r}") from None
+        raise ValueError(f"{name} must be {expectation}, got {_shown(value)}") from None
+    if what is not None and array.shape != (length,):
+        raise ValueError(f"{name} must be {expectation}, got {_shown(value)}")
     return finite_array(array, name, shape=(length,), copy=False)
 
 
-def check_int(value, name: str, *, minimum: int | None = None) -> int:
-    """``value`` as an ``int`` (not a bool), at least ``minimum`` when given."""
+def check_int(value, name: str, *, minimum: int | None = None, optional: bool = False) -> int | None:
+    """``value`` as an ``int`` (not a bool), at least ``minimum`` when given; None too when ``optional``."""
+    if value is None and optional:
+        return None
     if (
         isinstance(value, bool)
         or not isinstance(value, numbers.Integral)
         or (minimum is not None and value < minimum)
     ):
         bound = "" if minimum is None else f" >= {minimum}"
-        raise ValueError(f"{name} must be an integer{bound}, got {value!r}")
+        raise ValueError(f"{name} must be an integer{bound}{_or_none(optional)}, got {value!r}")
     return int(value)
 
 
@@ -142,10 +186,13 @@ def check_float(
     high: float | None = None,
     strict_low: bool = False,
     strict_high: bool = False,
-) -> float:
+    optional: bool = False,
+) -> float | None:
     """``value`` (a real number, not a bool) as a finite ``float`` within ``[low, high]``; the
-    ``strict_*`` flags exclude the bound itself. The message states the bounds, e.g.
-    ``"tau must be a finite number > 0, got -1.0"``."""
+    ``strict_*`` flags exclude the bound itself; None too when ``optional``. The message states the
+    bounds, e.g. ``"tau must be a finite number > 0, got -1.0"``."""
+    if value is None and optional:
+        return None
     ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
     if ok and low is not None:
         ok = value > low if strict_low else value >= low
@@ -153,7 +200,7 @@ def check_float(
         ok = value < high if strict_high else value <= high
     if not ok:
         bounds = _bounds_text(low, high, strict_low, strict_high)
-        raise ValueError(f"{name} must be a finite number{bounds}, got {value!r}")
+        raise ValueError(f"{name} must be a finite number{bounds}{_or_none(optional)}, got {value!r}")
     return float(value)
 
 
@@ -167,11 +214,42 @@ def unit_interval(value, name: str) -> float:
     return check_float(value, name, low=0.0, high=1.0, strict_low=True, strict_high=True)
 
 
-def check_choice(value, name: str, choices: Sequence[str]):
-    """``value`` if it is one of ``choices``: ``"<name> must be one of <choices>, got <value>"`` otherwise."""
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+def check_flag(value, name: str) -> bool:
+    """``value`` if it is a ``bool``: ``"<name> must be true or false, got <value>"`` otherwise (1, "yes")."""
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} must be true or false, got {value!r}")
     return value
+
+
+def check_choice(value, name: str, choices: Sequence, *, optional: bool = False):
+    """``value`` if it is one of ``choices`` (or None when ``optional``):
+    ``"<name> must be one of a, b, c, got <value>"`` otherwise."""
+    if (value is None and optional) or value in choices:
+        return value
+    listed = ", ".join(map(str, choices))
+    raise ValueError(f"{name} must be one of {listed}{_or_none(optional)}, got {value!r}")
+
+
+def check_text(value, name: str, *, optional: bool = False) -> str | None:
+    """``value`` (a ``str`` or a path) as a non-empty ``str``; None too when ``optional``."""
+    if value is None and optional:
+        return None
+    if not isinstance(value, str | os.PathLike) or not str(value):
+        raise ValueError(f"{name} must be a non-empty string{_or_none(optional)}, got {value!r}")
+    return str(value)
+
+
+def check_keys(values: Mapping, name: str, allowed: Iterable[str]) -> Mapping:
+    """``values`` (a mapping of settings, e.g. a config section) if every key is one of ``allowed``:
+    ``"<name> must have keys among a, b, c, got unknown x, y"`` otherwise, the unknown keys and the
+    allowed ones each sorted."""
+    known = {str(k) for k in allowed}
+    unknown = sorted(str(k) for k in values if str(k) not in known)
+    if unknown:
+        raise ValueError(
+            f"{name} must have keys among {', '.join(sorted(known))}, got unknown {', '.join(unknown)}"
+        )
+    return values
 
 
 def time_grid(t, name: str = "t", *, min_samples: int) -> np.ndarray:

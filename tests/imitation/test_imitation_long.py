@@ -31,7 +31,7 @@ def test_basis_count_grows_with_duration_and_rejects_bad_values():
     for bad in (0, -3, "many", 2.5, True):
         with pytest.raises(ValueError, match="dmp.n_basis must be a positive integer or 'auto'"):
             DMPSettings(n_basis=bad)
-    with pytest.raises(ValueError, match="dmp.basis_per_second must be > 0"):
+    with pytest.raises(ValueError, match="dmp.basis_per_second must be a finite number > 0"):
         DMPSettings(basis_per_second=-1.0)
     with pytest.raises(ValueError, match="dmp.n_basis"):
         _cfg("dmp.n_basis=zero")

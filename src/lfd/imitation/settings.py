@@ -25,11 +25,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, TypeVar
 
+from lfd.checks import (
+    ENTRY_POINT_KEYS,
+    check_choice,
+    check_flag,
+    check_float,
+    check_int,
+    check_keys,
+    check_text,
+    check_vector,
+    positive_float,
+    positive_int,
+)
 from lfd.human.filters import FILTERS
 from lfd.human.video.estimator import MODELS
 from lfd.io.rosbag import BAG_FORMATS
@@ -52,8 +63,8 @@ __all__ = [
     "imitation_robots",
 ]
 
-#: Keys of the composed Hydra config that belong to the entry point, not to the pipeline (ignored).
-ENTRY_POINT_KEYS = ("task_name", "paths", "hydra")
+#: What a tool position must be, as a bad one's message says.
+_POSITION = "a tool position [x, y, z] in metres"
 
 
 def imitation_robots() -> tuple[str, ...]:
@@ -66,63 +77,10 @@ def _set(obj: Any, name: str, value: Any) -> None:
     object.__setattr__(obj, name, value)
 
 
-def _is_number(x: Any) -> bool:
-    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
-
-
-def _choice(name: str, value: Any, choices: Sequence, nullable: bool = False) -> None:
-    if value is None and nullable:
-        return
-    if value not in choices:
-        null = " (or null)" if nullable else ""
-        raise ValueError(f"{name} must be one of {', '.join(map(str, choices))}{null}, got {value!r}")
-
-
-def _number(name: str, value: Any, *, minimum: float = 0.0, strict: bool = True, nullable: bool = False):
-    """``value`` as a float checked against ``minimum`` (``> minimum`` when strict, else ``>=``)."""
-    if value is None and nullable:
-        return None
-    ok = _is_number(value) and (value > minimum if strict else value >= minimum)
-    if not ok:
-        bound = f"{'>' if strict else '>='} {minimum:g}"
-        raise ValueError(f"{name} must be a number {bound}{' (or null)' if nullable else ''}, got {value!r}")
-    return float(value)
-
-
-def _integer(name: str, value: Any, *, minimum: int = 1, nullable: bool = False):
-    if value is None and nullable:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ValueError(
-            f"{name} must be an integer >= {minimum}{' (or null)' if nullable else ''}, got {value!r}"
-        )
-    return int(value)
-
-
-def _flag(name: str, value: Any) -> bool:
-    if not isinstance(value, bool):
-        raise ValueError(f"{name} must be true or false, got {value!r}")
-    return value
-
-
-def _text(name: str, value: Any, nullable: bool = True):
-    if value is None and nullable:
-        return None
-    if not isinstance(value, str | os.PathLike) or not str(value):
-        raise ValueError(
-            f"{name} must be a non-empty string{' (or null)' if nullable else ''}, got {value!r}"
-        )
-    return str(value)
-
-
-def _point(name: str, value: Any, nullable: bool = True, what: str = "a tool position [x, y, z] in metres"):
-    if value is None and nullable:
-        return None
-    values = list(value) if is_path_list(value) else []
-    if len(values) != 3 or not all(_is_number(v) for v in values):
-        shown = values if values else value
-        raise ValueError(f"{name} must be {what}, got {shown}")
-    return tuple(float(v) for v in values)
+def _point(value: Any, name: str, *, what: str = _POSITION, optional: bool = True):
+    """``value`` as a tuple of 3 floats (:func:`lfd.checks.check_vector`); None too when ``optional``."""
+    point = check_vector(value, 3, name, what=what, optional=optional)
+    return None if point is None else tuple(float(v) for v in point)
 
 
 # ---------------------------------------------------------------------------------------------- sections
@@ -149,17 +107,16 @@ class PoseSettings:
     lift_depth: bool = True
 
     def __post_init__(self) -> None:
-        _choice("pose.model", self.model, tuple(MODELS))
-        _set(self, "heavy_model", _text("pose.heavy_model", self.heavy_model))
-        _set(self, "width", _integer("pose.width", self.width, minimum=16))
-        _set(self, "stride", _integer("pose.stride", self.stride))
-        _set(self, "max_frames", _integer("pose.max_frames", self.max_frames, nullable=True))
-        visibility = _number("pose.min_visibility", self.min_visibility, strict=False)
-        if visibility > 1.0:
-            raise ValueError(f"pose.min_visibility must be within [0, 1], got {self.min_visibility!r}")
-        _set(self, "min_visibility", visibility)
-        _flag("pose.repair_flips", self.repair_flips)
-        _flag("pose.lift_depth", self.lift_depth)
+        check_choice(self.model, "pose.model", tuple(MODELS))
+        _set(self, "heavy_model", check_text(self.heavy_model, "pose.heavy_model", optional=True))
+        _set(self, "width", check_int(self.width, "pose.width", minimum=16))
+        _set(self, "stride", positive_int(self.stride, "pose.stride"))
+        _set(self, "max_frames", check_int(self.max_frames, "pose.max_frames", minimum=1, optional=True))
+        _set(
+            self, "min_visibility", check_float(self.min_visibility, "pose.min_visibility", low=0.0, high=1.0)
+        )
+        check_flag(self.repair_flips, "pose.repair_flips")
+        check_flag(self.lift_depth, "pose.lift_depth")
 
     def estimator_options(self, progress: bool = True) -> dict:
         """Keyword arguments of :func:`lfd.human.video.estimate_keypoints`."""
@@ -188,13 +145,12 @@ class MultiviewSettings:
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
 
     def __post_init__(self) -> None:
-        _set(self, "max_error_px", _number("multiview.max_error_px", self.max_error_px))
-        _set(
-            self,
-            "other_person_px",
-            _number("multiview.other_person_px", self.other_person_px, nullable=True),
+        _set(self, "max_error_px", positive_float(self.max_error_px, "multiview.max_error_px"))
+        other = check_float(
+            self.other_person_px, "multiview.other_person_px", low=0.0, strict_low=True, optional=True
         )
-        up = _point("multiview.up", self.up, nullable=False, what="a non-zero vector [x, y, z]")
+        _set(self, "other_person_px", other)
+        up = _point(self.up, "multiview.up", what="a non-zero vector [x, y, z]", optional=False)
         if math.hypot(*up) < 1e-9:
             raise ValueError(f"multiview.up must be a non-zero vector [x, y, z], got {list(up)}")
         _set(self, "up", up)
@@ -216,11 +172,11 @@ class AnalysisSettings:
     sex: str = "male"
 
     def __post_init__(self) -> None:
-        _choice("analysis.filter", self.filter, FILTERS)
-        _set(self, "cutoff", _number("analysis.cutoff", self.cutoff))
-        _set(self, "max_gap", _number("analysis.max_gap", self.max_gap, strict=False))
-        _set(self, "body_mass", _number("analysis.body_mass", self.body_mass))
-        _choice("analysis.sex", self.sex, ("male", "female"))
+        check_choice(self.filter, "analysis.filter", FILTERS)
+        _set(self, "cutoff", positive_float(self.cutoff, "analysis.cutoff"))
+        _set(self, "max_gap", check_float(self.max_gap, "analysis.max_gap", low=0.0))
+        _set(self, "body_mass", positive_float(self.body_mass, "analysis.body_mass"))
+        check_choice(self.sex, "analysis.sex", ("male", "female"))
 
 
 @dataclass(frozen=True)
@@ -240,15 +196,8 @@ class DMPSettings:
         n = self.n_basis
         if not (n == "auto" or (isinstance(n, int) and not isinstance(n, bool) and n >= 1)):
             raise ValueError(f"dmp.n_basis must be a positive integer or 'auto', got {n!r}")
-        rate, least = self.basis_per_second, self.min_basis
-        if not (_is_number(rate) and rate > 0 and isinstance(least, int) and not isinstance(least, bool)):
-            least = None
-        if least is None or least < 1:
-            raise ValueError(
-                f"dmp.basis_per_second must be > 0 and dmp.min_basis a positive integer, "
-                f"got {self.basis_per_second!r}, {self.min_basis!r}"
-            )
-        _set(self, "basis_per_second", float(rate))
+        _set(self, "basis_per_second", positive_float(self.basis_per_second, "dmp.basis_per_second"))
+        _set(self, "min_basis", positive_int(self.min_basis, "dmp.min_basis"))
 
 
 @dataclass(frozen=True)
@@ -266,9 +215,9 @@ class SimSettings:
     image_size: tuple[int, int] = (320, 320)
 
     def __post_init__(self) -> None:
-        _set(self, "rate", _number("sim.rate", self.rate))
-        _set(self, "position_gain", _number("sim.position_gain", self.position_gain))
-        _set(self, "velocity_gain", _number("sim.velocity_gain", self.velocity_gain))
+        _set(self, "rate", positive_float(self.rate, "sim.rate"))
+        _set(self, "position_gain", positive_float(self.position_gain, "sim.position_gain"))
+        _set(self, "velocity_gain", positive_float(self.velocity_gain, "sim.velocity_gain"))
         size = list(self.image_size) if is_path_list(self.image_size) else []
         if len(size) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) and v >= 8 for v in size):
             shown = list(size) if size else self.image_size
@@ -299,16 +248,16 @@ class RefineSettings:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        _choice("refine.task", self.task, SKILL_TASKS, nullable=True)
-        _choice("refine.method", self.method, METHODS)
-        _set(self, "target", _point("refine.target", self.target, nullable=self.task is None))
-        _set(self, "tol", _number("refine.tol", self.tol))
-        _set(self, "max_rollouts", _integer("refine.max_rollouts", self.max_rollouts, minimum=2))
-        _set(self, "shape_weight", _number("refine.shape_weight", self.shape_weight, strict=False))
-        _set(self, "t_via", _number("refine.t_via", self.t_via, strict=False, nullable=True))
-        _set(self, "radius", _number("refine.radius", self.radius))
-        _choice("refine.goal_init", self.goal_init, ("demo", "ik"))
-        _set(self, "seed", _integer("refine.seed", self.seed, minimum=0))
+        check_choice(self.task, "refine.task", SKILL_TASKS, optional=True)
+        check_choice(self.method, "refine.method", METHODS)
+        _set(self, "target", _point(self.target, "refine.target", optional=self.task is None))
+        _set(self, "tol", positive_float(self.tol, "refine.tol"))
+        _set(self, "max_rollouts", check_int(self.max_rollouts, "refine.max_rollouts", minimum=2))
+        _set(self, "shape_weight", check_float(self.shape_weight, "refine.shape_weight", low=0.0))
+        _set(self, "t_via", check_float(self.t_via, "refine.t_via", low=0.0, optional=True))
+        _set(self, "radius", positive_float(self.radius, "refine.radius"))
+        check_choice(self.goal_init, "refine.goal_init", ("demo", "ik"))
+        _set(self, "seed", check_int(self.seed, "refine.seed", minimum=0))
 
 
 @dataclass(frozen=True)
@@ -326,10 +275,10 @@ class OutputSettings:
     gif_frames: int = 60
 
     def __post_init__(self) -> None:
-        _choice("outputs.bag", self.bag, BAG_FORMATS, nullable=True)
-        _flag("outputs.video", self.video)
-        _flag("outputs.gif", self.gif)
-        _set(self, "gif_frames", _integer("outputs.gif_frames", self.gif_frames))
+        check_choice(self.bag, "outputs.bag", BAG_FORMATS, optional=True)
+        check_flag(self.video, "outputs.video")
+        check_flag(self.gif, "outputs.gif")
+        _set(self, "gif_frames", positive_int(self.gif_frames, "outputs.gif_frames"))
 
 
 # ---------------------------------------------------------------------------------------------- top level
@@ -380,23 +329,18 @@ class ImitationSettings:
     }
 
     def __post_init__(self) -> None:
-        robots = imitation_robots()
-        if self.robot not in robots:
-            raise ValueError(f"robot must be one of {', '.join(robots)}, got {self.robot!r}")
-        _choice("side", self.side, ("left", "right"))
-        _choice("wam_mount", self.wam_mount, ("auto", "side"))
-        if self.source_type is not None and self.source_type not in SOURCE_TYPES:
-            raise ValueError(
-                f"source_type must be one of {', '.join(SOURCE_TYPES)} (or null: detected), got {self.source_type!r}"
-            )
+        check_choice(self.robot, "robot", imitation_robots())
+        check_choice(self.side, "side", ("left", "right"))
+        check_choice(self.wam_mount, "wam_mount", ("auto", "side"))
+        check_choice(self.source_type, "source_type", SOURCE_TYPES, optional=True)
         if is_path_list(self.source):
-            _set(self, "source", tuple(str(_text("source", s, nullable=False)) for s in self.source))
+            _set(self, "source", tuple(check_text(s, "source") for s in self.source))
         else:
-            _set(self, "source", _text("source", self.source))
-        _set(self, "video", _text("video", self.video))
-        _set(self, "calibration", _text("calibration", self.calibration))
-        _choice("units", self.units, ("m", "cm", "mm"), nullable=True)
-        _set(self, "topic", _text("topic", self.topic))
+            _set(self, "source", check_text(self.source, "source", optional=True))
+        _set(self, "video", check_text(self.video, "video", optional=True))
+        _set(self, "calibration", check_text(self.calibration, "calibration", optional=True))
+        check_choice(self.units, "units", ("m", "cm", "mm"), optional=True)
+        _set(self, "topic", check_text(self.topic, "topic", optional=True))
         if self.joint_names is not None:
             names = list(self.joint_names) if is_path_list(self.joint_names) else None
             if not names or not all(isinstance(n, str) and n for n in names):
@@ -404,7 +348,7 @@ class ImitationSettings:
                     f"joint_names must be a list of joint names (or null), got {self.joint_names!r}"
                 )
             _set(self, "joint_names", tuple(names))
-        _set(self, "goal", _point("goal", self.goal))
+        _set(self, "goal", _point(self.goal, "goal"))
         for name, kind in self.SECTIONS.items():
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(
@@ -415,19 +359,19 @@ class ImitationSettings:
     def from_mapping(cls, values: Mapping[str, Any]) -> ImitationSettings:
         """Settings from a mapping of the config's keys (e.g. ``OmegaConf.to_container(cfg, resolve=True)``,
         or a composed config itself, which is a mapping); sections are mappings of their keys, lists may be
-        any sequence. :data:`ENTRY_POINT_KEYS` are ignored.
+        any sequence. :data:`ENTRY_POINT_KEYS` (:mod:`lfd.checks`) are ignored.
 
         Raises:
             ValueError: an unknown key (named), or a bad value (see the classes).
         """
         top = {k: v for k, v in values.items() if k not in ENTRY_POINT_KEYS}
-        kwargs = _fields_of(cls, top, "")
+        kwargs = _fields_of(cls, top, "imitation settings")
         for name, kind in cls.SECTIONS.items():
             if name in kwargs:
                 section = kwargs[name]
                 if not isinstance(section, Mapping):
                     raise ValueError(f"{name} must be a section of settings, got {section!r}")
-                kwargs[name] = kind(**_fields_of(kind, section, f"{name}."))
+                kwargs[name] = kind(**_fields_of(kind, section, name))
         return cls(**kwargs)
 
     @property
@@ -453,11 +397,7 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _fields_of(cls: type[_T], values: Mapping[str, Any], prefix: str) -> dict[str, Any]:
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(str(k) for k in values if k not in names)
-    if unknown:
-        raise ValueError(
-            f"unknown setting(s) {', '.join(prefix + k for k in unknown)}; known: {', '.join(sorted(names))}"
-        )
+def _fields_of(cls: type[_T], values: Mapping[str, Any], name: str) -> dict[str, Any]:
+    """The keyword arguments of ``cls`` in ``values`` (the section ``name``), lists as tuples."""
+    check_keys(values, name, (f.name for f in dataclasses.fields(cls)))
     return {str(k): _plain(v) for k, v in values.items()}

@@ -20,12 +20,11 @@ Example::
 from __future__ import annotations
 
 import dataclasses
-import math
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from lfd.checks import ENTRY_POINT_KEYS, check_choice, check_float, check_keys, check_text, positive_float
 from lfd.robots.catalogue import available_robots, catalogue_entries
 
 __all__ = ["MODES", "WAM_Q3_MODES", "IKSettings", "TeachSettings", "teach_robots"]
@@ -34,29 +33,11 @@ __all__ = ["MODES", "WAM_Q3_MODES", "IKSettings", "TeachSettings", "teach_robots
 MODES = ("3d", "2d")
 #: Joint 3 of an arm with a closed-form IK: held (closed form) or free (LM).
 WAM_Q3_MODES = ("fixed", "free")
-#: Keys of the composed Hydra config that belong to the entry point (ignored).
-ENTRY_POINT_KEYS = ("hydra",)
 
 
 def teach_robots() -> tuple[str, ...]:
     """Catalogue robots the teach app offers (entries with ``teach``)."""
     return tuple(e.name for e in catalogue_entries() if e.teach)
-
-
-def _positive(name: str, value: Any, *, nullable: bool = False, zero: bool = False):
-    if value is None and nullable:
-        return None
-    ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or not (value >= 0 if zero else value > 0):
-        bound = ">= 0" if zero else "> 0"
-        raise ValueError(f"{name} must be a number {bound}{' (or null)' if nullable else ''}, got {value!r}")
-    return float(value)
-
-
-def _text(name: str, value: Any) -> str:
-    if not isinstance(value, str | os.PathLike) or not str(value):
-        raise ValueError(f"{name} must be a non-empty string, got {value!r}")
-    return str(value)
 
 
 @dataclass(frozen=True)
@@ -74,10 +55,9 @@ class IKSettings:
     wam_q3: str = "fixed"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "time_budget", _positive("ik.time_budget", self.time_budget))
-        object.__setattr__(self, "max_joint_step", _positive("ik.max_joint_step", self.max_joint_step))
-        if self.wam_q3 not in WAM_Q3_MODES:
-            raise ValueError(f"ik.wam_q3 must be one of {', '.join(WAM_Q3_MODES)}, got {self.wam_q3!r}")
+        object.__setattr__(self, "time_budget", positive_float(self.time_budget, "ik.time_budget"))
+        object.__setattr__(self, "max_joint_step", positive_float(self.max_joint_step, "ik.max_joint_step"))
+        check_choice(self.wam_q3, "ik.wam_q3", WAM_Q3_MODES)
 
 
 @dataclass(frozen=True)
@@ -119,8 +99,8 @@ class TeachSettings:
             )
             raise ValueError(f"unknown robot {self.robot!r}{extra}; choose one of: {', '.join(robots)}")
         scene = self.scene
-        object.__setattr__(self, "scene", None if scene in (None, "", "null") else _text("scene", scene))
-        object.__setattr__(self, "host", _text("host", self.host))
+        object.__setattr__(self, "scene", None if scene in (None, "", "null") else check_text(scene, "scene"))
+        object.__setattr__(self, "host", check_text(self.host, "host"))
         port = self.port
         if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
             raise ValueError(f"port must be an integer in 0..65535 (0: a free port), got {port!r}")
@@ -128,17 +108,17 @@ class TeachSettings:
         if not (isinstance(token, bool) or (isinstance(token, str) and token.lower() == "auto")):
             raise ValueError(f"token must be auto, true or false, got {self.token!r}")
         object.__setattr__(self, "token", "auto" if isinstance(token, str) else token)
-        object.__setattr__(self, "export_dir", _text("export_dir", self.export_dir))
-        object.__setattr__(
-            self, "duration_s", _positive("duration_s", self.duration_s, nullable=True, zero=True)
-        )
-        if self.mode not in MODES:
-            raise ValueError(f"mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        object.__setattr__(self, "export_dir", check_text(self.export_dir, "export_dir"))
+        duration = check_float(self.duration_s, "duration_s", low=0.0, optional=True)
+        object.__setattr__(self, "duration_s", duration)
+        check_choice(self.mode, "mode", MODES)
         if not isinstance(self.ik, IKSettings):
             raise ValueError(f"ik must be an IKSettings, got {type(self.ik).__name__}")
-        object.__setattr__(self, "margin", _positive("margin", self.margin, zero=True))
-        object.__setattr__(self, "panel_speed", _positive("panel_speed", self.panel_speed))
-        object.__setattr__(self, "sweep_resolution", _positive("sweep_resolution", self.sweep_resolution))
+        object.__setattr__(self, "margin", check_float(self.margin, "margin", low=0.0))
+        object.__setattr__(self, "panel_speed", positive_float(self.panel_speed, "panel_speed"))
+        object.__setattr__(
+            self, "sweep_resolution", positive_float(self.sweep_resolution, "sweep_resolution")
+        )
 
     @property
     def token_policy(self) -> bool | None:
@@ -148,27 +128,23 @@ class TeachSettings:
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> TeachSettings:
         """Settings from a mapping of the config's keys (e.g. ``OmegaConf.to_container(cfg, resolve=True)``);
-        ``ik`` is a mapping of its keys; :data:`ENTRY_POINT_KEYS` are ignored.
+        ``ik`` is a mapping of its keys; :data:`lfd.checks.ENTRY_POINT_KEYS` are ignored.
 
         Raises:
             ValueError: an unknown key (named) or a bad value.
         """
         kwargs = {str(k): v for k, v in values.items() if k not in ENTRY_POINT_KEYS}
-        _known("", cls, kwargs)
+        check_keys(kwargs, "teach settings", _field_names(cls))
         if "ik" in kwargs:
             ik = kwargs["ik"]
             if not isinstance(ik, Mapping):
                 raise ValueError(f"ik must be a section of settings, got {ik!r}")
             ik = {str(k): v for k, v in ik.items()}
-            _known("ik.", IKSettings, ik)
+            check_keys(ik, "ik", _field_names(IKSettings))
             kwargs["ik"] = IKSettings(**ik)
         return cls(**kwargs)
 
 
-def _known(prefix: str, cls: type, values: Mapping[str, Any]) -> None:
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(k for k in values if k not in names)
-    if unknown:
-        raise ValueError(
-            f"unknown setting(s) {', '.join(prefix + k for k in unknown)}; known: {', '.join(sorted(names))}"
-        )
+def _field_names(cls: type) -> tuple[str, ...]:
+    """The settings a settings dataclass takes."""
+    return tuple(f.name for f in dataclasses.fields(cls))
