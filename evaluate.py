@@ -184,13 +184,13 @@ def evaluate(cfg: DictConfig, out_dir: str | Path, overrides: Sequence[str] | No
 
     register_policy_configs()
     evaluator = instantiate_evaluator(cfg)
+    datamodule = hydra.utils.instantiate(cfg.data) if evaluator.needs_datamodule else None
     check_inputs = getattr(evaluator, "check_inputs", None)
     if check_inputs is not None:  # e.g. a scenario out of reach: refused before any checkpoint is read
-        check_inputs(hydra.utils.instantiate(cfg.data))
+        check_inputs(datamodule)
     given = cfg.get("ckpt")
     given = [] if given is None else [given] if isinstance(given, str) else list(given)
     checkpoints = evaluator.resolve_checkpoints(cfg.paths.output_root, given)
-    datamodule = None
     if evaluator.needs_datamodule:
         from lfd.training import checkpoint_kind
         from lfd.visuomotor.eval.provenance import shared_training_run
@@ -200,9 +200,9 @@ def evaluate(cfg: DictConfig, out_dir: str | Path, overrides: Sequence[str] | No
         for note in notes:
             print(f"[lfd] {note}")
         followed = follow_training_run(cfg, run, overrides)
-        if followed is not cfg:
+        if followed is not cfg:  # the checkpoints' experiment and data: the evaluator and data again
             cfg, evaluator = followed, instantiate_evaluator(followed)
-        datamodule = hydra.utils.instantiate(cfg.data)
+            datamodule = hydra.utils.instantiate(cfg.data)
     L.seed_everything(cfg.seed, workers=True)
     return evaluator.run(datamodule=datamodule, checkpoints=checkpoints, out_dir=Path(out_dir))
 

@@ -233,6 +233,8 @@ class ReachEvaluator:
         Raises:
             lfd.visuomotor.eval.scenario.ScenarioError: a bad scenario file (one line).
         """
+        if self.settings.scenario is None:
+            return
         gen = datamodule.config
         camera = Camera(width=gen.image_size, height=gen.image_size)
         self.load_scenario(gen, load_robot(gen.robot), camera)
