@@ -67,7 +67,9 @@ class VisuomotorPolicy(L.LightningModule):
             ``"range"`` or ``"relief"``; evaluation renders it the same way.
         duration, n_steps: demonstration duration (s) and number of samples; the control
             period is ``duration / (n_steps - 1)``.
-        robot: robot model name (:func:`lfd.robots.load_robot`).
+        robot: robot model name (:func:`lfd.robots.load_robot`), or None for a policy in the
+            tool's space: the state's (``joints``') first three entries are the tool position
+            (m), e.g. Meta-World's hand position and gripper command (:mod:`lfd.metaworld`).
         n_joints: arm degrees of freedom.
         colour_augment: shuffle the RGB channels of each training image
             (:func:`~lfd.visuomotor.policies.vision.permute_colour_channels`).
@@ -138,7 +140,9 @@ class VisuomotorPolicy(L.LightningModule):
     def data_arguments(cls, data: Mapping[str, Any]) -> dict[str, Any]:
         """The constructor arguments :attr:`DATA_ARGUMENTS` from a data config's plain values
         (``data.image_size``, ...): ``depth`` is what the policy sees (``input_depth``, else
-        ``depth``), ``depth_encoding`` defaults to ``"range"``.
+        ``depth``), ``depth_encoding`` defaults to ``"range"``, ``duration`` to ``(n_steps - 1) * control_dt``
+        when the data config gives a control period instead; ``n_joints`` too when the data
+        config gives it (not null: the size of the state the policy sees).
 
         Raises:
             ValueError: the data config lacks one of them (one line naming it).
@@ -147,12 +151,17 @@ class VisuomotorPolicy(L.LightningModule):
         depth = values.get("input_depth")
         values["depth"] = values.get("depth", False) if depth is None else depth
         values.setdefault("depth_encoding", "range")
+        if values.get("duration") is None and values.get("control_dt") and values.get("n_steps"):
+            values["duration"] = (values["n_steps"] - 1) * values["control_dt"]  # a simulator's fixed period
         missing = [k for k in cls.DATA_ARGUMENTS if k not in values]
         if missing:
             raise ValueError(
                 f"{cls.__name__}: the data config has no {missing}; the policy takes them from its dataset"
             )
-        return {k: values[k] for k in cls.DATA_ARGUMENTS}
+        out = {k: values[k] for k in cls.DATA_ARGUMENTS}
+        if values.get("n_joints") is not None:  # a data config that names its state size
+            out["n_joints"] = values["n_joints"]
+        return out
 
     def __init__(
         self,
@@ -165,7 +174,7 @@ class VisuomotorPolicy(L.LightningModule):
         depth_encoding: str = "range",
         duration: float = 4.0,
         n_steps: int = 100,
-        robot: str = "pr2_right_arm",
+        robot: str | None = "pr2_right_arm",
         n_joints: int = 7,
         plot_every_n_val: int = 5,
         colour_augment: bool = False,
@@ -251,12 +260,28 @@ class VisuomotorPolicy(L.LightningModule):
 
     @property
     def robot(self):
-        """The robot model (batched differentiable FK), loaded on first use."""
+        """The robot model (batched differentiable FK), loaded on first use.
+
+        Raises:
+            ValueError: the policy has no robot (``robot=None``: its state is the tool's).
+        """
         if self._robot is None:
+            if self.hparams.robot is None:
+                raise ValueError(
+                    f"{type(self).__name__} acts in the tool's space (robot=None): no robot model"
+                )
             from lfd.robots import load_robot
 
             self._robot = load_robot(self.hparams.robot)
         return self._robot
+
+    def tool_positions(self, states: torch.Tensor) -> torch.Tensor:
+        """Tool positions ``(..., 3)`` m of states ``(..., n)``: forward kinematics of the robot's
+        joint angles, or the first three entries of a tool-space state (``robot=None``)."""
+        if self.hparams.robot is None:
+            return states[..., :3]
+        flat = states.reshape(-1, states.shape[-1])
+        return self.robot.fk(flat)[:, :3, 3].reshape(*states.shape[:-1], 3)
 
     def normalise(self, stat: str, x: torch.Tensor) -> torch.Tensor:
         return (x - getattr(self, f"{stat}_mean")) / getattr(self, f"{stat}_std")

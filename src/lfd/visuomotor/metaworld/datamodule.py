@@ -1,0 +1,238 @@
+"""``MetaWorldDataModule``: Meta-World expert demonstrations for the visuomotor policies.
+
+Items are those of the reaching datasets (:class:`lfd.visuomotor.data.DMPReachDataset`,
+:class:`lfd.visuomotor.data.VelocityReachDataset`) with the 4-D robot state of
+:mod:`lfd.metaworld` in place of the joint angles ("joints" below), so every registered policy
+trains on them unchanged:
+
+* ``"dmp"`` (one item per demonstration): ``image`` (first frame), ``joints`` (start state),
+  ``goal``, ``weights``, ``y0``, ``tau``, ``t``, ``trajectory`` ``(T, 4)``, ``ee_path`` ``(T, 3)``
+  (the hand path), ``index``.
+* ``"velocity"`` (one item per step): ``image``, ``joints``, ``velocity`` and ``command`` (the
+  state's change per second over the next step), ``t``, ``index``, ``step``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import lightning as L
+import numpy as np
+import torch
+from torch.utils.data import DataLoader, Dataset
+
+from lfd.checks import check_int
+from lfd.visuomotor.data.datasets import command_velocities
+from lfd.visuomotor.metaworld.demos import (
+    MetaWorldData,
+    MetaWorldDataConfig,
+    generate_demonstrations,
+    load_demonstrations,
+)
+from lfd.visuomotor.protocols import ITEM_MODES
+
+__all__ = ["MetaWorldDMPDataset", "MetaWorldDataModule", "MetaWorldVelocityDataset"]
+
+
+def _image(frame: torch.Tensor) -> torch.Tensor:
+    return frame.permute(2, 0, 1).float().div_(255.0)
+
+
+def _index(split: str, i: int) -> int:
+    """Episode index across splits (train ``i``, validation ``100000 + i``)."""
+    return i if split == "train" else 100_000 + i
+
+
+class MetaWorldDMPDataset(Dataset):
+    """One item per demonstration of ``split`` (module docstring)."""
+
+    def __init__(self, data: MetaWorldData, split: str) -> None:
+        eps = data.split(split)
+        self.frames = torch.from_numpy(np.stack([e.frames[0] for e in eps]))
+
+        def stack(key):
+            return torch.from_numpy(np.stack([e.arrays[key] for e in eps])).float()
+
+        states = stack("states")
+        self.tensors = {
+            "joints": states[:, 0],
+            "goal": stack("dmp_goal"),
+            "weights": stack("dmp_weights"),
+            "y0": stack("dmp_y0"),
+            "tau": stack("dmp_tau"),
+            "t": stack("t"),
+            "trajectory": states,
+            "ee_path": states[..., :3],
+            "index": torch.tensor([_index(split, e.index) for e in eps], dtype=torch.int64),
+        }
+
+    def __len__(self) -> int:
+        return self.frames.shape[0]
+
+    def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
+        return {**{k: v[i] for k, v in self.tensors.items()}, "image": _image(self.frames[i])}
+
+
+class MetaWorldVelocityDataset(Dataset):
+    """One item per step of every demonstration of ``split`` (module docstring)."""
+
+    def __init__(self, data: MetaWorldData, split: str) -> None:
+        eps = data.split(split)
+        steps = eps[0].states.shape[0]
+        self.frames = torch.from_numpy(np.concatenate([e.frames for e in eps]))
+        command = np.concatenate([command_velocities(e.states, e.arrays["t"]) for e in eps])
+        self.tensors = {
+            "joints": torch.from_numpy(np.concatenate([e.states for e in eps])).float(),
+            "velocity": torch.from_numpy(command).float(),
+            "command": torch.from_numpy(command).float(),
+            "t": torch.from_numpy(np.concatenate([e.arrays["t"] for e in eps])).float(),
+            "index": torch.tensor([_index(split, e.index) for e in eps], dtype=torch.int64).repeat_interleave(
+                steps
+            ),
+            "step": torch.arange(steps, dtype=torch.int64).repeat(len(eps)),
+        }
+
+    def __len__(self) -> int:
+        return self.frames.shape[0]
+
+    def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
+        return {**{k: v[i] for k, v in self.tensors.items()}, "image": _image(self.frames[i])}
+
+
+MODES = dict(zip(ITEM_MODES, (MetaWorldDMPDataset, MetaWorldVelocityDataset), strict=True))
+
+
+class MetaWorldDataModule(L.LightningDataModule):
+    """Expert demonstrations of one Meta-World task (:mod:`lfd.visuomotor.metaworld.demos`).
+
+    ``prepare_data()`` generates ``<root>/<name>`` if missing, resumes it if unfinished and
+    verifies it otherwise; ``setup()`` serves the train and validation splits in the item layout
+    of ``mode`` (module docstring).
+
+    Args:
+        task, seed, n_train, n_val, image_size, camera, n_steps, n_basis, max_attempts: the
+            content (:class:`~lfd.visuomotor.metaworld.demos.MetaWorldDataConfig`).
+        name, root: the dataset folder ``<root>/<name>``.
+        mode: ``"dmp"`` or ``"velocity"`` (the policy's ``item_mode``; ``train.py`` passes it).
+        batch_size, num_workers: DataLoader settings.
+        train_episodes: train on the first this many train episodes only (None: all), for
+            data-efficiency studies on one dataset; statistics are recomputed on them.
+        progress: show the generation progress bar.
+        n_joints, control_dt, depth, robot: fixed facts (4, 0.0125 s, False, None) that the data
+            config states for the policies (``data_arguments``); any other value is refused.
+
+    Raises:
+        ValueError: a bad setting (one line naming it).
+    """
+
+    input_depth = False
+    depth_encoding = "range"
+
+    def __init__(
+        self,
+        task: str,
+        name: str | None = None,
+        root: str | Path = "data",
+        mode: str = "dmp",
+        *,
+        seed: int = 0,
+        n_train: int = 50,
+        n_val: int = 10,
+        image_size: int = 96,
+        camera: str = "corner",
+        n_steps: int = 150,
+        n_basis: int = 20,
+        max_attempts: int = 5,
+        batch_size: int = 32,
+        num_workers: int = 0,
+        train_episodes: int | None = None,
+        progress: bool = True,
+        n_joints: int = 4,
+        control_dt: float | None = None,
+        depth: bool = False,
+        robot: str | None = None,
+    ) -> None:
+        super().__init__()
+        if mode not in MODES:
+            raise ValueError(f"data.mode must be one of {', '.join(MODES)}, got {mode!r}")
+        self.config = MetaWorldDataConfig(
+            task=task,
+            seed=seed,
+            n_train=n_train,
+            n_val=n_val,
+            image_size=image_size,
+            camera=camera,
+            n_steps=n_steps,
+            n_basis=n_basis,
+            max_attempts=max_attempts,
+        )
+        fixed = {
+            "control_dt": (control_dt, self.config.control_dt),
+            "depth": (depth, False),
+            "robot": (robot, None),
+        }
+        for key, (given, value) in fixed.items():
+            if given is not None and given != value:
+                raise ValueError(
+                    f"data.{key} is {value!r} for Meta-World (fixed by the simulator), got {given!r}"
+                )
+        if n_joints != MetaWorldDataConfig.n_joints:
+            raise ValueError(
+                f"data.n_joints must be {MetaWorldDataConfig.n_joints} (hand xyz, gripper), got {n_joints!r}"
+            )
+        check_int(batch_size, "data.batch_size", minimum=1)
+        check_int(num_workers, "data.num_workers", minimum=0)
+        check_int(train_episodes, "data.train_episodes", minimum=1, optional=True)
+        if train_episodes is not None and train_episodes > n_train:
+            raise ValueError(
+                f"data.train_episodes must be at most data.n_train={n_train}, got {train_episodes}"
+            )
+        self.mode, self.batch_size, self.num_workers = mode, batch_size, num_workers
+        self.train_episodes, self.progress = train_episodes, progress
+        self.path = Path(root) / (name or f"metaworld_{task}_n{n_train}_s{seed}")
+        self.data: MetaWorldData | None = None
+        self.datasets: dict[str, Dataset] = {}
+
+    def prepare_data(self) -> None:
+        generate_demonstrations(self.config, self.path, progress=self.progress)
+
+    def setup(self, stage: str | None = None) -> None:
+        if self.data is None:
+            data = load_demonstrations(self.path, self.config)
+            if self.train_episodes is not None:
+                from lfd.visuomotor.metaworld.demos import compute_stats
+
+                data.episodes["train"] = data.episodes["train"][: self.train_episodes]
+                stats = compute_stats([e.arrays for e in data.episodes["train"]])
+                data.stats = {
+                    k: {m: np.asarray(v[m], np.float32) for m in ("mean", "std")} for k, v in stats.items()
+                }
+            self.data = data
+        cls = MODES[self.mode]
+        self.datasets = {"train": cls(self.data, "train"), "val": cls(self.data, "val")}
+
+    @property
+    def stats(self) -> dict[str, dict[str, torch.Tensor]]:
+        if self.data is None:
+            raise RuntimeError("MetaWorldDataModule.stats: call setup() first")
+        return {k: {m: torch.as_tensor(v[m]) for m in ("mean", "std")} for k, v in self.data.stats.items()}
+
+    def fingerprint(self) -> dict:
+        if self.data is None:
+            raise RuntimeError("MetaWorldDataModule.fingerprint: call setup() first")
+        return self.data.fingerprint()
+
+    def _loader(self, split: str, shuffle: bool) -> DataLoader:
+        return DataLoader(
+            self.datasets[split],
+            batch_size=self.batch_size,
+            shuffle=shuffle,
+            num_workers=self.num_workers,
+            persistent_workers=self.num_workers > 0,
+        )
+
+    def train_dataloader(self) -> DataLoader:
+        return self._loader("train", True)
+
+    def val_dataloader(self) -> DataLoader:
+        return self._loader("val", False)
