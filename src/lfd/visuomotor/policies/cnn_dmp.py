@@ -7,20 +7,45 @@ statistics). The parameters go through the differentiable :class:`lfd.dmp.DMPLay
 the default loss compares the resulting joint trajectory with the demonstration (plus,
 optionally, the end-effector path through the robot's batched forward kinematics). The
 goal is predicted from the image: no object pose and no IK solution is used.
+
+In closed loop (:meth:`CNNDMPPolicy.controller`) the policy plans once on the first image, or,
+with ``replan_every=k``, also changes the DMP's goal online every ``k`` steps from a new image
+(:meth:`CNNDMPPolicy.predict_goal`, :meth:`CNNDMPPolicy.change_goal`; Ijspeert et al. 2013,
+goal change): the DMP keeps its position, velocity and phase, only its goal is switched.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
 from torch.nn import functional as F
 
-from lfd.dmp import DMPLayer
+from lfd.dmp import DMP, DMPLayer, DMPRunner, DMPState
+from lfd.dmp.transform import substeps
 from lfd.visuomotor.policies.control import PlanController
 from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.plots import joint_figure
 
 LOSSES = ("trajectory", "params")
+
+
+@dataclass(frozen=True)
+class DMPPlan:
+    """A planned DMP trajectory and the DMP parameters that changing its goal needs (float64).
+
+    Attributes:
+        trajectory: ``(T, n)`` / ``(B, T, n)`` rad, sampled every ``control_dt`` s from the start.
+        start: ``(n,)`` / ``(B, n)`` the DMP's start ``y0`` (the episode's start joints).
+        goal: ``(n,)`` / ``(B, n)`` the goal the trajectory converges to (de-normalised).
+        weights: ``(n, K)`` / ``(B, n, K)`` forcing weights (de-normalised).
+    """
+
+    trajectory: np.ndarray
+    start: np.ndarray
+    goal: np.ndarray
+    weights: np.ndarray
 
 
 class CNNDMPPolicy(KeypointPolicy):
@@ -99,7 +124,12 @@ class CNNDMPPolicy(KeypointPolicy):
         if layer is None:
             d = self.dmp
             layer = DMPLayer(
-                n_basis=d.n_basis, n_steps=n_steps, dt=self.control_dt, alpha_z=d.gains.alpha_z, tau=d.tau
+                n_basis=d.n_basis,
+                n_steps=n_steps,
+                dt=self.control_dt,
+                alpha_z=d.gains.alpha_z,
+                tau=d.tau,
+                formulation=d.formulation,
             )
             self._horizon_layers[n_steps] = layer
         return layer.to(self.device)
@@ -134,9 +164,7 @@ class CNNDMPPolicy(KeypointPolicy):
         }
         need_ee = self.hparams.ee_weight > 0 or not self.training
         if need_ee:
-            ee = self.robot.fk(trajectory.reshape(-1, trajectory.shape[-1]))[:, :3, 3].reshape(
-                *trajectory.shape[:2], 3
-            )
+            ee = self.tool_positions(trajectory)
             out["ee_mse"] = ((ee - ee_target) ** 2).sum(-1).mean()
             out["final_ee_err_m"] = (ee[:, -1] - ee_target[:, -1]).norm(dim=-1).mean()
         if self.hparams.loss == "params":
@@ -164,10 +192,12 @@ class CNNDMPPolicy(KeypointPolicy):
             t, predicted, batch["trajectory"][0].cpu().numpy(), f"CNN->DMP, episode {int(batch['index'][0])}"
         )
 
-    def controller(self, dt: float) -> PlanController:
+    def controller(self, dt: float, replan_every: int | None = None) -> PlanController:
         """A :class:`~lfd.visuomotor.policies.control.PlanController`: one :meth:`plan` on the
-        episode's first observation, then the plan tracked every ``dt`` (s)."""
-        return PlanController(self, dt)
+        episode's first observation, then the plan tracked every ``dt`` (s); with
+        ``replan_every=k`` (an int >= 1) the DMP's goal is re-predicted from the camera every
+        ``k`` steps and changed online (:meth:`predict_goal`, :meth:`change_goal`)."""
+        return PlanController(self, dt, replan_every=replan_every)
 
     @torch.inference_mode()
     def plan(self, image, joints, n_steps: int | None = None) -> np.ndarray:
@@ -179,6 +209,113 @@ class CNNDMPPolicy(KeypointPolicy):
         img, q, batched = self._observation(image, joints)
         traj = self.rollout(q, *self.predict_params(img, q), n_steps=n_steps).double().cpu().numpy()
         return traj if batched else traj[0]
+
+    @torch.inference_mode()
+    def plan_dmp(self, image, joints, n_steps: int | None = None) -> DMPPlan:
+        """:meth:`plan` with the DMP's parameters: the same trajectory (bit for bit) and its start,
+        goal and weights, for :meth:`change_goal` (the first planning call of a re-planning
+        :meth:`controller`)."""
+        img, q, batched = self._observation(image, joints)
+        goal_n, weights_n = self.predict_params(img, q)
+        traj = self.rollout(q, goal_n, weights_n, n_steps=n_steps)
+        values = [traj, q, self.denormalise("goal", goal_n), self.denormalise("weights", weights_n)]
+        values = [x.double().cpu().numpy() for x in values]
+        return DMPPlan(*(values if batched else [x[0] for x in values]))
+
+    @torch.inference_mode()
+    def predict_goal(self, image, start_joints) -> np.ndarray:
+        """The network's DMP goal ``(n,)`` / ``(B, n)`` rad (float64, de-normalised) for camera
+        image(s) as in :meth:`plan` and the episode's *start* joints ``(n,)`` / ``(B, n)`` (the
+        network was trained with the start state as input, so a re-planning controller passes
+        the start, not the current joints)."""
+        img, q, batched = self._observation(image, start_joints)
+        goal = self.denormalise("goal", self.predict_params(img, q)[0]).double().cpu().numpy()
+        return goal if batched else goal[0]
+
+    def change_goal(self, plan: DMPPlan, step: int, goal) -> DMPPlan:
+        """``plan`` with its DMP's goal switched to ``goal`` at sample ``step`` (online goal change,
+        Ijspeert et al. 2013): the DMP keeps its integration state at that sample (position,
+        velocity, phase), its weights and ``tau``; only the goal changes, at once, as in
+        :mod:`lfd.dmp.stepping` (in the ``"pastor"`` formulation the ``- K (g - y0) s`` term
+        follows the new goal too), and samples ``step + 1 ..`` are integrated anew.
+
+        The DMP is linear in its goal, so the new samples are the old ones plus the response
+        of the same DMP started at rest at zero at ``step``'s phase to the goal step
+        ``dg = goal - g`` and to the forcing change that the switch makes (see
+        :meth:`goal_step_response`). An unchanged goal leaves the plan exactly as it was; the
+        DMP re-integrated from its state with the new goal agrees with this to rounding.
+
+        Args:
+            plan: from :meth:`plan_dmp` (or an earlier :meth:`change_goal`).
+            step: the sample (control step) at which the goal changes, ``0 <= step < T``.
+            goal: ``(n,)`` / ``(B, n)`` rad, the new goal (e.g. :meth:`predict_goal`'s).
+
+        Returns:
+            A new :class:`DMPPlan` (same start and weights, goal ``goal``).
+        """
+        goal = np.asarray(goal, dtype=np.float64)
+        if goal.shape != plan.goal.shape or not np.all(np.isfinite(goal)):
+            raise ValueError(
+                f"CNNDMPPolicy.change_goal: expected a finite goal of shape {plan.goal.shape}, got {goal.shape}"
+            )
+        n_samples = plan.trajectory.shape[-2]
+        if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or not 0 <= step < n_samples:
+            raise ValueError(
+                f"CNNDMPPolicy.change_goal: step must be an int in 0..{n_samples - 1}, got {step!r}"
+            )
+        change = goal - plan.goal
+        trajectory = plan.trajectory.copy()
+        if step + 1 < n_samples and np.any(change != 0.0):
+            response = self.goal_step_response(change, plan.weights, int(step), n_samples)
+            trajectory[..., step + 1 :, :] += response[..., 1:, :]
+        return replace(plan, trajectory=trajectory, goal=goal)
+
+    @torch.inference_mode()
+    def goal_step_response(self, change, weights, step: int, n_samples: int) -> np.ndarray:
+        """How a goal change ``change`` ``(n,)`` / ``(B, n)`` at sample ``step`` moves samples
+        ``step .. n_samples - 1`` of this policy's DMP: ``(n_samples - step, n)`` /
+        ``(B, n_samples - step, n)`` (the first row zero), float64.
+
+        It is the DMP started at rest at zero at that sample's phase ``s_k``, with goal ``change``
+        and the forcing change of :mod:`lfd.dmp.formulation`:
+
+        * ``"pastor"``: ``- K change s`` (zero weights). As ``s = s_k s'`` with ``s'`` the phase
+          of a DMP started at the switch, this is, per DoF, ``change`` times the DMP from 0 to 1
+          with all weights ``1 - s_k`` from its start: one closed-form rollout of the plan's
+          :meth:`layer` in float64, whatever ``step``.
+        * ``"ijspeert"``: ``f(s) change`` (the same ``weights`` ``(n, K)`` / ``(B, n, K)``),
+          stepped with :class:`lfd.dmp.DMPRunner` on the closed form's sub-steps.
+        """
+        layer, dt, rest = self.layer(n_samples), self.control_dt, n_samples - step
+        change = np.asarray(change, dtype=np.float64)
+        if layer.formulation == "pastor":
+            phase = float(np.exp(-layer.gains.alpha_s * step * dt / layer.tau))
+            one = torch.ones(1, 1, dtype=torch.float64, device=self.device)
+            weights_k = torch.full(
+                (1, 1, layer.n_basis), 1.0 - phase, dtype=torch.float64, device=self.device
+            )
+            unit = layer(torch.zeros_like(one), one, weights_k)[0, :rest, 0].cpu().numpy()
+            return unit[:, None] * change[..., None, :]
+        gains, zero = layer.gains, np.zeros_like(change)
+        dmp = DMP(
+            n_basis=layer.n_basis,
+            alpha_z=gains.alpha_z,
+            beta_z=gains.beta_z,
+            alpha_s=gains.alpha_s,
+            overlap=gains.overlap,
+            formulation=layer.formulation,
+        )
+        runner = DMPRunner(
+            dmp,
+            y0=zero,
+            goal=change,
+            tau=layer.tau,
+            weights=weights,
+            yd0=zero,
+            substeps=substeps(dt / layer.tau),
+        )
+        runner.reset(DMPState(zero, zero, step * dt))
+        return np.stack([zero] + [runner.step(dt).y for _ in range(rest - 1)], axis=-2)
 
 
 def _hold_last(path: torch.Tensor, extra: int) -> torch.Tensor:

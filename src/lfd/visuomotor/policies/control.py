@@ -5,7 +5,10 @@ kind, returned by :meth:`lfd.visuomotor.policies.VisuomotorPolicy.controller`.
   call on the first observation of an episode of ``S`` control steps, then the planned
   trajectory is tracked sample by sample (position control with velocity feed-forward,
   like the demonstrations); the DMP plan covers the whole episode (past its duration it
-  keeps converging to its goal), and a shorter plan is held at its last sample.
+  keeps converging to its goal), and a shorter plan is held at its last sample. With
+  ``replan_every=k`` the DMP's goal is re-predicted from the camera every ``k`` steps and
+  changed online (the DMP keeps its position, velocity and phase), and the rest of the plan
+  is integrated anew.
 * :class:`VelocityController` (velocity baseline): ``policy.act(image, joints, time)``
   every control step, executed by *velocity control*: the commanded joint velocity is the
   velocity the joints move at for the control period, as the policy's labels are the
@@ -46,35 +49,73 @@ class _PolicyController:
 
 class PlanController(_PolicyController):
     """Runs a trajectory-planning policy (``plan(image, joints, n_steps) -> (T, n)`` rad) in
-    closed loop: plans on the first observation, then tracks the plan (position control)."""
+    closed loop: plans on the first observation, then tracks the plan (position control).
 
-    def __init__(self, policy, dt: float) -> None:
+    Args:
+        policy: the policy (``plan``; with ``replan_every`` also ``plan_dmp``, ``predict_goal``
+            and ``change_goal``, as :class:`~lfd.visuomotor.policies.cnn_dmp.CNNDMPPolicy`).
+        dt: control period, s (the plan's sample spacing).
+        replan_every: None: plan once. An int ``k >= 1``: at steps ``k, 2k, ...`` (where
+            :attr:`needs_image` is True) ``policy.predict_goal(image, start_joints)`` gives a new
+            goal from the new image, conditioned on the episode's start joints (the network's
+            input in training), and ``policy.change_goal(plan, step, goal)`` switches the
+            DMP's goal at this step, keeping its state, weights, phase and ``tau``; the plan
+            from this step to the horizon is integrated anew and tracked as before.
+
+    Raises:
+        ValueError: ``replan_every`` is not an int >= 1 or None.
+    """
+
+    def __init__(self, policy, dt: float, replan_every: int | None = None) -> None:
         super().__init__(policy, dt)
+        self.replan_every, _ = chunk_execution(replan_every, None, "PlanController")
         self.plan: np.ndarray | None = None
         self.velocity: np.ndarray | None = None
         self.horizon: int | None = None
+        self.dmp_plan = None  # the policy's DMPPlan while re-planning
+        self.start_joints: np.ndarray | None = None
+        self._step = 0
 
     @property
     def needs_image(self) -> bool:
-        """Whether :meth:`command` will look at the image this step (only before it has planned)."""
-        return self.plan is None
+        """Whether :meth:`command` will look at the image this step (before it has planned and,
+        with ``replan_every``, at the steps that change the goal)."""
+        return self.plan is None or self._replans(self._step)
+
+    def _replans(self, step: int) -> bool:
+        """Whether step ``step`` changes the goal (a multiple of ``replan_every`` that the plan covers)."""
+        k = self.replan_every
+        return k is not None and step > 0 and step % k == 0 and step + 1 < len(self.plan)
 
     def start(self, steps: int | None = None) -> None:
         """A new episode of ``steps`` control steps (None: plan the policy's default length)."""
-        self.plan = self.velocity = None
+        self.plan = self.velocity = self.dmp_plan = self.start_joints = None
         self.horizon = None if steps is None else steps + 1
+        self._step = 0
 
     def command(self, obs: Observation, step: int, latencies: list[float]) -> tuple[np.ndarray, np.ndarray]:
         """Joint position and velocity targets ``(n,)`` for control step ``step`` (0-based)."""
         if self.plan is None:
             t0 = time.perf_counter()
-            if self.horizon is None:
+            if self.replan_every is not None:
+                self.start_joints = np.array(obs.joints, dtype=np.float64)
+                self.dmp_plan = self.policy.plan_dmp(obs.image, obs.joints, n_steps=self.horizon)
+                plan = self.dmp_plan.trajectory
+            elif self.horizon is None:
                 plan = self.policy.plan(obs.image, obs.joints)
             else:
                 plan = self.policy.plan(obs.image, obs.joints, n_steps=self.horizon)
             self.plan = np.asarray(plan, dtype=np.float64)
             latencies.append((time.perf_counter() - t0) * 1e3)
             self.velocity = np.gradient(self.plan, self.dt, axis=0)
+        elif self._replans(step):
+            t0 = time.perf_counter()
+            goal = self.policy.predict_goal(obs.image, self.start_joints)
+            self.dmp_plan = self.policy.change_goal(self.dmp_plan, step, goal)
+            self.plan = np.asarray(self.dmp_plan.trajectory, dtype=np.float64)
+            latencies.append((time.perf_counter() - t0) * 1e3)
+            self.velocity = np.gradient(self.plan, self.dt, axis=0)
+        self._step = step + 1
         k = step + 1
         if k < len(self.plan):
             return self.plan[k], self.velocity[k]
