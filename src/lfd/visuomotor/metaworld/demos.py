@@ -214,6 +214,11 @@ def _read_episode(path: Path, cfg_sha: str) -> dict[str, np.ndarray] | None:
     return arrays if str(arrays.get("config_sha256")) == cfg_sha else None
 
 
+def _ours(name: str) -> bool:
+    """A file or folder an unfinished generation leaves (episodes, statistics, atomic-write temporaries)."""
+    return name in (EPISODE_DIR, STATS) or (name.startswith(f".{STATS}.") and name.endswith(".tmp"))
+
+
 def generate_demonstrations(cfg: MetaWorldDataConfig, out_dir: str | Path, progress: bool = True) -> dict:
     """Generate (or resume, or verify) the dataset of ``cfg`` in ``out_dir``; returns its manifest.
 
@@ -224,7 +229,7 @@ def generate_demonstrations(cfg: MetaWorldDataConfig, out_dir: str | Path, progr
     out_dir = Path(out_dir)
     if (out_dir / MANIFEST).is_file():
         return verify_demonstrations(out_dir, cfg)
-    if out_dir.exists() and any(p.name not in (EPISODE_DIR,) for p in out_dir.iterdir()):
+    if out_dir.exists() and any(not _ours(p.name) for p in out_dir.iterdir()):
         raise DatasetError(
             f"{out_dir}: exists and is not an unfinished Meta-World dataset; choose another data.name"
         )

@@ -1,0 +1,156 @@
+"""Meta-World demonstration datasets and their items: deterministic, resumable, verified, and a
+DMP fitted to an expert episode that reproduces the expert's success in closed loop."""
+
+import numpy as np
+import pytest
+import torch
+
+from lfd.io.files import DatasetError
+from lfd.metaworld import MetaWorldTask, placement_seed, record_expert
+from lfd.visuomotor.metaworld.datamodule import MetaWorldDataModule
+from lfd.visuomotor.metaworld.demos import (
+    MANIFEST,
+    MetaWorldDataConfig,
+    episode_file,
+    generate_demonstrations,
+    load_demonstrations,
+)
+
+TINY = {
+    "task": "reach-v3",
+    "seed": 3,
+    "n_train": 3,
+    "n_val": 2,
+    "image_size": 32,
+    "n_steps": 80,
+    "n_basis": 10,
+}
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    path = tmp_path_factory.mktemp("mw") / "reach"
+    cfg = MetaWorldDataConfig(**TINY)
+    generate_demonstrations(cfg, path, progress=False)
+    return cfg, path
+
+
+def test_generation_is_deterministic_and_resumes(tiny, tmp_path):
+    cfg, path = tiny
+    again = tmp_path / "again"
+    generate_demonstrations(cfg, again, progress=False)
+    first = load_demonstrations(path, cfg).manifest["files"]
+    assert load_demonstrations(again, cfg).manifest["files"] == first  # same bytes, file by file
+    # an interrupted run (no manifest, one episode missing) resumes to the same dataset
+    (again / MANIFEST).unlink()
+    (again / episode_file("val", 1)).unlink()
+    generate_demonstrations(cfg, again, progress=False)
+    assert load_demonstrations(again, cfg).manifest["files"] == first
+    # a larger dataset begins with the same episodes (per-episode streams)
+    more = tmp_path / "more"
+    generate_demonstrations(MetaWorldDataConfig(**{**TINY, "n_train": 4}), more, progress=False)
+    a = np.load(path / episode_file("train", 2))
+    b = np.load(more / episode_file("train", 2))
+    assert np.array_equal(a["frames"], b["frames"]) and np.array_equal(a["states"], b["states"])
+
+
+def test_episodes_are_expert_successes_on_their_own_placements(tiny):
+    cfg, path = tiny
+    data = load_demonstrations(path, cfg)
+    seen = set()
+    for split in ("train", "val"):
+        for e in data.split(split):
+            a = e.arrays
+            assert a["solved"].any() and a["frames"].shape == (80, 32, 32, 3) and a["states"].shape == (80, 4)
+            assert int(a["reset_seed"]) == placement_seed(cfg.seed, split, e.index, int(a["attempt"]))
+            seen.add(tuple(a["placement"].round(9)))
+    assert len(seen) == cfg.n_train + cfg.n_val
+    with MetaWorldTask("reach-v3", image_size=32) as task:  # the test stream holds none of them
+        for i in range(5):
+            task.reset(placement_seed(cfg.seed, "test", i))
+            assert tuple(task.placement.round(9)) not in seen
+
+
+def test_verification_refuses_changed_files_and_other_settings(tiny, tmp_path):
+    cfg, path = tiny
+    with pytest.raises(DatasetError, match="generated with other settings .*n_steps=80"):
+        load_demonstrations(path, MetaWorldDataConfig(**{**TINY, "n_steps": 90}))
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(path, copy)
+    f = copy / episode_file("train", 0)
+    raw = bytearray(f.read_bytes())
+    raw[len(raw) // 2] ^= 1
+    f.write_bytes(bytes(raw))
+    with pytest.raises(DatasetError, match="train-00000.npz is missing or changed"):
+        load_demonstrations(copy, cfg)
+    with pytest.raises(DatasetError, match="no manifest.json"):
+        load_demonstrations(tmp_path / "absent")
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    with pytest.raises(DatasetError, match="is not an unfinished Meta-World dataset"):
+        generate_demonstrations(cfg, other, progress=False)
+    assert (other / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("task", "reach-v2", "task: expected a Meta-World task name"),
+        ("n_train", 0, "data.n_train must be"),
+        ("n_steps", 600, "data.n_steps must be an integer in 10..500"),
+        ("camera", "front", "data.camera must be one of"),
+    ],
+)
+def test_bad_settings_are_one_line(key, value, message):
+    with pytest.raises(ValueError, match=message):
+        MetaWorldDataConfig(**{**TINY, key: value})
+
+
+def test_items_of_both_layouts(tiny):
+    cfg, path = tiny
+    kwargs = {k: v for k, v in TINY.items()}
+    dm = MetaWorldDataModule(name=path.name, root=path.parent, mode="dmp", progress=False, **kwargs)
+    dm.prepare_data()
+    dm.setup("fit")
+    item = dm.datasets["train"][0]
+    assert item["image"].shape == (3, 32, 32) and item["joints"].shape == (4,)
+    assert item["trajectory"].shape == (80, 4) and item["weights"].shape == (4, 10)
+    torch.testing.assert_close(item["ee_path"], item["trajectory"][:, :3])
+    assert len(dm.datasets["val"]) == 2
+    vel = MetaWorldDataModule(name=path.name, root=path.parent, mode="velocity", progress=False, **kwargs)
+    vel.setup("fit")
+    assert len(vel.datasets["train"]) == 3 * 80
+    it = vel.datasets["train"][81]
+    assert int(it["index"]) == 1 and int(it["step"]) == 1
+    states = dm.data.split("train")[1].states
+    torch.testing.assert_close(it["command"], torch.tensor((states[2] - states[1]) / 0.0125).float())
+    with pytest.raises(ValueError, match="data.robot is None for Meta-World"):
+        MetaWorldDataModule(name="x", root=path.parent, robot="sawyer", **kwargs)
+    with pytest.raises(ValueError, match="data.train_episodes must be at most"):
+        MetaWorldDataModule(name="x", root=path.parent, train_episodes=9, **kwargs)
+
+
+@pytest.mark.parametrize("task_name", ["push-v3", "pick-place-v3", "drawer-open-v3"])
+def test_fitted_dmp_reproduces_the_expert_in_closed_loop(task_name):
+    """The controller's path: the DMP fitted to an expert episode's states, tracked as position
+    targets from the same placement, solves the task (grasping and pushing included)."""
+    from lfd.dmp import DMP
+
+    with MetaWorldTask(task_name, image_size=32) as task:
+        episode = record_expert(task, placement_seed(0, "train", 0), n_steps=150, render=False)
+        assert episode.success
+        t = np.arange(150) * task.control_dt
+        plan = DMP(n_basis=20).fit(t, episode.states).rollout(np.arange(200) * task.control_dt)
+        task.reset(episode.reset_seed)
+        for k in range(199):
+            task.step_to(plan[k + 1])
+        assert task.success
+        # and a plan that never closes the gripper does not pick (the check can fail)
+        if task_name == "pick-place-v3":
+            task.reset(episode.reset_seed)
+            for k in range(199):
+                task.step_to(np.array([*plan[k + 1, :3], -1.0]))
+            assert not task.success
