@@ -1,0 +1,109 @@
+"""Meta-World end to end through the entry points, tiny: ``train.py experiment=metaworld task=reach-v3
+model=cnn_dmp`` generates the demonstrations, trains and saves a checkpoint; ``evaluate.py
+experiment=metaworld task=reach-v3 ckpt=...`` follows the checkpoint's data settings and writes
+metrics.json, episodes.csv and a rollout GIF, its episodes spread over two spawned workers."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+import torch
+from PIL import Image
+
+import evaluate  # the repository's entry points (pytest's pythonpath holds the root)
+import train
+from lfd.metaworld.env import placement_seed
+from lfd.visuomotor.metaworld.evaluator import EPISODE_COLUMNS
+from lfd.visuomotor.policies.base import TRAINING_RUN_KEY
+
+#: ``train.py``'s tiny overrides: 3 + 1 reach-v3 demonstrations of 80 steps at 32 px, a tiny network,
+#: 5 optimiser steps with one validation at the end (the checkpoint callback saves last.ckpt then).
+TINY_TRAIN = (
+    "experiment=metaworld",
+    "task=reach-v3",
+    "model=cnn_dmp",
+    "data.n_train=3",
+    "data.n_val=1",
+    "data.image_size=32",
+    "data.n_steps=80",
+    "data.progress=false",
+    "model.channels=[4,4,8]",
+    "model.hidden=[16,16]",
+    "trainer.max_steps=5",
+    "trainer.val_check_interval=5",
+)
+#: ``evaluate.py``'s: no data key, so the data settings are the checkpoint's.
+TINY_EVAL = (
+    "experiment=metaworld",
+    "task=reach-v3",
+    "eval.n_episodes=2",
+    "eval.horizon=60",
+    "eval.n_gifs=1",
+    "eval.workers=2",
+)
+
+
+@pytest.mark.slow
+def test_train_then_evaluate_through_the_entry_points(compose, tmp_path, capsys):
+    from hydra import initialize_config_dir
+
+    run = tmp_path / "outputs" / "train" / "reach"
+    cfg = compose("train", *TINY_TRAIN, f"paths.root_dir={tmp_path}", f"paths.output_dir={run}")
+    ckpt = Path(train.main(cfg))
+    assert ckpt == run / "checkpoints" / "last.ckpt" and ckpt.is_file()
+    saved = torch.load(ckpt, map_location="cpu", weights_only=False)
+    assert saved["global_step"] == 5 and saved["hyper_parameters"]["kind"] == "cnn_dmp"
+    hp = saved["hyper_parameters"]
+    assert (hp["n_joints"], hp["robot"], hp["image_size"], hp["n_steps"], hp["loss"]) == (
+        4,
+        None,
+        32,
+        80,
+        "params",
+    )
+    recorded = saved[TRAINING_RUN_KEY]
+    assert recorded["experiment"] == "metaworld" and recorded["data"]["task"] == "reach-v3"
+    data = tmp_path / "data" / recorded["data"]["name"]
+    assert (data / "manifest.json").is_file() and len(list((data / "episodes").glob("*.npz"))) == 4
+    assert json.loads((run / "timing.json").read_text())["global_step"] == 5
+    capsys.readouterr()
+
+    out = tmp_path / "evaluation"
+    cfg = compose(
+        "evaluate", *TINY_EVAL, f"ckpt={ckpt}", f"paths.root_dir={tmp_path}", f"paths.output_dir={out}"
+    )
+    assert cfg.data.image_size == 96  # the config's: the checkpoint's (32 px) replace it in evaluate.main
+    # evaluate.main re-composes with the checkpoint's data config: Hydra initialised, as in the app
+    with initialize_config_dir(config_dir=str(evaluate.CONFIGS), version_base="1.3"):
+        assert evaluate.main(cfg) == str(out)
+    assert f"[lfd] evaluation written to: {out}" in capsys.readouterr().out
+
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert set(metrics) == {"cnn_dmp"}
+    m = metrics["cnn_dmp"]
+    assert m["episodes"] == 2 and 0 <= m["successes"] <= 2
+    assert 0.0 <= m["success_rate"] <= 1.0 and m["success_rate"] == m["successes"] / 2
+    low, high = m["success_ci95"]
+    assert 0.0 <= low <= m["success_rate"] <= high <= 1.0
+    assert (m["task"], m["split"], m["horizon"], m["checkpoint"]) == ("reach-v3", "test", 60, str(ckpt))
+    assert m["latency_ms"] > 0
+
+    with open(out / "episodes.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [tuple(r) for r in rows] == [EPISODE_COLUMNS] * 2
+    assert [(r["kind"], r["episode"]) for r in rows] == [("cnn_dmp", "0"), ("cnn_dmp", "1")]
+    # the test stream of the checkpoint's seed (data.seed = seed = 42), followed from the checkpoint
+    assert [int(r["reset_seed"]) for r in rows] == [placement_seed(42, "test", i) for i in (0, 1)]
+    for r in rows:
+        assert r["success"] in ("True", "False") and float(r["latency_ms"]) > 0
+        steps = r["steps_to_success"]
+        assert (r["success"] == "True") == (steps != "") and (steps == "" or 1 <= int(steps) <= 60)
+        assert len(r["placement"].split()) == 6
+
+    gifs = sorted((out / "rollouts").iterdir())
+    assert [p.name for p in gifs] == ["cnn_dmp_ep0.gif"]
+    with Image.open(gifs[0]) as gif:
+        assert gif.format == "GIF" and gif.n_frames > 1
