@@ -25,6 +25,16 @@ SHRINK = {
         "model.forward.width=16",
         "model.forward.n_blocks=1",
     ],
+    "lfd.visuomotor.metaworld.MetaWorldDataModule": [
+        "data.n_train=2",
+        "data.n_val=1",
+        "data.image_size=32",
+        "data.n_steps=80",
+        "data.batch_size=2",
+        "data.progress=false",
+        "model.channels=[4,4,8]",
+        "model.hidden=[16,16]",
+    ],
 }
 
 
