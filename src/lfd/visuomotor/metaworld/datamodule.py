@@ -22,7 +22,7 @@ import torch
 from torch.utils.data import DataLoader, Dataset
 
 from lfd.checks import check_int
-from lfd.visuomotor.data.datasets import command_velocities
+from lfd.visuomotor.data.datasets import command_velocities, image_augmentation
 from lfd.visuomotor.metaworld.demos import (
     MetaWorldData,
     MetaWorldDataConfig,
@@ -44,11 +44,20 @@ def _index(split: str, i: int) -> int:
 
 
 class MetaWorldDMPDataset(Dataset):
-    """One item per demonstration of ``split`` (module docstring)."""
+    """One item per demonstration of ``split`` (module docstring).
 
-    def __init__(self, data: MetaWorldData, split: str) -> None:
+    Args:
+        data, split: the dataset and split.
+        transform: applied to every item's float image (training augmentation), or None.
+        frames: the item's image is frame 0 (``1``, the default), or a random one of the first
+            ``frames`` frames of the episode, drawn per item access (training only: the arm has
+            moved a little, the objects not yet; the DMP and the start state stay the episode's).
+    """
+
+    def __init__(self, data: MetaWorldData, split: str, transform=None, frames: int = 1) -> None:
         eps = data.split(split)
-        self.frames = torch.from_numpy(np.stack([e.frames[0] for e in eps]))
+        self.frames = torch.from_numpy(np.stack([e.frames[:frames] for e in eps]))
+        self.transform, self.window = transform, frames
 
         def stack(key):
             return torch.from_numpy(np.stack([e.arrays[key] for e in eps])).float()
@@ -70,14 +79,19 @@ class MetaWorldDMPDataset(Dataset):
         return self.frames.shape[0]
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
-        return {**{k: v[i] for k, v in self.tensors.items()}, "image": _image(self.frames[i])}
+        step = int(torch.randint(self.window, ())) if self.window > 1 else 0
+        image = _image(self.frames[i, step])
+        if self.transform is not None:
+            image = self.transform(image)
+        return {**{k: v[i] for k, v in self.tensors.items()}, "image": image}
 
 
 class MetaWorldVelocityDataset(Dataset):
     """One item per step of every demonstration of ``split`` (module docstring)."""
 
-    def __init__(self, data: MetaWorldData, split: str) -> None:
+    def __init__(self, data: MetaWorldData, split: str, transform=None) -> None:
         eps = data.split(split)
+        self.transform = transform
         steps = eps[0].states.shape[0]
         self.frames = torch.from_numpy(np.concatenate([e.frames for e in eps]))
         command = np.concatenate([command_velocities(e.states, e.arrays["t"]) for e in eps])
@@ -96,7 +110,10 @@ class MetaWorldVelocityDataset(Dataset):
         return self.frames.shape[0]
 
     def __getitem__(self, i: int) -> dict[str, torch.Tensor]:
-        return {**{k: v[i] for k, v in self.tensors.items()}, "image": _image(self.frames[i])}
+        image = _image(self.frames[i])
+        if self.transform is not None:
+            image = self.transform(image)
+        return {**{k: v[i] for k, v in self.tensors.items()}, "image": image}
 
 
 MODES = dict(zip(ITEM_MODES, (MetaWorldDMPDataset, MetaWorldVelocityDataset), strict=True))
@@ -117,6 +134,10 @@ class MetaWorldDataModule(L.LightningDataModule):
         batch_size, num_workers: DataLoader settings.
         train_episodes: train on the first this many train episodes only (None: all), for
             data-efficiency studies on one dataset; statistics are recomputed on them.
+        augment: colour jitter and random shifts of up to 4 px of the training images
+            (:func:`lfd.visuomotor.data.datasets.image_augmentation`), every policy kind.
+        dmp_frames: ``"dmp"`` items only: a training item's image is one of the first
+            ``dmp_frames`` frames of its episode, drawn anew every time (1: the first frame).
         progress: show the generation progress bar.
         n_joints, control_dt, depth, robot: fixed facts (4, 0.0125 s, False, None) that the data
             config states for the policies (``data_arguments``); any other value is refused.
@@ -146,6 +167,8 @@ class MetaWorldDataModule(L.LightningDataModule):
         batch_size: int = 32,
         num_workers: int = 0,
         train_episodes: int | None = None,
+        augment: bool = False,
+        dmp_frames: int = 1,
         progress: bool = True,
         n_joints: int = 4,
         control_dt: float | None = None,
@@ -187,6 +210,12 @@ class MetaWorldDataModule(L.LightningDataModule):
             raise ValueError(
                 f"data.train_episodes must be at most data.n_train={n_train}, got {train_episodes}"
             )
+        check_int(dmp_frames, "data.dmp_frames", minimum=1)
+        if dmp_frames > n_steps:
+            raise ValueError(f"data.dmp_frames must be at most data.n_steps={n_steps}, got {dmp_frames}")
+        if not isinstance(augment, bool):
+            raise ValueError(f"data.augment must be true or false, got {augment!r}")
+        self.augment, self.dmp_frames = augment, dmp_frames
         self.mode, self.batch_size, self.num_workers = mode, batch_size, num_workers
         self.train_episodes, self.progress = train_episodes, progress
         self.path = Path(root) / (name or f"metaworld_{task}_n{n_train}_s{seed}")
@@ -208,8 +237,12 @@ class MetaWorldDataModule(L.LightningDataModule):
                     k: {m: np.asarray(v[m], np.float32) for m in ("mean", "std")} for k, v in stats.items()
                 }
             self.data = data
-        cls = MODES[self.mode]
-        self.datasets = {"train": cls(self.data, "train"), "val": cls(self.data, "val")}
+        augment = image_augmentation(self.config.image_size) if self.augment else None
+        if self.mode == "dmp":
+            train = MetaWorldDMPDataset(self.data, "train", augment, frames=self.dmp_frames)
+        else:
+            train = MetaWorldVelocityDataset(self.data, "train", augment)
+        self.datasets = {"train": train, "val": MODES[self.mode](self.data, "val")}
 
     @property
     def stats(self) -> dict[str, dict[str, torch.Tensor]]:
