@@ -127,6 +127,22 @@ def test_items_of_both_layouts(tiny):
     assert int(it["index"]) == 1 and int(it["step"]) == 1
     states = dm.data.split("train")[1].states
     torch.testing.assert_close(it["command"], torch.tensor((states[2] - states[1]) / 0.0125).float())
+    # training options: images from the first frames, augmentation; validation items stay frame 0
+    window = MetaWorldDataModule(name=path.name, root=path.parent, dmp_frames=5, progress=False, **kwargs)
+    window.setup("fit")
+    first5 = torch.from_numpy(dm.data.split("train")[0].frames[:5]).permute(0, 3, 1, 2).float() / 255
+    drawn = {
+        int(((first5 - window.datasets["train"][0]["image"]) ** 2).flatten(1).sum(1).argmin())
+        for _ in range(40)
+    }
+    assert len(drawn) >= 3 and drawn <= set(range(5))
+    torch.testing.assert_close(window.datasets["val"][0]["image"], dm.datasets["val"][0]["image"])
+    shaken = MetaWorldDataModule(name=path.name, root=path.parent, augment=True, progress=False, **kwargs)
+    shaken.setup("fit")
+    assert not torch.equal(shaken.datasets["train"][0]["image"], item["image"])
+    torch.testing.assert_close(shaken.datasets["val"][0]["image"], dm.datasets["val"][0]["image"])
+    with pytest.raises(ValueError, match="data.dmp_frames must be at most data.n_steps=80"):
+        MetaWorldDataModule(name="x", root=path.parent, dmp_frames=81, **kwargs)
     with pytest.raises(ValueError, match="data.robot is None for Meta-World"):
         MetaWorldDataModule(name="x", root=path.parent, robot="sawyer", **kwargs)
     with pytest.raises(ValueError, match="data.train_episodes must be at most"):
