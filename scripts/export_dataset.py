@@ -3,6 +3,7 @@
     python scripts/export_dataset.py data=original format=lerobot out=data/original.lerobot
     python scripts/export_dataset.py data=original format=robomimic out=data/original.hdf5
     python scripts/export_dataset.py format=lerobot lerobot.codec=h264     # H.264 instead of AV1
+    python scripts/export_dataset.py data=metaworld task=reach-v3 format=lerobot   # Meta-World demonstrations
 
 The dataset is generated first when it is missing (like ``train.py``), otherwise verified
 against its manifest. A progress bar shows the episodes; the time taken is printed.
@@ -32,6 +33,10 @@ def export(cfg: DictConfig) -> Path:
     from lfd.interop.export import check_export_target
 
     datamodule = hydra.utils.instantiate(cfg.data)
+    from lfd.visuomotor.metaworld import MetaWorldDataModule
+
+    if cfg.format != "lerobot" and isinstance(datamodule, MetaWorldDataModule):
+        raise ValueError(f"format={cfg.format}: Meta-World demonstrations export to format=lerobot only")
     out = Path(cfg.out) if cfg.out else Path(f"{datamodule.path}{SUFFIX[cfg.format]}")
     check_export_target(datamodule.path, out, cfg.format, overwrite=cfg.overwrite)  # before any data
     datamodule.prepare_data()

@@ -1,5 +1,6 @@
-"""An lfd dataset as a LeRobot v3.0 dataset: task strings, the episode mapping
-(:func:`lfd_episode`) and the export driver (:func:`export_lerobot`).
+"""An lfd dataset as a LeRobot v3.0 dataset: task strings, the episode mappings
+(:func:`lfd_episode`, :func:`metaworld_episode`) and the export drivers (:func:`export_lerobot`,
+which also takes a Meta-World demonstration dataset, and :func:`export_metaworld`).
 """
 
 from __future__ import annotations
@@ -146,10 +147,26 @@ def export_lerobot(
             or is (or holds) ``dataset``, the current or the home folder.
         ValueError: an unknown ``codec`` or bad rollover limits (:class:`LeRobotWriter`).
 
+    A Meta-World demonstration dataset (:mod:`lfd.visuomotor.metaworld.demos`, told by its
+    manifest's format) is exported by :func:`export_metaworld` with the same options.
+
     Example::
 
         export_lerobot("data/quick_s42", "data/quick_s42.lerobot")
     """
+    if is_metaworld_dataset(dataset):
+        return export_metaworld(
+            dataset,
+            out,
+            codec=codec,
+            chunks_size=chunks_size,
+            data_files_size_in_mb=data_files_size_in_mb,
+            video_files_size_in_mb=video_files_size_in_mb,
+            crf=crf,
+            overwrite=overwrite,
+            progress=progress,
+            limit=limit,
+        )
     from lfd.robots import load_robot
     from lfd.visuomotor.data.datasets import load_dataset
     from lfd.visuomotor.data.episodes import SPLITS
@@ -189,6 +206,109 @@ def export_lerobot(
             if cfg.wrist_camera:
                 frames["wrist"] = record.frames("wrist_frames")
             writer.add_episode(lfd_episode(record, frames))
+        writer.finalize(splits)
+    return out
+
+
+#: ``info.json`` robot type of a Meta-World export (Meta-World's simulated Sawyer, driven by its
+#: mocap hand: the state and action are the hand's, not the arm's joints).
+METAWORLD_ROBOT_TYPE = "sawyer_metaworld"
+#: ``observation.state`` entries of a Meta-World export: hand position (m, world frame) and the
+#: last gripper command (-1 open .. 1 closed).
+METAWORLD_STATE_NAMES = ("hand.x", "hand.y", "hand.z", "gripper.command")
+#: ``action`` entries of a Meta-World export (Meta-World's delta actions in [-1, 1]).
+METAWORLD_ACTION_NAMES = ("x", "y", "z", "gripper")
+
+
+def is_metaworld_dataset(dataset: str | Path) -> bool:
+    """Whether folder ``dataset`` holds a Meta-World demonstration dataset (its ``manifest.json``
+    names that format; any other or unreadable folder: False, the lfd reader then says why)."""
+    import json
+
+    from lfd.visuomotor.metaworld.demos import FORMAT_NAME, MANIFEST
+
+    try:
+        manifest = json.loads((Path(dataset) / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(manifest, dict) and manifest.get("format") == FORMAT_NAME
+
+
+def metaworld_episode(episode, task: str, camera: str) -> LeRobotEpisode:
+    """A Meta-World :class:`~lfd.visuomotor.metaworld.demos.MetaWorldEpisode` as a LeRobot episode.
+
+    ``observation.state`` = the robot state before each action, ``(T, 4)``: hand x, y, z (m)
+    and the last gripper command (-1 open .. 1 closed). ``action`` = the action the scripted
+    expert sent at that step, ``(T, 4)``: **Meta-World's delta actions in [-1, 1]** (x, y, z
+    move the hand's mocap target by up to 1 cm per step per unit, gripper is the gripper
+    command), not positions. ``observation.images.<camera>`` = the frames, frame ``t`` seen at
+    state ``t``. The language task is the Meta-World task name (``"reach-v3"``).
+    """
+    a = episode.arrays
+    return LeRobotEpisode(
+        state=np.asarray(a["states"]),
+        action=np.asarray(a["actions"]),
+        frames={camera: np.asarray(a["frames"])},
+        task=task,
+    )
+
+
+def export_metaworld(
+    dataset: str | Path,
+    out: str | Path,
+    *,
+    codec: str = "av1",
+    chunks_size: int = DEFAULT_CHUNK_SIZE,
+    data_files_size_in_mb: float = DEFAULT_DATA_FILE_SIZE_IN_MB,
+    video_files_size_in_mb: float = DEFAULT_VIDEO_FILE_SIZE_IN_MB,
+    crf: int = 30,
+    overwrite: bool = False,
+    progress: bool = True,
+    limit: int | None = None,
+) -> Path:
+    """Export a verified Meta-World demonstration dataset folder to LeRobot v3.0 at ``out``.
+
+    One LeRobot episode per stored episode (:func:`metaworld_episode`), train then val (each in
+    index order), so ``info.json``'s ``splits`` are contiguous ranges. ``fps = 1 / control_dt``
+    (80 for Meta-World's 0.0125 s steps), ``robot_type`` :data:`METAWORLD_ROBOT_TYPE`, camera
+    ``observation.images.<data.camera>`` (``corner`` by default); the task is the Meta-World
+    task name. Published atomically with the export marker, like :func:`export_lerobot`, whose
+    arguments, return value and errors these are.
+
+    Example::
+
+        export_metaworld("data/metaworld_reach-v3_n50_s42", "data/metaworld_reach-v3_n50_s42.lerobot")
+    """
+    from lfd.visuomotor.metaworld.demos import STORED_SPLITS, load_demonstrations
+
+    data = load_demonstrations(dataset)
+    cfg = data.config
+    order = [e for split in STORED_SPLITS for e in data.split(split)][:limit]
+    splits, start = {}, 0
+    for split in STORED_SPLITS:
+        n = sum(1 for e in order if e.split == split)
+        if n:
+            splits[split] = f"{start}:{start + n}"
+            start += n
+    out = Path(out)
+    with publish_output(
+        out, "lerobot", overwrite=overwrite, protect=[Path(dataset)], who="export_lerobot"
+    ) as root:
+        writer = LeRobotWriter(
+            root,
+            fps=1.0 / cfg.control_dt,
+            robot_type=METAWORLD_ROBOT_TYPE,
+            state_names=list(METAWORLD_STATE_NAMES),
+            action_names=list(METAWORLD_ACTION_NAMES),
+            cameras={cfg.camera: (cfg.image_size, cfg.image_size)},
+            codec=codec,
+            chunks_size=chunks_size,
+            data_files_size_in_mb=data_files_size_in_mb,
+            video_files_size_in_mb=video_files_size_in_mb,
+            crf=crf,
+        )
+        for episode in _progress(order, progress, "LeRobot v3.0"):
+            writer.add_episode(metaworld_episode(episode, cfg.task, cfg.camera))
         writer.finalize(splits)
     return out
 
