@@ -170,3 +170,21 @@ def test_fitted_dmp_reproduces_the_expert_in_closed_loop(task_name):
             for k in range(199):
                 task.step_to(np.array([*plan[k + 1, :3], -1.0]))
             assert not task.success
+
+
+def test_goal_probe_script(tiny, tmp_path, capsys):
+    """scripts/metaworld_goal_probe.py reports the goal error on both splits, one line for a bad folder."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "goal_probe", Path(__file__).resolve().parents[3] / "scripts" / "metaworld_goal_probe.py"
+    )
+    probe = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(probe)
+    _, path = tiny
+    assert probe.main([str(path), "--steps", "2", "--channels", "4", "4"]) == 0
+    out = capsys.readouterr().out
+    assert "reach-v3: 3 train / 2 val goals" in out and "step     0: goal error train" in out
+    assert probe.main([str(tmp_path / "absent")]) == 2
+    assert "no manifest.json" in capsys.readouterr().err
