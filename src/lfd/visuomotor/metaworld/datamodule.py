@@ -137,7 +137,8 @@ class MetaWorldDataModule(L.LightningDataModule):
         augment: colour jitter and random shifts of up to 4 px of the training images
             (:func:`lfd.visuomotor.data.datasets.image_augmentation`), every policy kind.
         dmp_frames: ``"dmp"`` items only: a training item's image is one of the first
-            ``dmp_frames`` frames of its episode, drawn anew every time (1: the first frame).
+            ``dmp_frames`` frames of its episode, drawn anew every time (1: the first frame;
+            None: any frame of the episode).
         progress: show the generation progress bar.
         n_joints, control_dt, depth, robot: fixed facts (4, 0.0125 s, False, None) that the data
             config states for the policies (``data_arguments``); any other value is refused.
@@ -168,7 +169,7 @@ class MetaWorldDataModule(L.LightningDataModule):
         num_workers: int = 0,
         train_episodes: int | None = None,
         augment: bool = False,
-        dmp_frames: int = 1,
+        dmp_frames: int | None = 1,
         progress: bool = True,
         n_joints: int = 4,
         control_dt: float | None = None,
@@ -210,7 +211,9 @@ class MetaWorldDataModule(L.LightningDataModule):
             raise ValueError(
                 f"data.train_episodes must be at most data.n_train={n_train}, got {train_episodes}"
             )
-        check_int(dmp_frames, "data.dmp_frames", minimum=1)
+        check_int(dmp_frames, "data.dmp_frames", minimum=1, optional=True)
+        if dmp_frames is None:
+            dmp_frames = n_steps
         if dmp_frames > n_steps:
             raise ValueError(f"data.dmp_frames must be at most data.n_steps={n_steps}, got {dmp_frames}")
         if not isinstance(augment, bool):
