@@ -141,6 +141,13 @@ def test_items_of_both_layouts(tiny):
     shaken.setup("fit")
     assert not torch.equal(shaken.datasets["train"][0]["image"], item["image"])
     torch.testing.assert_close(shaken.datasets["val"][0]["image"], dm.datasets["val"][0]["image"])
+    fewer = MetaWorldDataModule(name=path.name, root=path.parent, train_episodes=2, progress=False, **kwargs)
+    fewer.setup("fit")
+    assert len(fewer.datasets["train"]) == 2 and len(fewer.datasets["val"]) == 2
+    two = np.concatenate([e.states for e in dm.data.split("train")[:2]])
+    np.testing.assert_allclose(
+        fewer.stats["joints"]["mean"], two.mean(0), rtol=1e-5
+    )  # statistics of those two
     with pytest.raises(ValueError, match="data.dmp_frames must be at most data.n_steps=80"):
         MetaWorldDataModule(name="x", root=path.parent, dmp_frames=81, **kwargs)
     with pytest.raises(ValueError, match="data.robot is None for Meta-World"):

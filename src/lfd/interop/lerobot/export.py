@@ -178,9 +178,40 @@ def export_lerobot(
     cams = {"front": (cfg.image_size, cfg.image_size)}
     if cfg.wrist_camera:
         cams["wrist"] = (cfg.image_size, cfg.image_size)
+
+    def episode(record) -> LeRobotEpisode:
+        frames = {"front": record.frames()}
+        if cfg.wrist_camera:
+            frames["wrist"] = record.frames("wrist_frames")
+        return lfd_episode(record, frames)
+
+    writer_options = dict(
+        fps=(cfg.n_steps - 1) / cfg.duration,
+        robot_type=cfg.robot,
+        state_names=[f"{n}.pos" for n in names] + [f"{n}.vel" for n in names],
+        action_names=[f"{n}.pos" for n in names],
+        cameras=cams,
+        codec=codec,
+        chunks_size=chunks_size,
+        data_files_size_in_mb=data_files_size_in_mb,
+        video_files_size_in_mb=video_files_size_in_mb,
+        crf=crf,
+    )
+    return _write(
+        dataset, out, order, SPLITS, episode, writer_options, overwrite=overwrite, progress=progress
+    )
+
+
+def _write(
+    dataset, out, order: list, split_names, episode, writer_options: dict, *, overwrite: bool, progress: bool
+) -> Path:
+    """The one export loop: ``order``'s items (each with a ``split``, in ``split_names`` order) as
+    LeRobot episodes (``episode(item)``), written by :class:`LeRobotWriter` (``writer_options``)
+    into a temporary sibling published as ``out`` (:func:`lfd.io.files.publish_output`), with
+    ``info.json``'s contiguous split ranges."""
     splits, start = {}, 0
-    for split in SPLITS:
-        n = sum(1 for r in order if r.split == split)
+    for split in split_names:
+        n = sum(1 for item in order if item.split == split)
         if n:
             splits[split] = f"{start}:{start + n}"
             start += n
@@ -188,24 +219,9 @@ def export_lerobot(
     with publish_output(
         out, "lerobot", overwrite=overwrite, protect=[Path(dataset)], who="export_lerobot"
     ) as root:
-        writer = LeRobotWriter(
-            root,
-            fps=(cfg.n_steps - 1) / cfg.duration,
-            robot_type=cfg.robot,
-            state_names=[f"{n}.pos" for n in names] + [f"{n}.vel" for n in names],
-            action_names=[f"{n}.pos" for n in names],
-            cameras=cams,
-            codec=codec,
-            chunks_size=chunks_size,
-            data_files_size_in_mb=data_files_size_in_mb,
-            video_files_size_in_mb=video_files_size_in_mb,
-            crf=crf,
-        )
-        for record in _progress(order, progress, "LeRobot v3.0"):
-            frames = {"front": record.frames()}
-            if cfg.wrist_camera:
-                frames["wrist"] = record.frames("wrist_frames")
-            writer.add_episode(lfd_episode(record, frames))
+        writer = LeRobotWriter(root, **writer_options)
+        for item in _progress(order, progress, "LeRobot v3.0"):
+            writer.add_episode(episode(item))
         writer.finalize(splits)
     return out
 
@@ -284,33 +300,28 @@ def export_metaworld(
     data = load_demonstrations(dataset)
     cfg = data.config
     order = [e for split in STORED_SPLITS for e in data.split(split)][:limit]
-    splits, start = {}, 0
-    for split in STORED_SPLITS:
-        n = sum(1 for e in order if e.split == split)
-        if n:
-            splits[split] = f"{start}:{start + n}"
-            start += n
-    out = Path(out)
-    with publish_output(
-        out, "lerobot", overwrite=overwrite, protect=[Path(dataset)], who="export_lerobot"
-    ) as root:
-        writer = LeRobotWriter(
-            root,
-            fps=1.0 / cfg.control_dt,
-            robot_type=METAWORLD_ROBOT_TYPE,
-            state_names=list(METAWORLD_STATE_NAMES),
-            action_names=list(METAWORLD_ACTION_NAMES),
-            cameras={cfg.camera: (cfg.image_size, cfg.image_size)},
-            codec=codec,
-            chunks_size=chunks_size,
-            data_files_size_in_mb=data_files_size_in_mb,
-            video_files_size_in_mb=video_files_size_in_mb,
-            crf=crf,
-        )
-        for episode in _progress(order, progress, "LeRobot v3.0"):
-            writer.add_episode(metaworld_episode(episode, cfg.task, cfg.camera))
-        writer.finalize(splits)
-    return out
+    writer_options = dict(
+        fps=1.0 / cfg.control_dt,
+        robot_type=METAWORLD_ROBOT_TYPE,
+        state_names=list(METAWORLD_STATE_NAMES),
+        action_names=list(METAWORLD_ACTION_NAMES),
+        cameras={cfg.camera: (cfg.image_size, cfg.image_size)},
+        codec=codec,
+        chunks_size=chunks_size,
+        data_files_size_in_mb=data_files_size_in_mb,
+        video_files_size_in_mb=video_files_size_in_mb,
+        crf=crf,
+    )
+    return _write(
+        dataset,
+        out,
+        order,
+        STORED_SPLITS,
+        lambda e: metaworld_episode(e, cfg.task, cfg.camera),
+        writer_options,
+        overwrite=overwrite,
+        progress=progress,
+    )
 
 
 def _progress(items: Iterable, enabled: bool, desc: str):

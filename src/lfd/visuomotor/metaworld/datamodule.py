@@ -232,13 +232,7 @@ class MetaWorldDataModule(L.LightningDataModule):
         if self.data is None:
             data = load_demonstrations(self.path, self.config)
             if self.train_episodes is not None:
-                from lfd.visuomotor.metaworld.demos import compute_stats
-
-                data.episodes["train"] = data.episodes["train"][: self.train_episodes]
-                stats = compute_stats([e.arrays for e in data.episodes["train"]])
-                data.stats = {
-                    k: {m: np.asarray(v[m], np.float32) for m in ("mean", "std")} for k, v in stats.items()
-                }
+                data = data.with_train_episodes(self.train_episodes)
             self.data = data
         augment = image_augmentation(self.config.image_size) if self.augment else None
         if self.mode == "dmp":

@@ -157,6 +157,13 @@ class MetaWorldData:
             raise ValueError(f"split: expected one of {STORED_SPLITS}, got {name!r}")
         return self.episodes[name]
 
+    def with_train_episodes(self, n: int) -> MetaWorldData:
+        """A copy whose train split keeps its first ``n`` episodes, the statistics recomputed on
+        them (validation unchanged): data-efficiency runs on one dataset."""
+        train = self.episodes["train"][:n]
+        stats = _stat_arrays(compute_stats([e.arrays for e in train]))
+        return dataclasses.replace(self, episodes={**self.episodes, "train": train}, stats=stats)
+
     def fingerprint(self) -> dict[str, Any]:
         """What a checkpoint records of its training data: manifest hash, task, seed and every
         training placement."""
@@ -373,8 +380,9 @@ def load_demonstrations(path: str | Path, cfg: MetaWorldDataConfig | None = None
         ]
         for s in STORED_SPLITS
     }
-    stats = {
-        k: {m: np.asarray(v[m], np.float32) for m in ("mean", "std")}
-        for k, v in read_json(path / STATS).items()
-    }
-    return MetaWorldData(path, config, manifest, stats, episodes)
+    return MetaWorldData(path, config, manifest, _stat_arrays(read_json(path / STATS)), episodes)
+
+
+def _stat_arrays(stats: dict) -> dict[str, dict[str, np.ndarray]]:
+    """``{name: {"mean", "std"}}`` float32 arrays of :func:`compute_stats`' lists."""
+    return {k: {m: np.asarray(v[m], np.float32) for m in ("mean", "std")} for k, v in stats.items()}
