@@ -107,6 +107,39 @@ def test_joint_csv_and_teach_export_sources(tmp_path):
         _run(tmp_path / "other", f"source={teach}", "robot=sawyer")
 
 
+def test_joint_csv_skips_comment_lines(tmp_path):
+    """data/fixtures/sawyer_demo.csv starts with '#' lines: read as a joint CSV (detected and named), its
+    rows equal to the file's numbers; a comment between rows is skipped too; a header alone is refused."""
+    from lfd.imitation.sources import load_robot_source
+
+    fixture = ROOT / "data" / "fixtures" / "sawyer_demo.csv"
+    assert fixture.read_text().startswith("#") and detect_source_type(fixture) == "joint_csv"
+    robot = load_robot("sawyer")
+    demo = load_robot_source(fixture, "joint_csv", robot)
+    rows = [r for r in fixture.read_text().splitlines() if r and not r.startswith("#")][1:]
+    expected = np.array([[float(v) for v in r.split(",")] for r in rows])
+    assert demo.q.shape == (len(rows), 7)
+    np.testing.assert_array_equal(demo.q, expected[:, 1:])
+    np.testing.assert_allclose(demo.t, expected[:, 0] - expected[0, 0])
+    table = tmp_path / "arm.csv"
+    table.write_text(
+        "# made by hand\n\ntime,j0,j1,j2,j3\n"
+        + "".join(f"{k * 0.1},0,0.{k},0,1\n" + ("  # a note\n" if k == 2 else "") for k in range(5))
+    )
+    wam = load_robot("wam4")
+    assert load_robot_source(table, "joint_csv", wam).q.shape == (5, 4)
+    (tmp_path / "empty.csv").write_text("# nothing\ntime,j0,j1,j2,j3\n")
+    with pytest.raises(ValueError, match=r"empty.csv: no rows after the header"):
+        load_robot_source(tmp_path / "empty.csv", "joint_csv", wam)
+
+
+def test_shipped_sawyer_csv_runs_through_the_entry_point(tmp_path):
+    """The issue's case: scripts/imitate.py refused data/fixtures/sawyer_demo.csv (its '#' header)."""
+    fixture = ROOT / "data" / "fixtures" / "sawyer_demo.csv"
+    summary, _ = _run(tmp_path, f"source={fixture}", "source_type=joint_csv", "robot=sawyer", *QUIET)
+    assert summary["source_type"] == "joint_csv" and summary["limit_violations"] == 0
+
+
 @pytest.mark.parametrize(
     ("recording", "robot"),
     [

@@ -9,7 +9,7 @@
 - ``bag``: a ROS 1 ``.bag``, a ROS 2 bag folder or an ``.mcap`` file with ``sensor_msgs/JointState``: robot
   joints;
 - ``joint_csv``: a CSV with a ``time`` column and one column per joint (the robot's names, or
-  ``j0..j{n-1}``): robot joints.
+  ``j0..j{n-1}``): robot joints; blank lines and ``#`` comment lines are skipped.
 
 A robot source must carry the chosen robot's joints (matched by name; ``j0..`` columns by position);
 it then skips retargeting. Units: s, rad.
@@ -44,13 +44,21 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v")
 TIME_COLUMNS = ("time", "time_s", "t")
 
 
+def _is_comment(line: str) -> bool:
+    """Whether a line of a joint CSV is skipped: blank, or a ``#`` comment (as in ``data/fixtures/``)."""
+    stripped = line.strip()
+    return not stripped or stripped.startswith("#")
+
+
 def _joint_csv_header(path: Path) -> list[str] | None:
-    """The header of ``path`` when it reads as a joint CSV (a time column, no ``_x``/``joint`` columns)."""
+    """The header of ``path`` when it reads as a joint CSV (a time column, no ``_x``/``joint`` columns);
+    blank and ``#`` comment lines before it are skipped."""
     try:
         with path.open(encoding="utf-8-sig") as f:
-            header = next(csv.reader(f), None)
+            line = next((line for line in f if not _is_comment(line)), None)
     except (OSError, UnicodeDecodeError):
         return None
+    header = next(csv.reader([line]), None) if line is not None else None
     if not header or header[0].strip().lower() not in TIME_COLUMNS:
         return None
     rest = [h.strip().lower() for h in header[1:]]
@@ -162,8 +170,11 @@ def _read_joint_csv(path: Path, robot_names: Sequence[str]) -> tuple[np.ndarray,
     header = _joint_csv_header(path)
     if header is None:
         raise ValueError(f"{path}: not a joint CSV: expected a header 'time,<joint>,...'")
+    rows = [line for line in read_text(path).splitlines() if not _is_comment(line)][1:]
+    if not rows:
+        raise ValueError(f"{path}: no rows after the header 'time,<joint>,...'; expected one row per sample")
     try:
-        data = np.loadtxt(io.StringIO(read_text(path)), delimiter=",", skiprows=1, ndmin=2)
+        data = np.loadtxt(io.StringIO("\n".join(rows)), delimiter=",", ndmin=2, comments=None)
     except ValueError as exc:
         raise ValueError(f"{path}: not a numeric joint CSV ({exc})") from None
     if data.shape[1] != len(header):
