@@ -97,56 +97,18 @@ def compose(tmp_path_factory):
     GlobalHydra.instance().clear()
 
 
-_STATE = "sensor_msgs/msg/JointState"
-
-
-def _joint_state(store, stamp: float, q_row, order, names):
-    """A message holding the robot's joints in another order, plus a head pan and a gripper."""
-    types = store.types
-    header = types["std_msgs/msg/Header"]
-    sec = int(stamp)
-    kwargs = dict(
-        stamp=types["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((stamp - sec) * 1e9)))
-    )
-    kwargs["frame_id"] = ""
-    if "seq" in header.__dataclass_fields__:
-        kwargs["seq"] = 0
-    labels = [names[i] if isinstance(i, int) else i for i in order]
-    position = np.array([q_row[i] if isinstance(i, int) else 0.25 for i in order])
-    return types[_STATE](
-        header=header(**kwargs), name=labels, position=position, velocity=np.zeros(0), effort=np.zeros(0)
-    )
-
-
 def _write_joint_state_bag(path: Path, kind: str, t, q, names, topic="/joint_states", t0=100.0) -> Path:
     """A JointState bag (``kind``: ros1, ros2, mcap) of ``q (T, n)`` named ``names``, stamped ``t0 + t``: joints
-    in reverse order, a head pan after the first and a gripper at the end (joints a robot lacks)."""
-    from rosbags.rosbag1 import Writer as Writer1
-    from rosbags.rosbag2 import StoragePlugin
-    from rosbags.rosbag2 import Writer as Writer2
-    from rosbags.typesys import Stores, get_typestore
+    in reverse order, a head pan (0.25 rad) after the first and a gripper at the end (joints a robot lacks),
+    written by lfd's own :func:`lfd.io.rosbag.write_joint_states`."""
+    from lfd.io.rosbag import write_joint_states
 
+    q = np.asarray(q, dtype=np.float64)
     rev = list(range(len(names)))[::-1]
     order = rev[:1] + ["head_pan"] + rev[1:] + ["gripper"]
-    if kind == "ros1":
-        store = get_typestore(Stores.ROS1_NOETIC)
-        with Writer1(path) as writer:
-            conn = writer.add_connection(topic, _STATE, typestore=store)
-            for k in range(len(t)):
-                msg = _joint_state(store, t0 + t[k], q[k], order, names)
-                writer.write(conn, int((t0 + t[k]) * 1e9), store.serialize_ros1(msg, _STATE))
-        return path
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
-    with Writer2(path, version=9, storage_plugin=plugin) as writer:
-        conn = writer.add_connection(topic, _STATE, typestore=store)
-        for k in range(len(t)):
-            writer.write(
-                conn,
-                int((t0 + t[k]) * 1e9),
-                store.serialize_cdr(_joint_state(store, t0 + t[k], q[k], order, names), _STATE),
-            )
-    return path
+    labels = [names[i] if isinstance(i, int) else i for i in order]
+    columns = np.stack([q[:, i] if isinstance(i, int) else np.full(len(q), 0.25) for i in order], axis=1)
+    return write_joint_states(path, t, columns, labels, format=kind, topic=topic, t0=t0)
 
 
 @pytest.fixture

@@ -1,5 +1,6 @@
-"""lfd.io.rosbag: JointState bags written here with rosbags' own writers (ROS 1, ROS 2 sqlite3, ROS 2 MCAP)
-read back in the robot's joint order; JointTrajectory bags read back with rosbags' reader."""
+"""lfd.io.rosbag: JointState bags (ROS 1, ROS 2 sqlite3, ROS 2 MCAP, written by ``write_joint_states``) read
+back in the robot's joint order and, independently, with rosbags' reader; JointTrajectory bags read back with
+rosbags' reader."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import pytest
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
-from lfd.io.rosbag import is_bag, read_joint_states, write_joint_trajectory
+from lfd.io.rosbag import is_bag, read_joint_states, write_joint_states, write_joint_trajectory
 
 NAMES = ["j0", "j1", "j2", "j3"]
 
@@ -50,6 +51,29 @@ def test_bad_topics_and_names_are_one_line_listing_what_the_bag_has(tmp_path, wr
         read_joint_states(tmp_path / "not.bag")
     with pytest.raises(FileNotFoundError):
         read_joint_states(tmp_path / "missing.bag")
+
+
+@pytest.mark.parametrize("fmt", ["ros1", "mcap"])
+def test_joint_state_bag_reads_back_with_rosbags(tmp_path, fmt):
+    t, q = _trajectory()
+    out = write_joint_states(
+        tmp_path / ("arm.bag" if fmt == "ros1" else "arm"), t, q, NAMES, format=fmt, t0=12.5
+    )
+    with AnyReader([out], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+        (conn,) = reader.connections
+        assert conn.topic == "/joint_states" and conn.msgtype == "sensor_msgs/msg/JointState"
+        read = [(ns, reader.deserialize(raw, c.msgtype)) for c, ns, raw in reader.messages()]
+    assert len(read) == len(t)
+    for (ns, msg), tk, qk in zip(read, t, q):
+        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        assert abs(stamp - (12.5 + tk)) < 1e-8 and abs(1e-9 * ns - (12.5 + tk)) < 1e-8
+        assert list(msg.name) == NAMES
+        np.testing.assert_array_equal(msg.position, qk)
+    with pytest.raises(FileExistsError, match="exists; lfd writes a new bag only"):
+        write_joint_states(out, t, q, NAMES, format=fmt)
+    with pytest.raises(ValueError, match="joint_names: 3 names for 4 joints"):
+        write_joint_states(tmp_path / "b.bag", t, q, NAMES[:3])
+    assert not (tmp_path / "b.bag").exists()
 
 
 @pytest.mark.parametrize("fmt", ["ros1", "ros2", "mcap"])

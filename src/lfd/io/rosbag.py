@@ -6,6 +6,8 @@
 - :func:`write_joint_trajectory`: one ``trajectory_msgs/JointTrajectory`` message (positions, velocities,
   ``time_from_start``) in a ROS 1 bag, a ROS 2 bag (sqlite3) or a ROS 2 bag with MCAP storage, which a ROS user
   can play to a real arm's trajectory controller.
+- :func:`write_joint_states`: a recording as ``sensor_msgs/JointState`` messages (what a robot driver
+  publishes on ``/joint_states``; :func:`read_joint_states` reads it back), in the same three bag kinds.
 
 Example::
 
@@ -26,7 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["BAG_FORMATS", "JointRecording", "is_bag", "read_joint_states", "write_joint_trajectory"]
+__all__ = [
+    "BAG_FORMATS",
+    "JointRecording",
+    "is_bag",
+    "read_joint_states",
+    "write_joint_states",
+    "write_joint_trajectory",
+]
 
 JOINT_STATE = "sensor_msgs/msg/JointState"
 JOINT_TRAJECTORY = "trajectory_msgs/msg/JointTrajectory"
@@ -192,6 +201,62 @@ def write_joint_trajectory(
             ``format``.
         FileExistsError: ``path`` exists.
     """
+    t, q, names, path = _checked_recording(path, t, q, joint_names, format)
+    velocity = np.zeros_like(q)
+    velocity[1:-1] = (q[2:] - q[:-2]) / (t[2:] - t[:-2])[:, None]
+    store = _store(format)
+    message = _trajectory_message(store, t, q, velocity, names, frame_id)
+    stamp_ns = int(round(1e9 * t[0])) if t[0] > 0 else 0
+    return _write_bag(path, format, topic, JOINT_TRAJECTORY, store, [(stamp_ns, message)])
+
+
+def write_joint_states(
+    path: str | os.PathLike,
+    t: np.ndarray,
+    q: np.ndarray,
+    joint_names: Sequence[str],
+    *,
+    format: str = "ros1",
+    topic: str = "/joint_states",
+    t0: float = 0.0,
+) -> Path:
+    """Write ``q (T, n)`` at times ``t (T,)`` s as ``T`` ``sensor_msgs/JointState`` messages (positions only),
+    stamped ``t0 + t`` in their headers and in the bag: a recording as a robot driver publishes it, which
+    :func:`read_joint_states` reads back. The bag appears at ``path`` only when complete.
+
+    Args:
+        path: a ``.bag`` file (``format="ros1"``) or a ROS 2 bag folder (``"ros2"``, ``"mcap"``). It must
+            not exist.
+        t0: s added to every stamp (a recording's clock rarely starts at 0).
+
+    Raises:
+        ValueError: bad shapes, non-finite values, times not increasing, names not matching ``n``, unknown
+            ``format``, a negative first stamp.
+        FileExistsError: ``path`` exists.
+    """
+    t, q, names, path = _checked_recording(path, t, q, joint_names, format)
+    if t0 + t[0] < 0:
+        raise ValueError(f"t0: stamps must be >= 0 s, got a first stamp of {t0 + t[0]} s")
+    store = _store(format)
+    types = store.types
+    header = types["std_msgs/msg/Header"]
+    empty = np.zeros(0, dtype=np.float64)
+    messages = []
+    for k in range(len(t)):
+        stamp_ns = int(round(1e9 * (t0 + t[k])))
+        fields = dict(stamp=types["builtin_interfaces/msg/Time"](sec=stamp_ns // 1_000_000_000,
+                                                                   nanosec=stamp_ns % 1_000_000_000),
+                      frame_id="")  # fmt: skip
+        if "seq" in header.__dataclass_fields__:  # ROS 1 headers carry a sequence number
+            fields["seq"] = k
+        message = types[JOINT_STATE](
+            header=header(**fields), name=list(names), position=q[k].copy(), velocity=empty, effort=empty
+        )
+        messages.append((stamp_ns, message))
+    return _write_bag(path, format, topic, JOINT_STATE, store, messages)
+
+
+def _checked_recording(path, t, q, joint_names, format):
     t = np.asarray(t, dtype=np.float64)
     q = np.asarray(q, dtype=np.float64)
     names = [str(n) for n in joint_names]
@@ -206,12 +271,17 @@ def write_joint_trajectory(
     path = Path(path)
     if path.exists() or path.is_symlink():
         raise FileExistsError(f"{path} exists; lfd writes a new bag only")
-    velocity = np.zeros_like(q)
-    velocity[1:-1] = (q[2:] - q[:-2]) / (t[2:] - t[:-2])[:, None]
+    return t, q, names, path
+
+
+def _store(format: str):
     _, Stores, get_typestore = _rosbags()
-    store = get_typestore(Stores.ROS1_NOETIC if format == "ros1" else Stores.ROS2_HUMBLE)
-    message = _trajectory_message(store, t, q, velocity, names, frame_id)
-    stamp_ns = int(round(1e9 * t[0])) if t[0] > 0 else 0
+    return get_typestore(Stores.ROS1_NOETIC if format == "ros1" else Stores.ROS2_HUMBLE)
+
+
+def _write_bag(path: Path, format: str, topic: str, msgtype: str, store, messages) -> Path:
+    """``messages`` (``(stamp_ns, message)``) of ``msgtype`` on ``topic`` in a new bag at ``path``, written
+    under a temporary sibling name and renamed into place when complete."""
     path.parent.mkdir(parents=True, exist_ok=True)
     scratch = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.lfd-partial-"))
     try:
@@ -220,15 +290,17 @@ def write_joint_trajectory(
             from rosbags.rosbag1 import Writer
 
             with Writer(tmp) as writer:
-                conn = writer.add_connection(topic, JOINT_TRAJECTORY, typestore=store)
-                writer.write(conn, stamp_ns, store.serialize_ros1(message, JOINT_TRAJECTORY))
+                conn = writer.add_connection(topic, msgtype, typestore=store)
+                for stamp_ns, message in messages:
+                    writer.write(conn, stamp_ns, store.serialize_ros1(message, msgtype))
         else:
             from rosbags.rosbag2 import StoragePlugin, Writer
 
             plugin = StoragePlugin.MCAP if format == "mcap" else StoragePlugin.SQLITE3
             with Writer(tmp, version=9, storage_plugin=plugin) as writer:
-                conn = writer.add_connection(topic, JOINT_TRAJECTORY, typestore=store)
-                writer.write(conn, stamp_ns, store.serialize_cdr(message, JOINT_TRAJECTORY))
+                conn = writer.add_connection(topic, msgtype, typestore=store)
+                for stamp_ns, message in messages:
+                    writer.write(conn, stamp_ns, store.serialize_cdr(message, msgtype))
         os.rename(tmp, path)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
