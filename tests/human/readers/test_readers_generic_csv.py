@@ -46,3 +46,22 @@ def test_missing_joints_for_the_arm(tmp_path):
     with pytest.raises(ValueError, match=r"noelbow.csv.*missing joint\(s\) \['elbow_right'\]"):
         analyze_arm(sk, side="right")
     analyze_arm(sk, side="left")  # the other arm is still fine
+
+
+def test_written_csv_reads_back_with_gaps_and_tracking(tmp_path):
+    import numpy as np
+
+    from lfd.human.readers.generic_csv import write_csv
+    from lfd.human.synthetic import synthetic_recording
+
+    sk = synthetic_recording(duration=1.0, seed=3, noise=0.002, dropouts=2).skeleton
+    sk.positions[4, 2] = np.nan  # a missing joint: an empty cell, read back as NaN and untracked
+    path = write_csv(sk, tmp_path / "recording.csv")
+    assert path.read_text().splitlines()[0] == "t,joint,x,y,z,tracked"
+    back = read_skeleton(path)
+    assert back.names == sk.names and back.n_frames == sk.n_frames
+    np.testing.assert_allclose(back.t, sk.t, atol=1e-6)
+    np.testing.assert_allclose(back.positions, sk.positions, atol=1e-6)  # NaN where NaN
+    expected = sk.tracked & np.isfinite(sk.positions).all(axis=2)
+    np.testing.assert_array_equal(back.tracked, expected)
+    assert not back.tracked[4, 2] and not sk.tracked.all()  # the gap and the dropouts

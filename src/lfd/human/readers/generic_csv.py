@@ -4,6 +4,9 @@ Long layout: columns ``t, joint, x, y, z`` and optionally ``tracked`` (or ``stat
 ``tracking_state``; > 0 = tracked), one row per joint and frame. Wide layout: ``t,
 <joint>_x, <joint>_y, <joint>_z, ...`` (separator ``_``, ``.``, ``-``, ``:``, space or none),
 one row per frame. An empty cell is a missing coordinate.
+
+:func:`write_csv` writes a :class:`Skeleton` in the long layout (with ``tracked``), which :func:`read_csv`
+reads back (to 1 µm).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...io.files import write_text_atomic
 from ..skeleton import Skeleton
 from .common import SkeletonFormatError, canonical_names, check_time, length_scale, parse_float, read_lines
 
@@ -137,3 +141,15 @@ def _read_csv_wide(path, header_line, header, it, body, scale, up) -> Skeleton:
         source=f"{path} (csv wide)",
         up=np.asarray(up, float),
     )
+
+
+def write_csv(skeleton: Skeleton, path: str | Path) -> Path:
+    """Write ``skeleton`` as a long generic CSV (``t,joint,x,y,z,tracked``; s, m to 1 µm; an empty cell for
+    a missing coordinate, ``tracked`` 1 or 0, 0 wherever a coordinate is missing), atomically; returns the path. :func:`read_csv` reads it."""
+    lines = ["t,joint,x,y,z,tracked"]
+    for f, t in enumerate(skeleton.t):
+        for j, name in enumerate(skeleton.names):
+            p = skeleton.positions[f, j]
+            xyz = ",".join("" if not np.isfinite(v) else f"{v:.6f}" for v in p)
+            lines.append(f"{t:.6f},{name},{xyz},{int(skeleton.tracked[f, j] and np.isfinite(p).all())}")
+    return write_text_atomic(Path(path), "\n".join(lines) + "\n")
