@@ -144,8 +144,11 @@ def _read_csv_wide(path, header_line, header, it, body, scale, up) -> Skeleton:
 
 
 def write_csv(skeleton: Skeleton, path: str | Path) -> Path:
-    """Write ``skeleton`` as a long generic CSV (``t,joint,x,y,z,tracked``; s, m to 1 µm; an empty cell for
-    a missing coordinate, ``tracked`` 1 or 0, 0 wherever a coordinate is missing), atomically; returns the path. :func:`read_csv` reads it."""
+    """Write ``skeleton`` as a long generic CSV, atomically; returns the path. :func:`read_csv` reads it.
+
+    Columns ``t,joint,x,y,z,tracked``: s and m to 1 µm, an empty cell for a missing coordinate, ``tracked``
+    1 or 0 (0 wherever a coordinate is missing).
+    """
     lines = ["t,joint,x,y,z,tracked"]
     for f, t in enumerate(skeleton.t):
         for j, name in enumerate(skeleton.names):
