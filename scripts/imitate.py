@@ -19,39 +19,8 @@ for a video ``keypoints.csv`` (+ ``.npz``) and ``side_by_side.mp4``/``.gif``; fo
 stderr and exit status 2.
 """
 
-from __future__ import annotations
-
-import sys
-from pathlib import Path
-
-import hydra
-from omegaconf import DictConfig, OmegaConf
-
-from lfd.imitation import ImitationSettings, run
-from lfd.imitation.settings import ENTRY_POINT_KEYS
-
-CONFIGS = str(Path(__file__).resolve().parents[1] / "configs")
-
-__all__ = ["main", "run", "settings_of"]
-
-
-def settings_of(cfg: DictConfig) -> ImitationSettings:
-    """The composed config's pipeline keys as :class:`ImitationSettings` (interpolations resolved; the
-    entry point's own keys, ``paths`` and ``task_name``, left out). Raises ``ValueError`` on a bad value."""
-    pipeline = OmegaConf.masked_copy(cfg, [k for k in cfg if k not in ENTRY_POINT_KEYS])
-    return ImitationSettings.from_mapping(OmegaConf.to_container(pipeline, resolve=True))
-
-
-@hydra.main(version_base="1.3", config_path=CONFIGS, config_name="imitate")
-def main(cfg: DictConfig) -> None:
-    from hydra.core.hydra_config import HydraConfig
-
-    try:
-        run(settings_of(cfg), HydraConfig.get().runtime.output_dir)
-    except (ValueError, FileNotFoundError, FileExistsError) as e:
-        print(f"imitate: {e}", file=sys.stderr)
-        raise SystemExit(2) from None
-
+from lfd.cli.imitate import *  # noqa: F403  (the entry point's functions, as the tests import them)
+from lfd.cli.imitate import cli, main  # noqa: F401
 
 if __name__ == "__main__":
-    main()
+    cli()

@@ -55,7 +55,7 @@ def _mediapipe_root() -> Path:
     if spec is None or not spec.submodule_search_locations:
         raise ImportError(
             "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
-            'pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14'
+            'pip install -e ".[video]" && lfd-install-mediapipe'
         )
     return Path(next(iter(spec.submodule_search_locations)))
 
@@ -117,15 +117,15 @@ def install_heavy_model(source: str | os.PathLike | None = None) -> Path:
 def _protobuf_compat() -> None:
     """Restore the two protobuf calls MediaPipe 0.10.14's Python layer uses.
 
-    ``GetPrototype`` was removed from the symbol database / message factory (replaced by
-    ``message_factory.GetMessageClass``) and ``FieldDescriptor.label`` by ``is_repeated``;
-    the solution API uses both when it sets calculator options and reads output packets.
+    ``GetPrototype`` was deprecated (protobuf 4.25, with a warning on every use) and then removed
+    from the symbol database / message factory (replaced by ``message_factory.GetMessageClass``),
+    and ``FieldDescriptor.label`` by ``is_repeated``; the solution API uses both when it sets
+    calculator options and reads output packets.
     """
     from google.protobuf import message_factory, symbol_database
 
     for cls in (symbol_database.SymbolDatabase, message_factory.MessageFactory):
-        if not hasattr(cls, "GetPrototype"):
-            cls.GetPrototype = lambda self, descriptor: message_factory.GetMessageClass(descriptor)
+        cls.GetPrototype = lambda self, descriptor: message_factory.GetMessageClass(descriptor)
 
 
 def _set_calculator_options(self, config, params) -> None:
@@ -189,8 +189,8 @@ def load_pose_estimator(
             downloaded: MediaPipe's own downloader is disabled while the estimator is built.
 
     Raises:
-        ImportError: mediapipe is not installed (``pip install -e ".[video]" && pip install --no-deps
-            mediapipe==0.10.14``: its declared dependencies would add jax and a second OpenCV).
+        ImportError: mediapipe is not installed (``pip install -e ".[video]" && lfd-install-mediapipe``:
+            its declared dependencies would add jax and a second OpenCV; :mod:`lfd.cli.install_mediapipe`).
         ValueError: ``model`` not in :data:`MODELS`; a heavy model file with the wrong checksum.
         FileNotFoundError: ``model="heavy"`` and no heavy model (the message says how to get it).
     """
@@ -209,7 +209,7 @@ def load_pose_estimator(
     except ImportError as exc:
         raise ImportError(
             "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
-            'pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14'
+            'pip install -e ".[video]" && lfd-install-mediapipe'
         ) from exc
     download = mp_pose.download_utils.download_oss_model
     mp_pose.download_utils.download_oss_model = _no_download

@@ -1,0 +1,100 @@
+"""The command-line entry points: thin Hydra apps that compose a config, instantiate objects and call
+the package (the only place under ``src/lfd`` where Hydra and OmegaConf are imported).
+
+Installed as console commands (``[project.scripts]`` in ``pyproject.toml``) and run by the
+repository's top-level ``train.py``, ``evaluate.py`` and ``scripts/*.py``, which are wrappers::
+
+    lfd-train          python train.py                   train a model
+    lfd-evaluate       python evaluate.py                evaluate policy checkpoints, print a table
+    lfd-imitate        python scripts/imitate.py         a demonstration -> a robot skill
+    lfd-teach          python scripts/teach.py           the browser teach interface
+    lfd-analyze-arm    python scripts/analyze_arm.py     a person's arm motion and joint torques
+    lfd-export         python scripts/export_dataset.py  a dataset as LeRobot v3.0 or robomimic HDF5
+    lfd-samples        python -m lfd.samples             one small sample of every input kind
+
+The configs are the repository's ``configs/`` folder when lfd runs from a checkout (editable
+install), else the copy shipped inside the package (``lfd/configs``, copied there when the wheel is
+built): :func:`configs_dir`. ``--help`` (``-h``) prints a short usage of each command
+(:func:`run_app`); Hydra's own long help stays available as ``--hydra-help``.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+#: The package folder (``src/lfd`` in a checkout, ``site-packages/lfd`` when installed).
+PACKAGE = Path(__file__).resolve().parents[1]
+#: The file every configs folder has (the check that a folder is lfd's configs).
+ROOT_CONFIG = "train.yaml"
+
+
+def _checkout_configs() -> Path | None:
+    """``<checkout>/configs`` when this package is ``<checkout>/src/lfd`` of a checkout of lfd."""
+    root = PACKAGE.parents[1]
+    configs = root / "configs"
+    if (
+        PACKAGE.parent.name == "src"
+        and (root / "pyproject.toml").is_file()
+        and (configs / ROOT_CONFIG).is_file()
+    ):
+        return configs
+    return None
+
+
+def configs_dir() -> Path:
+    """The configs the commands compose: the checkout's ``configs/`` (the source of truth) when lfd
+    runs from a checkout, else the copy inside the installed package (``lfd/configs``).
+
+    Raises:
+        FileNotFoundError: neither exists (a package built without its configs).
+    """
+    checkout = _checkout_configs()
+    if checkout is not None:
+        return checkout
+    packaged = PACKAGE / "configs"
+    if (packaged / ROOT_CONFIG).is_file():
+        return packaged
+    raise FileNotFoundError(
+        f"lfd configs: no {ROOT_CONFIG} in {packaged} (a package built without its configs) nor in a checkout's "
+        "configs/; reinstall lfd with pip install ."
+    )
+
+
+def config_file(path: str | Path) -> Path:
+    """``path`` as given when it exists (relative to the working folder); a relative
+    ``configs/...`` path that does not exist there is the file of the configs the commands use
+    (:func:`configs_dir`), so that e.g. ``scene=configs/teach/boxes.yaml`` runs from any folder."""
+    given = Path(path)
+    if given.exists() or given.is_absolute() or not given.parts or given.parts[0] != "configs":
+        return given
+    shipped = configs_dir().joinpath(*given.parts[1:])
+    return shipped if shipped.exists() else given
+
+
+class _NoTips(logging.Filter):
+    """Drops Lightning's advertisements ("💡 Tip: ... try installing litlogger / litmodels")."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("💡")
+
+
+def quiet() -> None:
+    """Lightning's advertisement tips off (its other messages stay)."""
+    for name in ("lightning.pytorch.utilities.rank_zero", "lightning.fabric.utilities.rank_zero"):
+        logger = logging.getLogger(name)
+        if not any(isinstance(f, _NoTips) for f in logger.filters):
+            logger.addFilter(_NoTips())
+
+
+def run_app(main: Callable[[], object], usage: str, argv: Sequence[str] | None = None) -> None:
+    """Run the Hydra app ``main`` with the command-line ``argv`` (default: ``sys.argv[1:]``); with
+    ``-h`` or ``--help`` print ``usage`` (the command's short help) instead."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if "-h" in args or "--help" in args:
+        print(usage.strip())
+        return
+    sys.argv = [sys.argv[0], *args]
+    main()
