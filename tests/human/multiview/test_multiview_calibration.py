@@ -94,7 +94,7 @@ def run_benchmark(*args: str) -> dict:
 
 
 @pytest.mark.slow
-def test_full_and_heavy_against_four_views_on_the_pose2sim_demo(pose2sim_demo, mediapipe_ok, tmp_path):
+def test_full_and_heavy_against_four_views_on_the_pose2sim_demo(pose2sim_demo, heavy_pose_model, tmp_path):
     out = run_benchmark("--demo", str(pose2sim_demo), "--cache", str(tmp_path), "--models", "full,heavy")
     as_given = run_benchmark("--demo", str(pose2sim_demo), "--cache", str(tmp_path), "--models", "full,heavy",
                              "--no-reconcile")  # fmt: skip

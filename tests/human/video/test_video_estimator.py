@@ -18,12 +18,9 @@ from lfd.human.video.keypoints import VideoKeypoints
 
 
 @pytest.fixture(scope="module")
-def installed_heavy(mediapipe_ok):
+def installed_heavy(heavy_pose_model):
     """The heavy model the test command provisions (scripts/get_pose_model.py, from npm)."""
-    path = est.heavy_model_path()
-    if not path.is_file():
-        pytest.fail(f"{path} is missing: run the README's test command (python scripts/get_pose_model.py)")
-    return path
+    return heavy_pose_model
 
 
 def test_installed_heavy_model_is_the_published_file(installed_heavy):
