@@ -115,7 +115,8 @@ def analyze_arm(
 
     Raises:
         ValueError: bad option (a body mass outside 20-250 kg, with a hint when it reads as grams)
-        or a skeleton without the needed joints; FileNotFoundError.
+            or a skeleton without the needed joints.
+        FileNotFoundError: a missing file.
     """
     if not isinstance(skeleton, Skeleton):
         skeleton = read_skeleton(skeleton)

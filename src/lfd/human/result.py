@@ -43,7 +43,7 @@ class ArmAnalysis:
         segment_lengths: upper_arm, forearm, hand (m; median bone lengths of the data).
         quality: counts and frame lists: gaps filled / left, swaps repaired, singular frames,
             outliers.
-        side, subject (body_mass, sex, hand_load), settings, source.
+        side: the arm analysed. subject: body_mass, sex, hand_load. settings, source: as given.
         thesis: (T, 3) rad, the thesis's abduction, flexion, rotation of the fitted pose
             (derived; gimbal lock with the upper arm along x, see :mod:`lfd.human.thesis_angles`).
         pronation: (T,) rad forearm pronation (:func:`lfd.human.arm_ik.forearm_pronation`, filtered

@@ -77,11 +77,11 @@ def read_skeleton(
         :class:`Skeleton` in metres, canonical joint names, ``source = "<path> (<format>)"``.
 
     Raises:
-        FileNotFoundError: missing file. SkeletonFormatError (ValueError): malformed content,
-        naming file, line and field. ValueError: unknown format, option or ``units``; an
-        implausible scale: an upper arm (median shoulder-elbow length) outside 0.15-0.6 m (the
-        message suggests the ``units=`` that fits) or a frame rate outside 1-1000 Hz
-        (:mod:`lfd.human.plausibility`).
+        FileNotFoundError: missing file.
+        SkeletonFormatError: (a ValueError) malformed content, naming file, line and field.
+        ValueError: unknown format, option or ``units``; an implausible scale: an upper arm
+            (median shoulder-elbow length) outside 0.15-0.6 m (the message suggests the
+            ``units=`` that fits) or a frame rate outside 1-1000 Hz (:mod:`lfd.human.plausibility`).
     """
     path = Path(path)
     units = check_units(units)
