@@ -25,6 +25,9 @@ def test_bad_settings_one_line():
         MetaWorldTask("reach-v3", camera="front")
     with pytest.raises(ValueError, match="image_size: expected an int in 16..1024"):
         MetaWorldTask("reach-v3", image_size=8)
+    for bad in (2.0, 180, True, "30"):
+        with pytest.raises(ValueError, match="fovy: expected degrees in 5..120"):
+            MetaWorldTask("reach-v3", fovy=bad)
 
 
 def test_reset_is_seeded_and_splits_are_independent(push):
@@ -77,11 +80,16 @@ def _project(task, point):
     return task.image_size / 2 + f * x / -z, task.image_size / 2 - f * y / -z
 
 
-@pytest.mark.parametrize("camera", ["corner", "corner2", "corner3"])
-def test_render_is_upright(camera):
+@pytest.mark.parametrize(
+    ("camera", "fovy"), [("corner", None), ("corner2", None), ("corner3", None), ("corner", 30)]
+)
+def test_render_is_upright(camera, fovy):
     """The green goal marker appears where MuJoCo's camera model projects the goal, in the image
-    orientation where a point above the goal appears above it (upright), not mirrored."""
-    with MetaWorldTask("push-v3", image_size=96, camera=camera) as task:  # push's goal marker is green
+    orientation where a point above the goal appears above it (upright), not mirrored; with a
+    narrower field of view (zoomed in) too."""
+    with MetaWorldTask(
+        "push-v3", image_size=96, camera=camera, fovy=fovy
+    ) as task:  # push's goal marker is green
         task.reset(placement_seed(0, "test", 0))
         image = task.render()
         assert image.shape == (96, 96, 3) and image.dtype == np.uint8
@@ -93,6 +101,19 @@ def test_render_is_upright(camera):
         rows, cols = np.nonzero((g > 120) & (r < 90) & (b < 90))
         assert rows.size >= 3, "no goal marker in the image"
         assert abs(cols.mean() - u) < 3 and abs(rows.mean() - v) < 3, (cols.mean(), rows.mean(), u, v)
+
+
+def test_narrower_field_of_view_magnifies_the_marker():
+    """fovy=30 instead of the corner camera's 45 degrees: the goal marker covers about
+    (tan 22.5 / tan 15)^2 = 2.4 times the pixels."""
+    areas = []
+    for fovy in (None, 30):
+        with MetaWorldTask("push-v3", image_size=96, fovy=fovy) as task:
+            task.reset(placement_seed(0, "test", 0))
+            r, g, b = (task.render()[..., i].astype(int) for i in range(3))
+            areas.append(int(((g > 120) & (r < 90) & (b < 90)).sum()))
+    ratio = (np.tan(np.deg2rad(22.5)) / np.tan(np.deg2rad(15))) ** 2
+    assert areas[0] >= 3 and 0.6 * ratio < areas[1] / areas[0] < 1.5 * ratio, areas
 
 
 def test_expert_solves_and_success_is_the_tasks_flag(push):

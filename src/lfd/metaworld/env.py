@@ -110,19 +110,27 @@ class MetaWorldTask:
         task: a Meta-World task name (:func:`task_names`), e.g. ``"push-v3"``.
         image_size: side (px) of the square camera images.
         camera: one of :data:`CAMERAS`.
+        fovy: the camera's vertical field of view in degrees (None: the scene's, 45 for
+            ``corner``); a narrower one zooms in on the middle of the same view.
 
     Raises:
-        ValueError: unknown task or camera, or an image size outside 16..1024.
+        ValueError: unknown task or camera, an image size outside 16..1024, or ``fovy`` outside 5..120.
 
     Use as a context manager (or call :meth:`close`) to free the renderer.
     """
 
-    def __init__(self, task: str, image_size: int = 96, camera: str = "corner") -> None:
+    def __init__(
+        self, task: str, image_size: int = 96, camera: str = "corner", fovy: float | None = None
+    ) -> None:
         check_task(task)
         if camera not in CAMERAS:
             raise ValueError(f"camera: expected one of {CAMERAS}, got {camera!r}")
         if isinstance(image_size, bool) or not isinstance(image_size, int) or not 16 <= image_size <= 1024:
             raise ValueError(f"image_size: expected an int in 16..1024 px, got {image_size!r}")
+        if fovy is not None and (
+            isinstance(fovy, bool) or not isinstance(fovy, (int, float)) or not 5.0 <= float(fovy) <= 120.0
+        ):
+            raise ValueError(f"fovy: expected degrees in 5..120 or None, got {fovy!r}")
         from metaworld.env_dict import ALL_V3_ENVIRONMENTS
         from metaworld.policies import ENV_POLICY_MAP
 
@@ -132,6 +140,11 @@ class MetaWorldTask:
         )
         quality = env.model.vis.quality
         quality.shadowsize, quality.offsamples = 0, 0  # ~10x faster software rendering, same scene
+        if fovy is not None:
+            import mujoco
+
+            env.model.cam_fovy[mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_CAMERA, camera)] = float(fovy)
+        self.fovy = None if fovy is None else float(fovy)
         self._enlarge_goal_marker(env)
         self.env = env
         self._expert = ENV_POLICY_MAP[task]()

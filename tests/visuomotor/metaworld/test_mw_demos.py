@@ -102,11 +102,22 @@ def test_verification_refuses_changed_files_and_other_settings(tiny, tmp_path):
         ("n_train", 0, "data.n_train must be"),
         ("n_steps", 600, "data.n_steps must be an integer in 10..500"),
         ("camera", "front", "data.camera must be one of"),
+        ("camera_fovy", 200, "data.camera_fovy must be degrees in 5..120"),
+        ("camera_fovy", "wide", "data.camera_fovy must be degrees in 5..120"),
     ],
 )
 def test_bad_settings_are_one_line(key, value, message):
     with pytest.raises(ValueError, match=message):
         MetaWorldDataConfig(**{**TINY, key: value})
+
+
+def test_field_of_view_is_content_and_unset_keeps_old_datasets_valid():
+    """A set ``camera_fovy`` changes what an episode holds (its hash); unset, the settings and the
+    hash are those of a dataset made before the setting existed (no ``camera_fovy`` key)."""
+    plain, zoomed = MetaWorldDataConfig(**TINY), MetaWorldDataConfig(**{**TINY, "camera_fovy": 30})
+    assert "camera_fovy" not in plain.to_dict() and zoomed.to_dict()["camera_fovy"] == 30.0
+    assert plain.content_sha256() != zoomed.content_sha256()
+    assert MetaWorldDataConfig(**{**TINY, "camera_fovy": None}).content_sha256() == plain.content_sha256()
 
 
 def test_items_of_both_layouts(tiny):

@@ -279,3 +279,102 @@ def test_bad_replan_every_is_refused(policy, bad):
         with pytest.raises(ValueError, match="replan_every") as error:
             make()
         assert "\n" not in str(error.value)
+
+
+def reference_switching(params, y0=START, steps=STEPS, sub=40):
+    """RK4 of the pastor DMP as in :func:`reference`, with goal *and* weights ``params(m)`` during
+    control step ``m`` (the state carries over each switch). Samples ``(steps + 1, n)``."""
+    tau = DURATION
+    centres = np.exp(-ALPHA_S * np.arange(K) / (K - 1))
+    widths = -np.log(OVERLAP) / np.diff(centres) ** 2
+    widths = np.append(widths, widths[-1])
+
+    def derivative(t, y, z, g, w):
+        s = np.exp(-ALPHA_S * t / tau)
+        psi = np.exp(-widths * (s - centres) ** 2)
+        force = STIFFNESS * (w @ (s * psi / psi.sum())) - STIFFNESS * (g - y0) * s
+        return z / tau, (ALPHA_Z * (BETA_Z * (g - y) - z) + force) / tau
+
+    y, z, h = np.array(y0, dtype=np.float64), np.zeros(len(y0)), DT / sub
+    out = [y.copy()]
+    for m in range(steps):
+        g, w = params(m)
+        for i in range(sub):
+            t = m * DT + i * h
+            k1 = derivative(t, y, z, g, w)
+            k2 = derivative(t + h / 2, y + h / 2 * k1[0], z + h / 2 * k1[1], g, w)
+            k3 = derivative(t + h / 2, y + h / 2 * k2[0], z + h / 2 * k2[1], g, w)
+            k4 = derivative(t + h, y + h * k3[0], z + h * k3[1], g, w)
+            y = y + h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+            z = z + h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        out.append(y.copy())
+    return np.array(out)
+
+
+def test_replanning_the_weights_follows_the_new_images_dmp_from_the_current_state(policy, monkeypatch):
+    """``replan_weights=True``: at steps k and 2k the goal and the forcing weights both come from
+    the new image (through ``plan_dmp`` with the start state as input); the commands are the
+    reference integration with both switched there (state carried over), so position is
+    continuous, and the arm ends at the last image's goal. Planning the goal only differs."""
+    k = 10
+    goal, weights = network_parameters(policy, frame(0))
+    rng = np.random.default_rng(3)
+    params = [(goal, weights)] + [
+        (goal + rng.normal(0, 0.1, N), weights + rng.normal(0, 0.3, weights.shape)) for _ in range(2)
+    ]
+    frames = [frame(0), frame(5), frame(9)]
+    planned = []
+
+    def which(image):
+        return next(j for j, f in enumerate(frames) if np.array_equal(f, image))
+
+    def plan_dmp(image, joints, n_steps=None):
+        i = which(image)
+        planned.append((i, np.array(joints)))
+        g, w = params[i]
+        layer = policy.layer(n_steps)
+        inputs = (torch.from_numpy(np.asarray(x, np.float64))[None] for x in (joints, g, w))
+        traj, velocity, _ = layer(*inputs, return_derivatives=True)
+        return DMPPlan(traj[0].numpy(), np.asarray(joints, np.float64), g, w, velocity[0].numpy())
+
+    monkeypatch.setattr(policy, "plan_dmp", plan_dmp)
+    monkeypatch.setattr(policy, "predict_goal", lambda image, start: params[which(image)][0])
+    targets, velocity, looked, held = run(
+        policy.controller(DT, replan_every=k, replan_weights=True), lambda step: frames[min(step // k, 2)]
+    )
+    assert looked == list(range(0, STEPS, k))
+    assert [i for i, _ in planned] == [0, 1, 2, 2, 2, 2, 2, 2, 2, 2, 2, 2]
+    assert all(np.array_equal(q, START) for _, q in planned)  # conditioned on the start state
+    expected = reference_switching(lambda m: params[min(m // k, 2)])
+    np.testing.assert_allclose(targets, expected[1:], atol=5e-6, rtol=0)
+    np.testing.assert_allclose(targets[-1], params[2][0], atol=1e-5)
+    for step, i in ((k, 1), (2 * k, 2)):
+        # no jump: the first new target leaves the old plan by at most what the change of
+        # acceleration, K (2 |dg| + sum |dw|) / tau^2 (pastor, basis activations <= 1), makes in one period
+        plan, _ = held[step]
+        dg, dw = np.abs(params[i][0] - params[i - 1][0]), np.abs(params[i][1] - params[i - 1][1]).sum(-1)
+        bound = 0.5 * STIFFNESS * (2 * dg + dw) * (DT / DURATION) ** 2
+        assert np.all(np.abs(targets[step] - plan[step + 1]) <= bound)
+    goal_only, _, _, _ = run(policy.controller(DT, replan_every=k), lambda step: frames[min(step // k, 2)])
+    assert np.abs(goal_only - targets).max() > 0.01
+
+
+def test_free_response_is_the_critically_damped_solution(policy):
+    """The homogeneous spring-damper from an offset and a velocity: with the default gains
+    (beta_z = alpha_z / 4) it is (h0 + (v0 + w h0) t) exp(-w t), w = alpha_z / (2 tau)."""
+    offset, rate = np.array([0.1, -0.2, 0.0, 0.05]), np.array([0.0, 0.3, -0.4, 0.1])
+    t = np.arange(30) * DT
+    omega = ALPHA_Z / (2 * DURATION)
+    expected = (offset + (rate + omega * offset) * t[:, None]) * np.exp(-omega * t)[:, None]
+    position, velocity = policy.free_response(offset, rate, 30)
+    np.testing.assert_allclose(position, expected, atol=1e-12)
+    b = rate + omega * offset
+    expected_velocity = (b - omega * (offset + b * t[:, None])) * np.exp(-omega * t)[:, None]
+    np.testing.assert_allclose(velocity, expected_velocity, atol=1e-12)
+
+
+@pytest.mark.parametrize("bad", [1.0, "yes", None])
+def test_bad_replan_weights_is_refused(policy, bad):
+    with pytest.raises(ValueError, match="replan_weights") as error:
+        PlanController(policy, DT, 5, bad)
+    assert "\n" not in str(error.value)

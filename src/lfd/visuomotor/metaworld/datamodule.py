@@ -127,7 +127,7 @@ class MetaWorldDataModule(L.LightningDataModule):
     of ``mode`` (module docstring).
 
     Args:
-        task, seed, n_train, n_val, image_size, camera, n_steps, n_basis, max_attempts: the
+        task, seed, n_train, n_val, image_size, camera, camera_fovy, n_steps, n_basis, max_attempts: the
             content (:class:`~lfd.visuomotor.metaworld.demos.MetaWorldDataConfig`).
         name, root: the dataset folder ``<root>/<name>``.
         mode: ``"dmp"`` or ``"velocity"`` (the policy's ``item_mode``; ``train.py`` passes it).
@@ -162,6 +162,7 @@ class MetaWorldDataModule(L.LightningDataModule):
         n_val: int = 10,
         image_size: int = 96,
         camera: str = "corner",
+        camera_fovy: float | None = None,
         n_steps: int = 150,
         n_basis: int = 20,
         max_attempts: int = 5,
@@ -186,6 +187,7 @@ class MetaWorldDataModule(L.LightningDataModule):
             n_val=n_val,
             image_size=image_size,
             camera=camera,
+            camera_fovy=camera_fovy,
             n_steps=n_steps,
             n_basis=n_basis,
             max_attempts=max_attempts,

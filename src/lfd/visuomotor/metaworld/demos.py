@@ -67,6 +67,8 @@ class MetaWorldDataConfig:
         seed: placement streams' seed.
         n_train, n_val: kept expert episodes in the train and validation splits.
         image_size: side (px) of the square camera images; camera: the fixed camera.
+        camera_fovy: its vertical field of view, degrees (None: the scene's; a narrower one
+            zooms in on the middle of the view).
         n_steps: control steps per demonstration (0.0125 s each).
         n_basis: DMP basis functions per state dimension.
         max_attempts: placements tried per episode before generation fails.
@@ -81,6 +83,7 @@ class MetaWorldDataConfig:
     n_val: int = 10
     image_size: int = 96
     camera: str = "corner"
+    camera_fovy: float | None = None
     n_steps: int = 150
     n_basis: int = 20
     max_attempts: int = 5
@@ -98,6 +101,16 @@ class MetaWorldDataConfig:
         check_int(self.n_val, "data.n_val", minimum=1)
         _int_in(self.image_size, "data.image_size", 16, 1024)
         check_choice(self.camera, "data.camera", CAMERAS)
+        if self.camera_fovy is not None:
+            if isinstance(self.camera_fovy, bool) or not isinstance(self.camera_fovy, (int, float)):
+                raise ValueError(
+                    f"data.camera_fovy must be degrees in 5..120 or null, got {self.camera_fovy!r}"
+                )
+            if not 5.0 <= float(self.camera_fovy) <= 120.0:
+                raise ValueError(
+                    f"data.camera_fovy must be degrees in 5..120 or null, got {self.camera_fovy!r}"
+                )
+            object.__setattr__(self, "camera_fovy", float(self.camera_fovy))
         _int_in(self.n_steps, "data.n_steps", 10, 500)
         _int_in(self.n_basis, "data.n_basis", 1, 200)
         _int_in(self.max_attempts, "data.max_attempts", 1, 100)
@@ -117,7 +130,11 @@ class MetaWorldDataConfig:
         return {"train": self.n_train, "val": self.n_val}[split]
 
     def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        """The settings; ``camera_fovy`` only when set (datasets made before it existed stay valid)."""
+        out = dataclasses.asdict(self)
+        if out["camera_fovy"] is None:
+            del out["camera_fovy"]
+        return out
 
     def content_sha256(self) -> str:
         """Hash of everything that defines an episode's bytes (not the episode counts)."""
@@ -251,7 +268,7 @@ def generate_demonstrations(cfg: MetaWorldDataConfig, out_dir: str | Path, progr
     dropped = {s: 0 for s in STORED_SPLITS}
     todo = [(s, i) for s in STORED_SPLITS for i in range(cfg.count(s))]
     with (
-        MetaWorldTask(cfg.task, image_size=cfg.image_size, camera=cfg.camera) as task,
+        MetaWorldTask(cfg.task, image_size=cfg.image_size, camera=cfg.camera, fovy=cfg.camera_fovy) as task,
         tqdm(todo, desc=f"{cfg.task} demonstrations", disable=not progress, unit="ep") as bar,
     ):
         for split, i in bar:

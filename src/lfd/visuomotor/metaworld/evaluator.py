@@ -120,6 +120,8 @@ class MetaWorldEvalSettings:
         dmp_replan_every: control steps between re-plans of the DMP-planning policies (those with
             ``item_mode == "dmp"``: CNN -> DMP), passed to their controller as ``replan_every``;
             None = plan once per episode, as trained.
+        dmp_replan_weights: with ``dmp_replan_every``, each re-plan re-predicts the DMP's forcing
+            weights as well as its goal (the controller's ``replan_weights``); False: the goal only.
     """
 
     task: str | None = None
@@ -134,6 +136,7 @@ class MetaWorldEvalSettings:
     gif_every: int = 2
     torch_threads: int = 1
     dmp_replan_every: int | None = None
+    dmp_replan_weights: bool = False
 
     def __post_init__(self) -> None:
         def fix(name: str, value: Any) -> None:
@@ -158,6 +161,10 @@ class MetaWorldEvalSettings:
             "dmp_replan_every",
             check_int(self.dmp_replan_every, "eval.dmp_replan_every", minimum=1, optional=True),
         )
+        if not isinstance(self.dmp_replan_weights, bool):
+            raise ValueError(
+                f"eval.dmp_replan_weights must be true or false, got {self.dmp_replan_weights!r}"
+            )
         fix("kinds", _kind_list(self.kinds, "eval.kinds", optional=True))
         fix("colour_tta", _kind_list(self.colour_tta, "eval.colour_tta", optional=False))
         execution = self.chunk_execution or {}
@@ -230,6 +237,7 @@ class _Spec:
     seed: int
     settings: MetaWorldEvalSettings
     loader: Callable[[Path], Any]
+    fovy: float | None = None
 
 
 @dataclass(frozen=True)
@@ -244,7 +252,7 @@ class _EpisodeRunner:
 
     def __init__(self, spec: _Spec) -> None:
         self.spec = spec
-        self.task = MetaWorldTask(spec.task, image_size=spec.image_size, camera=spec.camera)
+        self.task = MetaWorldTask(spec.task, image_size=spec.image_size, camera=spec.camera, fovy=spec.fovy)
         self.policies: dict[str, Any] = {}
         self.warm: set[str] = set()
 
@@ -258,7 +266,8 @@ class _EpisodeRunner:
         return self.policies[checkpoint]
 
     def controller(self, policy: Any) -> Any:
-        return _make_controller(policy, self.task.control_dt, self.spec.settings.dmp_replan_every)
+        s = self.spec.settings
+        return _make_controller(policy, self.task.control_dt, s.dmp_replan_every, s.dmp_replan_weights)
 
     def episode(self, job: _Job) -> EpisodeResult:
         """Episode ``job.episode`` of the split with ``job.kind``'s policy (module docstring)."""
@@ -333,17 +342,26 @@ def _prepare_policy(spec: _Spec, kind: str, checkpoint: Path) -> Any:
     return policy
 
 
-def _make_controller(policy: Any, dt: float, replan_every: int | None) -> Any:
+def _make_controller(policy: Any, dt: float, replan_every: int | None, replan_weights: bool = False) -> Any:
     """``policy.controller(dt)``; a DMP-planning policy (``item_mode == "dmp"``) gets
     ``replan_every`` when set (as the keyword of its ``controller``, else as its controller's
-    attribute ``replan_every``).
+    attribute ``replan_every``), and ``replan_weights`` when true (keyword only).
 
     Raises:
-        ValueError: ``replan_every`` is set and the policy's controller has no such setting.
+        ValueError: ``replan_every`` is set and the policy's controller has no such setting, or
+            ``replan_weights`` is true and its ``controller`` takes no such keyword.
     """
     if replan_every is None or getattr(policy, "item_mode", None) != "dmp":
         return policy.controller(dt)
-    if "replan_every" in inspect.signature(policy.controller).parameters:
+    parameters = inspect.signature(policy.controller).parameters
+    if replan_weights:
+        if "replan_weights" not in parameters:
+            raise ValueError(
+                f"eval.dmp_replan_weights=true: the {getattr(policy, 'kind', type(policy).__name__)} "
+                "policy's controller cannot re-plan its weights; set eval.dmp_replan_weights=false"
+            )
+        return policy.controller(dt, replan_every=replan_every, replan_weights=True)
+    if "replan_every" in parameters:
         return policy.controller(dt, replan_every=replan_every)
     controller = policy.controller(dt)
     if not hasattr(controller, "replan_every"):
@@ -540,7 +558,10 @@ class MetaWorldEvaluator:
         ordered = {kind: Path(checkpoints[kind]) for kind in POLICIES if kind in checkpoints}
         for kind, path in ordered.items():
             self._check_checkpoint(kind, path, task)
-        spec = _Spec(task, int(cfg.image_size), str(cfg.camera), int(cfg.seed), s, self.policy_loader)
+        fovy = getattr(cfg, "camera_fovy", None)
+        spec = _Spec(
+            task, int(cfg.image_size), str(cfg.camera), int(cfg.seed), s, self.policy_loader, fovy=fovy
+        )
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
         threads = torch.get_num_threads()

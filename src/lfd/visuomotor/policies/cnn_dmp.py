@@ -40,12 +40,15 @@ class DMPPlan:
         start: ``(n,)`` / ``(B, n)`` the DMP's start ``y0`` (the episode's start joints).
         goal: ``(n,)`` / ``(B, n)`` the goal the trajectory converges to (de-normalised).
         weights: ``(n, K)`` / ``(B, n, K)`` forcing weights (de-normalised).
+        velocity: the trajectory's exact velocity, same shape, per second (None: not known; a
+            re-plan then takes central differences of ``trajectory``).
     """
 
     trajectory: np.ndarray
     start: np.ndarray
     goal: np.ndarray
     weights: np.ndarray
+    velocity: np.ndarray | None = None
 
 
 class CNNDMPPolicy(KeypointPolicy):
@@ -205,12 +208,15 @@ class CNNDMPPolicy(KeypointPolicy):
             t, predicted, batch["trajectory"][0].cpu().numpy(), f"CNN->DMP, episode {int(batch['index'][0])}"
         )
 
-    def controller(self, dt: float, replan_every: int | None = None) -> PlanController:
+    def controller(
+        self, dt: float, replan_every: int | None = None, replan_weights: bool = False
+    ) -> PlanController:
         """A :class:`~lfd.visuomotor.policies.control.PlanController`: one :meth:`plan` on the
         episode's first observation, then the plan tracked every ``dt`` (s); with
         ``replan_every=k`` (an int >= 1) the DMP's goal is re-predicted from the camera every
-        ``k`` steps and changed online (:meth:`predict_goal`, :meth:`change_goal`)."""
-        return PlanController(self, dt, replan_every=replan_every)
+        ``k`` steps and changed online (:meth:`predict_goal`, :meth:`change_goal`), and with
+        ``replan_weights=True`` its forcing weights too (:meth:`replan`)."""
+        return PlanController(self, dt, replan_every=replan_every, replan_weights=replan_weights)
 
     @torch.inference_mode()
     def plan(self, image, joints, n_steps: int | None = None) -> np.ndarray:
@@ -230,8 +236,9 @@ class CNNDMPPolicy(KeypointPolicy):
         :meth:`controller`)."""
         img, q, batched = self._observation(image, joints)
         goal_n, weights_n = self.predict_params(img, q)
-        traj = self.rollout(q, goal_n, weights_n, n_steps=n_steps)
-        values = [traj, q, self.denormalise("goal", goal_n), self.denormalise("weights", weights_n)]
+        goal, weights = self.denormalise("goal", goal_n), self.denormalise("weights", weights_n)
+        traj, velocity, _ = self.layer(n_steps)(q, goal, weights, return_derivatives=True)
+        values = [traj, q, goal, weights, velocity]
         values = [x.double().cpu().numpy() for x in values]
         return DMPPlan(*(values if batched else [x[0] for x in values]))
 
@@ -244,6 +251,73 @@ class CNNDMPPolicy(KeypointPolicy):
         img, q, batched = self._observation(image, start_joints)
         goal = self.denormalise("goal", self.predict_params(img, q)[0]).double().cpu().numpy()
         return goal if batched else goal[0]
+
+    def replan(self, plan: DMPPlan, step: int, image, start_joints) -> DMPPlan:
+        """``plan`` with its DMP's goal *and* forcing weights re-predicted from a new camera image at
+        sample ``step`` (the re-planning controller's ``replan_weights=True``).
+
+        The network sees ``image`` with the episode's *start* joints (its training input) and gives
+        new parameters ``(g', w')``. From ``step`` on the plan follows the DMP with these parameters
+        from its current position and velocity: that is the new parameters' rollout from the
+        episode's start plus the transformation system's free response to the difference in
+        position and velocity at ``step`` (exact: the forcing depends only on the phase, ``y0``,
+        ``g'`` and ``w'``, so two solutions differ by a solution of the homogeneous spring-damper
+        ``tau^2 h'' = -alpha_z beta_z h - alpha_z tau h'``). The hand leaves the old plan without
+        a jump in position or velocity and converges onto the new one (time constant
+        ``2 tau / alpha_z``, critically damped by default).
+
+        Args:
+            plan: from :meth:`plan_dmp` (or an earlier :meth:`change_goal` / :meth:`replan`).
+            step: the sample at which the plan changes, ``1 <= step < T - 1`` (velocities are
+                central differences of the sampled paths).
+            image: camera image uint8 ``(H, W, 3)`` (unbatched plans only).
+            start_joints: ``(n,)`` the episode's start state.
+
+        Returns:
+            A new :class:`DMPPlan` (same start; the new goal and weights).
+
+        Raises:
+            ValueError: a batched plan, or ``step`` outside ``1 .. T - 2``.
+        """
+        trajectory = np.asarray(plan.trajectory)
+        n_samples = trajectory.shape[-2]
+        if trajectory.ndim != 2:
+            raise ValueError(
+                f"CNNDMPPolicy.replan: expected an unbatched (T, n) plan, got {trajectory.shape}"
+            )
+        if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or not 1 <= step < n_samples - 1:
+            raise ValueError(f"CNNDMPPolicy.replan: step must be an int in 1..{n_samples - 2}, got {step!r}")
+        new = self.plan_dmp(image, start_joints, n_steps=n_samples)
+        old_velocity, new_velocity = (
+            _central_velocity(p.trajectory, self.control_dt) if p.velocity is None else p.velocity
+            for p in (plan, new)
+        )
+        offset = trajectory[step] - new.trajectory[step]
+        rate = old_velocity[step] - new_velocity[step]
+        position, velocity = self.free_response(offset, rate, n_samples - step)
+        out, out_velocity = new.trajectory.copy(), np.array(new_velocity, dtype=np.float64)
+        out[step:] += position
+        out_velocity[step:] += velocity
+        return replace(new, trajectory=out, velocity=out_velocity)
+
+    def free_response(self, offset, rate, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
+        """The DMP transformation system's homogeneous solution sampled every :attr:`control_dt` s
+        from position ``offset`` ``(n,)`` and velocity ``rate`` ``(n,)`` (per second):
+        ``tau^2 h'' = -alpha_z beta_z h - alpha_z tau h'`` with this policy's gains and ``tau``
+        (exact, through the 2 x 2 system's matrix exponential). Returns positions and velocities,
+        each ``(n_samples, n)`` float64."""
+        from scipy.linalg import expm
+
+        layer = self.layer()
+        gains, tau = layer.gains, float(layer.tau)
+        system = np.array([[0.0, 1.0], [-gains.alpha_z * gains.beta_z / tau**2, -gains.alpha_z / tau]])
+        step = expm(system * self.control_dt)
+        state = np.stack([np.asarray(offset, np.float64), np.asarray(rate, np.float64)])  # (2, n)
+        out = np.empty((2, n_samples, state.shape[1]))
+        for i in range(n_samples):
+            out[:, i] = state
+            state = step @ state
+        return out[0], out[1]
 
     def change_goal(self, plan: DMPPlan, step: int, goal) -> DMPPlan:
         """``plan`` with its DMP's goal switched to ``goal`` at sample ``step`` (online goal change,
@@ -277,11 +351,12 @@ class CNNDMPPolicy(KeypointPolicy):
                 f"CNNDMPPolicy.change_goal: step must be an int in 0..{n_samples - 1}, got {step!r}"
             )
         change = goal - plan.goal
-        trajectory = plan.trajectory.copy()
+        trajectory, velocity = plan.trajectory.copy(), plan.velocity
         if step + 1 < n_samples and np.any(change != 0.0):
             response = self.goal_step_response(change, plan.weights, int(step), n_samples)
             trajectory[..., step + 1 :, :] += response[..., 1:, :]
-        return replace(plan, trajectory=trajectory, goal=goal)
+            velocity = None  # the response's velocity is not computed: central differences if needed
+        return replace(plan, trajectory=trajectory, goal=goal, velocity=velocity)
 
     @torch.inference_mode()
     def goal_step_response(self, change, weights, step: int, n_samples: int) -> np.ndarray:
@@ -329,6 +404,11 @@ class CNNDMPPolicy(KeypointPolicy):
         )
         runner.reset(DMPState(zero, zero, step * dt))
         return np.stack([zero] + [runner.step(dt).y for _ in range(rest - 1)], axis=-2)
+
+
+def _central_velocity(trajectory: np.ndarray, dt: float) -> np.ndarray:
+    """``(..., T, n)`` samples every ``dt`` s -> their velocity by central differences (one-sided at the ends)."""
+    return np.gradient(np.asarray(trajectory, dtype=np.float64), dt, axis=-2)
 
 
 def _hold_last(path: torch.Tensor, extra: int) -> torch.Tensor:

@@ -61,14 +61,22 @@ class PlanController(_PolicyController):
             input in training), and ``policy.change_goal(plan, step, goal)`` switches the
             DMP's goal at this step, keeping its state, weights, phase and ``tau``; the plan
             from this step to the horizon is integrated anew and tracked as before.
+        replan_weights: with ``replan_every``, re-predict the forcing weights too, not only the
+            goal: ``policy.replan(plan, step, image, start_joints)`` switches the DMP to the new
+            image's goal and weights from its current position and velocity.
 
     Raises:
         ValueError: ``replan_every`` is not an int >= 1 or None.
     """
 
-    def __init__(self, policy, dt: float, replan_every: int | None = None) -> None:
+    def __init__(
+        self, policy, dt: float, replan_every: int | None = None, replan_weights: bool = False
+    ) -> None:
         super().__init__(policy, dt)
         self.replan_every, _ = chunk_execution(replan_every, None, "PlanController")
+        if not isinstance(replan_weights, bool):
+            raise ValueError(f"PlanController: replan_weights must be a bool, got {replan_weights!r}")
+        self.replan_weights = replan_weights
         self.plan: np.ndarray | None = None
         self.velocity: np.ndarray | None = None
         self.horizon: int | None = None
@@ -110,8 +118,11 @@ class PlanController(_PolicyController):
             self.velocity = np.gradient(self.plan, self.dt, axis=0)
         elif self._replans(step):
             t0 = time.perf_counter()
-            goal = self.policy.predict_goal(obs.image, self.start_joints)
-            self.dmp_plan = self.policy.change_goal(self.dmp_plan, step, goal)
+            if self.replan_weights:
+                self.dmp_plan = self.policy.replan(self.dmp_plan, step, obs.image, self.start_joints)
+            else:
+                goal = self.policy.predict_goal(obs.image, self.start_joints)
+                self.dmp_plan = self.policy.change_goal(self.dmp_plan, step, goal)
             self.plan = np.asarray(self.dmp_plan.trajectory, dtype=np.float64)
             latencies.append((time.perf_counter() - t0) * 1e3)
             self.velocity = np.gradient(self.plan, self.dt, axis=0)
