@@ -8,6 +8,7 @@ records its run's experiment and data settings in its checkpoints, which ``lfd-e
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 from pathlib import Path
@@ -196,10 +197,21 @@ Outputs: outputs/train/<date>_<time>/ (checkpoints, TensorBoard); --hydra-help: 
 """
 
 
+#: Overrides that ask for no experiment, which is the default (``experiment: null``); they are left
+#: out, since the defaults list's ``${experiment}_${model}`` cannot resolve without the group.
+NO_EXPERIMENT = re.compile(r"~experiment(=.*)?|experiment=(null|~)?")
+
+
+def without_experiment_removal(argv: list[str]) -> list[str]:
+    """``argv`` without ``~experiment`` (``~experiment=X``, ``experiment=null``): no experiment is
+    the default, and Hydra could not compose ``configs/train.yaml`` without the group."""
+    return [a for a in argv if not NO_EXPERIMENT.fullmatch(a)]
+
+
 def cli(argv: list[str] | None = None) -> None:
     """The ``lfd-train`` command (``python train.py``): ``--help`` prints :data:`USAGE`."""
     quiet()
-    run_app(main, USAGE, argv)
+    run_app(main, USAGE, without_experiment_removal(list(sys.argv[1:] if argv is None else argv)))
 
 
 if __name__ == "__main__":
