@@ -36,8 +36,8 @@ USER_DOCS = [
 WORK_LOG = {
     "an issue number": r"\bissues?\s*#?\s*\d+|(?<![\w&/#])#\d+\b|\bPR ?#\d+|\bPR \d+|pull request",
     "the main job": r"\bmain job",
-    "a time budget of the work": r"\b(?:15|fifteen)[- ]minute budget|\b(?:the|its|this|our|CPU|training)"
-    r" budget\b|\bat the same budget|\bover (?:its|the) budget|\bwithin budget",
+    "the work's time budget": r"\b(?:15|fifteen)[- ]minute budget|\bover (?:its|the) budget|"
+    r"\b(?:device|session|GPU|machine) (?:time )?budget",
     "a work session": r"\b(?:this|first|next|previous|earlier|later|last|a|one|the GPU) session\b|"
     r"\bsession's (?:loans|machine|GPU)",
     "a borrowed machine": r"\blent\b|\bborrow|\bloans?\b|\bGPU machine\b|\bwhich machine\b",
@@ -83,6 +83,7 @@ def test_the_work_log_patterns_catch_what_they_should():
         "see #12",
         "the main job took 13 min",
         "fits the 15-minute budget",
+        "the device budget is spent",
         "the first session with a GPU lent",
         "## Pending",
         "in the next round",
@@ -92,6 +93,7 @@ def test_the_work_log_patterns_catch_what_they_should():
         "TeachSession owns the session logic",
         "ik.time_budget=0.02",
         "budget 3000 rollouts",
+        "a fixed step budget of 4000 steps",
         "colour #ff0000",
         "the sha256 of the file",
         "12345678 frames",
