@@ -42,7 +42,7 @@ WORK_LOG = {
     r"\bsession's (?:loans|machine|GPU)",
     "a borrowed machine": r"\blent\b|\bborrow|\bloans?\b|\bGPU machine\b|\bwhich machine\b",
     "planned work": r"\bpending\b|\bnext round\b|\bplanned work\b|\bTODO\b|\bFIXME\b|\bwork ?log\b|"
-    r"\bfollow-up\b|\bnext step(?:s)? (?:is|are|would)\b|\bnot (?:measured|done|run) yet\b",
+    r"\bfollow-up\b|\bqueued\b|\bbefore the deadline\b|\bnext step(?:s)? (?:is|are|would)\b|\bnot (?:measured|done|run) yet\b",
     "an internal role": r"\bthe lead engineer\b|\bthe lead's\b",
 }
 #: A commit hash: 7-40 hexadecimal characters with both a digit and a letter.
@@ -88,6 +88,7 @@ def test_the_work_log_patterns_catch_what_they_should():
         "## Pending",
         "in the next round",
         "measured at e169cd1",
+        "queued but not run before the deadline",
     ]
     passed = [
         "TeachSession owns the session logic",
