@@ -42,7 +42,8 @@ WORK_LOG = {
     r"\bsession's (?:loans|machine|GPU)",
     "a borrowed machine": r"\blent\b|\bborrow|\bloans?\b|\bGPU machine\b|\bwhich machine\b",
     "planned work": r"\bpending\b|\bnext round\b|\bplanned work\b|\bTODO\b|\bFIXME\b|\bwork ?log\b|"
-    r"\bfollow-up\b|\bqueued\b|\bbefore the deadline\b|\bnext step(?:s)? (?:is|are|would)\b|\bnot (?:measured|done|run) yet\b",
+    r"\bfollow-up\b|\bqueued\b|\bbefore the deadline\b|\bnext step(?:s)? (?:is|are|would)\b|"
+    r"\bnot (?:measured|done|run) yet\b",
     "an internal role": r"\bthe lead engineer\b|\bthe lead's\b",
 }
 #: A commit hash: 7-40 hexadecimal characters with both a digit and a letter.
@@ -207,6 +208,13 @@ def test_getting_started_imitates_the_joint_csv(samples_root):
     proc = run_documented(command, samples_root)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "0 limit violations" in proc.stdout + proc.stderr
+
+
+def test_getting_started_names_installed_commands():
+    tomllib = pytest.importorskip("tomllib", reason="tomllib is in the standard library from Python 3.11")
+    scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+    named = set(re.findall(r"`(lfd-[\w-]+)", GETTING_STARTED))
+    assert named and named <= set(scripts), named - set(scripts)
 
 
 @pytest.mark.slow
