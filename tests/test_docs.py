@@ -34,7 +34,8 @@ USER_DOCS = [
 
 #: Words of a work log rather than of a manual, each with a pattern (case-insensitive).
 WORK_LOG = {
-    "an issue number": r"\bissues?\s*#?\s*\d+|(?<![\w&/#])#\d+\b|\bPR ?#\d+|\bPR \d+|pull request",
+    "an issue number": r"\bissues?\s*#?\s*\d+|\bthis issue\b|\bthe issue's\b|\bthe issue measured\b|"
+    r"(?<![\w&/#])#\d+\b|\bPR ?#\d+|\bPR \d+|pull request",
     "the main job": r"\bmain job",
     "the work's time budget": r"\b(?:15|fifteen)[- ]minute budget|\bover (?:its|the) budget|"
     r"\b(?:device|session|GPU|machine) (?:time )?budget",
@@ -82,6 +83,7 @@ def test_the_work_log_patterns_catch_what_they_should():
     caught = [
         "fixed in issue 35",
         "see #12",
+        "within the issue's 15 min",
         "the main job took 13 min",
         "fits the 15-minute budget",
         "the device budget is spent",
