@@ -107,7 +107,7 @@ def test_a_fifth_policy_is_its_module_and_its_config(tmp_path, tiny_data):
     metrics = _metrics(work)
     assert set(metrics) == {"toy"}, metrics.keys()
     assert metrics["toy"]["episodes"] == 2 and "tiny" in metrics["toy"]["cases"]
-    assert "[lfd] toy: mean final distance" in out
+    assert _table_row(out, "toy")[1:3] == ["2", f"{100 * metrics['toy']['final_distance_m']['mean']:.2f}"]
     assert "toy" not in POLICIES  # registered in the entry points only, from the files above
 
 
@@ -127,7 +127,14 @@ def test_train_then_evaluate_with_no_other_override(tmp_path, tiny_data):
     out = _run("evaluate.py", cwd=tmp_path)
     metrics = _metrics(tmp_path)
     assert set(metrics) == {"velocity"} and "tiny" in metrics["velocity"]["cases"]
-    assert metrics["velocity"]["episodes"] == 2 and "[lfd] velocity: mean final distance" in out
+    assert metrics["velocity"]["episodes"] == 2 and _table_row(out, "velocity")[1] == "2"
+
+
+def _table_row(out: str, kind: str) -> list[str]:
+    """The cells of ``kind``'s row in the results table that evaluate.py ends with (under its header)."""
+    lines = out.splitlines()
+    header = next(i for i, line in enumerate(lines) if line.split()[:2] == ["policy", "episodes"])
+    return next(line.split() for line in lines[header + 2 :] if line.split()[:1] == [kind])
 
 
 def test_registry_names_each_kind_once_with_its_item_layout():
