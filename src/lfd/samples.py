@@ -271,7 +271,7 @@ def _readme(folder: str, video_notice: list[str], missing: list[str]) -> str:
         "",
         *([f"Not written: {line}", ""] for line in missing),
         "The README's commands on these files (from the repository root; the video ones need",
-        '`pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14`):',
+        '`pip install -e ".[video]" && lfd-install-mediapipe`):',
         "",
         "```bash",
         f"python scripts/analyze_arm.py file={folder}/recording.csv subject.body_mass=80 subject.sex=female side=left",
