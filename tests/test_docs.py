@@ -4,7 +4,8 @@
   borrowed, "the main job") or commit hashes in README.md, docs/, benchmarks/README.md and
   data/README.md: history belongs in CHANGELOG.md.
 * Every row of the README's headline table links the page its numbers come from, and every
-  number of its result column is in that page.
+  number of its result column is in that page; the numbers of the README's other tables are in
+  the pages their sections link.
 * docs/index.md links every page; the getting-started page's Python runs as written; each API
   page names every public name of its package; the site builds with ``mkdocs build --strict``.
 """
@@ -159,6 +160,30 @@ def test_readme_headline_numbers_are_in_the_pages_they_link():
             if not any(contains_number(t, number) for t in texts):
                 missing.append(f"{what[:50]!r}: {number} (not in {[rel(p) for p in pages]})")
     assert not missing, "README headline numbers the linked pages do not hold:\n" + "\n".join(missing)
+
+
+def test_readme_tables_are_in_the_pages_their_sections_link():
+    """The other README tables (a person's arm, imitation, formats, teach): every number is in a page
+    that its section links."""
+    readme = (ROOT / "README.md").read_text()
+    missing, tables = [], 0
+    for section in readme.split("\n## ")[1:]:
+        title = section.splitlines()[0]
+        rows = [line for line in section.splitlines() if line.startswith("|") and not line.startswith("|---")]
+        if title.startswith("Headline") or not rows:
+            continue
+        tables += 1
+        pages = linked_pages(section)
+        texts = [p.read_text() for p in pages]
+        if not pages:
+            missing.append(f"{title!r}: links no page")
+        for row in rows[1:]:
+            cells = [c.strip() for c in row.strip().strip("|").split(" | ")]
+            for number in (n for cell in cells[1:] for n in numbers(cell)):
+                if not any(contains_number(t, number) for t in texts):
+                    missing.append(f"{title[:40]!r}, {cells[0][:40]!r}: {number}")
+    assert tables >= 4
+    assert not missing, "README numbers the section's pages do not hold:\n" + "\n".join(missing)
 
 
 # ---------------------------------------------------------------------------- the site
