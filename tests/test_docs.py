@@ -23,6 +23,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import require
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 USER_DOCS = [
@@ -269,8 +271,11 @@ def test_api_page_covers_the_package(page):
 
 
 def test_site_builds_strict(tmp_path):
-    if not all(importlib.util.find_spec(m) for m in ("mkdocs", "mkdocstrings_handlers.python")):
-        pytest.skip('mkdocs or mkdocstrings-python not installed (pip install -e ".[docs]")')
+    require(
+        all(importlib.util.find_spec(m) for m in ("mkdocs", "mkdocstrings_handlers.python")),
+        "mkdocs or mkdocstrings-python",
+        'pip install -e ".[docs]" (the test extra includes it)',
+    )
     proc = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(tmp_path / "site")],
         cwd=ROOT,
