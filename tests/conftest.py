@@ -175,7 +175,7 @@ def mediapipe_ok() -> bool:
         found = True
     except ImportError:
         found = False
-    require(found, "mediapipe", 'pip install -e ".[video]" && pip install --no-deps mediapipe==0.10.14')
+    require(found, "mediapipe", 'pip install -e ".[video]" && lfd-install-mediapipe')
     return True
 
 

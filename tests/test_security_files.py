@@ -61,7 +61,7 @@ def test_video_extra_pulls_neither_jax_nor_a_second_opencv():
 
 
 def test_the_pose_solution_runs_on_the_video_extra_and_one_opencv():
-    """MediaPipe installed with --no-deps (README) imports and builds the pose estimator; cv2 is the headless one."""
+    """MediaPipe installed by lfd-install-mediapipe imports and builds the pose estimator; cv2 is the headless one."""
     from lfd.human.video.estimator import load_pose_estimator
 
     providers = [d.metadata["Name"].lower() for d in metadata.distributions() if _provides_cv2(d)]
@@ -77,12 +77,19 @@ def _provides_cv2(dist) -> bool:
     return any(str(f).startswith("cv2/__init__") for f in dist.files or [])
 
 
-def test_readme_and_ci_install_mediapipe_without_its_declared_dependencies():
-    readme = (ROOT / "README.md").read_text()
+def test_readme_ci_and_docs_install_mediapipe_without_its_declared_dependencies():
+    """Every command line installing the video extra is followed by lfd-install-mediapipe (pip check stays clean)."""
     ci = (ROOT / ".ci" / "run").read_text()
-    step = "pip install --no-deps mediapipe==0.10.14"
-    assert f'pip install -e ".[video]" && {step}' in readme
-    assert f'pip install -e ".[test,video]" && {step}' in readme and f'".[test,video]" && {step}' in ci
+    step = "lfd-install-mediapipe"
+    assert f'".[test,video]" && {step}' in ci
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), ROOT / "data" / "README.md"]
+    install = 'pip install -e ".[video]"'
+    lines = [(p, line) for p in pages for line in p.read_text().splitlines() if line.startswith(install)]
+    assert any(p.name == "README.md" for p, _ in lines)
+    bad = [f"{p.relative_to(ROOT)}: {line}" for p, line in lines if f'".[video]" && {step}' not in line]
+    assert not bad, "install MediaPipe with lfd-install-mediapipe:\n" + "\n".join(bad)
+    full = [line for line in (ROOT / "README.md").read_text().splitlines() if '".[test,video]"' in line]
+    assert full and all(f'".[test,video]" && {step}' in line for line in full), full
 
 
 def test_imitation_writes_its_dmp_as_json_under_a_json_name(tmp_path):
