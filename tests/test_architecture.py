@@ -163,3 +163,13 @@ def test_tests_mirror_src():
         and d.relative_to(tests) not in packages | modules
     ]
     assert not stray, f"test folders without a matching src/lfd package or module: {stray}"
+
+
+def test_architecture_page_lists_the_layers_of_the_contract():
+    """docs/architecture.md names the layers in the order pyproject.toml's layer contract checks them."""
+    tomllib = pytest.importorskip("tomllib", reason="tomllib: Python 3.11+")
+    contracts = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"]
+    (layers,) = [c["layers"] for c in contracts if c["type"] == "layers"]
+    written = " > ".join(f"`{layer}`" for layer in layers)
+    page = " ".join((ROOT / "docs" / "architecture.md").read_text().split())
+    assert written in page, f"docs/architecture.md should list the layers as {written}"

@@ -246,6 +246,15 @@ def test_getting_started_names_installed_commands():
     assert named and named <= set(scripts), named - set(scripts)
 
 
+def test_readme_lists_every_installed_command():
+    """The README's Commands table has one row per console command of pyproject.toml, and no other."""
+    tomllib = pytest.importorskip("tomllib", reason="tomllib is in the standard library from Python 3.11")
+    scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+    readme = (ROOT / "README.md").read_text()
+    rows = {row[0].strip("`").split()[0] for row in table_rows(readme, "Commands")}
+    assert rows == set(scripts), (sorted(set(scripts) - rows), sorted(rows - set(scripts)))
+
+
 @pytest.mark.slow
 def test_getting_started_commands_run_in_order(tmp_path):
     """Every command of the page, as written (about a minute and a half on 2 cores)."""
