@@ -129,3 +129,16 @@ def test_lightning_tips_are_dropped_and_other_messages_kept(caplog):
         logger.info("💡 Tip: For seamless cloud logging, try installing [litlogger]")
         logger.info("GPU available: False")
     assert [r.getMessage() for r in caplog.records] == ["GPU available: False"]
+
+
+def test_lightnings_internal_deprecation_warning_is_ignored_and_others_kept():
+    import warnings
+
+    from torch.utils._pytree import LeafSpec
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        quiet()
+        LeafSpec()  # what lightning.pytorch.utilities._pytree does (torch warns on construction)
+        warnings.warn("a user's warning", FutureWarning, stacklevel=1)
+    assert [str(w.message) for w in caught] == ["a user's warning"]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -81,12 +82,20 @@ class _NoTips(logging.Filter):
         return not str(record.msg).startswith("💡")
 
 
+#: Warnings that Lightning's own code raises from the versions of torch lfd uses, which no user can act on:
+#: (category, message pattern).
+LIBRARY_WARNINGS = ((FutureWarning, r"`isinstance\(treespec, LeafSpec\)` is deprecated"),)
+
+
 def quiet() -> None:
-    """Lightning's advertisement tips off (its other messages stay)."""
+    """Lightning's advertisement tips off (its other messages stay), and the library-internal warnings of
+    :data:`LIBRARY_WARNINGS` ignored."""
     for name in ("lightning.pytorch.utilities.rank_zero", "lightning.fabric.utilities.rank_zero"):
         logger = logging.getLogger(name)
         if not any(isinstance(f, _NoTips) for f in logger.filters):
             logger.addFilter(_NoTips())
+    for category, message in LIBRARY_WARNINGS:
+        warnings.filterwarnings("ignore", message=message, category=category)
 
 
 def run_app(main: Callable[[], object], usage: str, argv: Sequence[str] | None = None) -> None:

@@ -12,8 +12,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as p
 
+from lfd.sim._pybullet import pybullet as p
 from lfd.sim.depth import depth_to_mm, linear_depth, plane_depth_mm
 
 #: Direction towards the light (world frame) used for every rendering.

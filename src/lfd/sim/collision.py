@@ -51,7 +51,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pybullet as p
+
+from lfd.sim._pybullet import pybullet as p
 
 __all__ = ["CollisionReport", "CollisionWorld", "overlapping_link_pairs"]
 

@@ -11,7 +11,8 @@
 from __future__ import annotations
 
 import numpy as np
-import pybullet as p
+
+from lfd.sim._pybullet import pybullet as p
 
 __all__ = ["ArmJoints", "command_joints"]
 

@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pybullet as p
 
+from lfd.sim._pybullet import pybullet as p
 from lfd.sim.approach import TABLE_Z
 from lfd.sim.camera import Camera
 from lfd.sim.collision import overlapping_link_pairs

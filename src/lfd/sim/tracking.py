@@ -40,8 +40,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pybullet as p
 
+from lfd.sim._pybullet import pybullet as p
 from lfd.sim.joints import ArmJoints, command_joints
 from lfd.sim.scene import ReachScene
 
