@@ -4,6 +4,7 @@ MediaPipe's module folder or a passed file, checked by its published checksum, a
 from __future__ import annotations
 
 import hashlib
+import logging
 import subprocess
 import sys
 import urllib.request
@@ -100,3 +101,51 @@ def test_heavy_runs_without_network_and_is_recorded(installed_heavy, pose2sim_de
     px = kp.pixels
     assert np.all((px > 0) & (px < [1080, 1920]))
     assert np.all(px[:, [11, 12], 1].mean(1) < px[:, [23, 24], 1].mean(1))
+
+
+# ---------------------------------------------------------------------------- MediaPipe's C++ log lines
+#: What MediaPipe 0.10.14 writes on standard error when a pose graph starts (measured on the sports2d demo).
+STARTUP_LINES = [
+    "INFO: Created TensorFlow Lite XNNPACK delegate for CPU.",
+    "WARNING: All log messages before absl::InitializeLog() is called are written to STDERR",
+    "W0000 00:00:1796552345.024021   14440 inference_feedback_manager.cc:114] Feedback manager requires a "
+    "model with a single signature inference. Disabling support for feedback tensors.",
+]
+
+
+def test_cpp_log_lines_go_to_logging_and_the_rest_is_kept(caplog):
+    other_warning = "W1206 10:12:55.123456   14440 calculator_graph.cc:887] a warning that matters"
+    error = "E0000 00:00:1796552345.1   14440 graph.cc:12] an error"
+    text = "\n".join([*STARTUP_LINES, "a line of someone else", other_warning, error, "\r 10%|#  | 1/10"])
+    with caplog.at_level(logging.DEBUG, logger=est.LOGGER.name):
+        rest = est.route_cpp_log(text)
+    assert rest == "a line of someone else\n\r 10%|#  | 1/10"
+    routed = [(r.levelno, r.getMessage()) for r in caplog.records]
+    assert routed == [
+        *[(logging.DEBUG, line) for line in STARTUP_LINES],
+        (logging.WARNING, other_warning),
+        (logging.ERROR, error),
+    ]
+
+
+def test_estimating_a_video_prints_no_mediapipe_log_lines(sports2d_video, mediapipe_ok):
+    """In a fresh process (MediaPipe logs once per process), a few frames through the tracker write none
+    of the start-up lines on standard error; the progress bar is still there."""
+    code = (
+        "import sys; from lfd.human.video import estimate_keypoints; "
+        "kp = estimate_keypoints(sys.argv[1], max_frames=5, progress=True); print(len(kp.t))"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code, str(sports2d_video)], capture_output=True, text=True, timeout=300
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.split() == ["5"]
+    for marker in (
+        "TensorFlow Lite",
+        "absl::InitializeLog",
+        "inference_feedback_manager",
+        "W0000",
+        "gl_context",
+    ):
+        assert marker not in run.stderr, run.stderr
+    assert "5/5" in run.stderr

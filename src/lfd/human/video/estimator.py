@@ -12,11 +12,26 @@ MediaPipe 0.10.14's Python layer predates protobuf 5; every :func:`load_pose_est
 patches it process-wide (idempotent): the removed ``GetPrototype`` calls are restored on
 protobuf's symbol database and message factory, and ``SolutionBase._modify_calculator_options``
 is replaced by a version that works on protobuf 4 to 7. Install with ``pip install "lfd[video]"``.
+
+MediaPipe's C++ code (absl logging, TensorFlow Lite) writes log lines straight to the process's
+standard error from its own threads while a graph starts ("INFO: Created TensorFlow Lite XNNPACK
+delegate for CPU", "W0000 ... inference_feedback_manager.cc ...]"), in the middle of progress bars.
+:func:`load_pose_estimator` builds the graph and waits until it is idle (every calculator opened)
+with standard error captured, then hands those lines to the :mod:`logging` logger
+``lfd.human.video.mediapipe``: start-up chatter at DEBUG, any other warning or error at its own
+level (shown by default); other output of the window is written back to standard error.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import logging
 import os
+import re
+import sys
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +46,7 @@ __all__ = [
     "install_heavy_model",
     "landmarks_of",
     "load_pose_estimator",
+    "route_cpp_log",
 ]
 
 #: Landmark models: name -> MediaPipe's ``model_complexity``.
@@ -45,6 +61,68 @@ _HOW_TO_GET = (
     "or pass pose.heavy_model=PATH / heavy_model=PATH of a verified copy"
 )
 _verified: dict[tuple[str, int, int], bool] = {}
+
+#: Where MediaPipe's C++ log lines go (:func:`load_pose_estimator`).
+LOGGER = logging.getLogger("lfd.human.video.mediapipe")
+#: A C++ log line: absl's ``W0000 00:00:1796552345.024021   14440 file.cc:114] message`` (the seconds since
+#: the epoch, before absl is initialised) or
+#: TensorFlow Lite's ``INFO: message``; the group is the severity.
+_CPP_LOG = re.compile(
+    r"^(?:(?P<absl>[IWEF])\d{4} \d\d:\d\d:\d+\.\d+\s+\d+ [^\s:]+:\d+\]|(?P<tflite>INFO|WARNING|ERROR|FATAL): )"
+)
+#: Start-up lines of every run, which say nothing to a user: logged at DEBUG.
+_STARTUP_CHATTER = (
+    "Created TensorFlow Lite XNNPACK delegate",
+    "All log messages before absl::InitializeLog() is called",
+    "inference_feedback_manager.cc",
+    "gl_context",
+    "GL version",
+)
+_LEVELS = {"I": logging.DEBUG, "W": logging.WARNING, "E": logging.ERROR, "F": logging.CRITICAL}
+
+
+def route_cpp_log(text: str) -> str:
+    """Log MediaPipe's C++ log lines of ``text`` to :data:`LOGGER`; returns the rest of ``text``."""
+    rest = []
+    for line in text.split("\n"):
+        match = _CPP_LOG.match(line)
+        if match is None:
+            rest.append(line)
+            continue
+        severity = (match.group("absl") or match.group("tflite"))[0]
+        level = logging.DEBUG if any(c in line for c in _STARTUP_CHATTER) else _LEVELS[severity]
+        LOGGER.log(level, "%s", line.rstrip())
+    return "\n".join(rest)
+
+
+@contextlib.contextmanager
+def _stderr_to_logging() -> Iterator[None]:
+    """Capture the process's standard error (file descriptor 2) in a temporary file; afterwards route
+    MediaPipe's lines to :data:`LOGGER` (:func:`route_cpp_log`) and write the rest back."""
+    with contextlib.suppress(AttributeError, OSError, ValueError):
+        sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no standard error to capture
+        yield
+        return
+    with tempfile.TemporaryFile() as capture:
+        os.dup2(capture.fileno(), 2)
+        try:
+            yield
+        finally:
+            with contextlib.suppress(AttributeError, OSError, ValueError):
+                sys.stderr.flush()
+            with contextlib.suppress(OSError, AttributeError, TypeError):
+                ctypes.CDLL(None).fflush(None)
+            os.dup2(saved, 2)
+            os.close(saved)
+            capture.seek(0)
+            rest = route_cpp_log(capture.read().decode(errors="replace"))
+            if rest:
+                with contextlib.suppress(AttributeError, OSError, ValueError):
+                    sys.stderr.write(rest)
+                    sys.stderr.flush()
 
 
 def _mediapipe_root() -> Path:
@@ -214,14 +292,19 @@ def load_pose_estimator(
     download = mp_pose.download_utils.download_oss_model
     mp_pose.download_utils.download_oss_model = _no_download
     try:
-        return mp_pose.Pose(
-            static_image_mode=static,
-            model_complexity=MODELS[model],
-            smooth_landmarks=not static,
-            enable_segmentation=False,
-            min_detection_confidence=min_detection_confidence,
-            min_tracking_confidence=min_tracking_confidence,
-        )
+        with _stderr_to_logging():
+            pose = mp_pose.Pose(
+                static_image_mode=static,
+                model_complexity=MODELS[model],
+                smooth_landmarks=not static,
+                enable_segmentation=False,
+                min_detection_confidence=min_detection_confidence,
+                min_tracking_confidence=min_tracking_confidence,
+            )
+            graph = getattr(pose, "_graph", None)  # SolutionBase's CalculatorGraph (MediaPipe 0.10.14)
+            if graph is not None:
+                graph.wait_until_idle()  # every calculator opened: the start-up lines are written
+        return pose
     finally:
         mp_pose.download_utils.download_oss_model = download
 
