@@ -58,3 +58,13 @@ def test_unreachable_target_is_refused_before_searching(demo):
         refine_skill(robot, dmp, task="reach", target=[3.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="refine.method must be one of"):
         refine_skill(robot, dmp, task="reach", target=[0.3, 0.2, 0.2], method="sgd")
+
+
+def test_a_search_that_converges_early_ends_its_progress_bar_saying_so(demo, capsys):
+    robot, dmp, q = demo
+    offset = np.array([0.06, 0.06, -0.05])
+    target = _tool(robot, q[-1:])[0] + 0.1 * offset / np.linalg.norm(offset)
+    result = refine_skill(robot, dmp, task="reach", target=target, seed=1, progress=True)
+    assert result.converged and result.rollouts < 400
+    last = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
+    assert "100%" in last and f"converged after {result.rollouts} of 400 rollouts" in last, last

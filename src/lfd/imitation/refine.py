@@ -182,6 +182,10 @@ def refine_skill(
         search = power if method == "power" else pibb
     try:
         result = search(dmp, reward, **common, **{**options, **search_options})
+        if result.converged and bar.n < bar.total:  # the bar ends at 100 % and says why it stopped early
+            bar.set_postfix_str(f"converged after {bar.n} of {bar.total} rollouts", refresh=False)
+            bar.total = bar.n
+            bar.refresh()
     finally:
         bar.close()
     terms = reward.terms(result.trajectory[None])
