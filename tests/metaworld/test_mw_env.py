@@ -87,20 +87,25 @@ def test_render_is_upright(camera, fovy):
     """The green goal marker appears where MuJoCo's camera model projects the goal, in the image
     orientation where a point above the goal appears above it (upright), not mirrored; with a
     narrower field of view (zoomed in) too."""
-    with MetaWorldTask(
-        "push-v3", image_size=96, camera=camera, fovy=fovy
-    ) as task:  # push's goal marker is green
-        task.reset(placement_seed(0, "test", 0))
-        image = task.render()
-        assert image.shape == (96, 96, 3) and image.dtype == np.uint8
-        goal = task.env._target_pos
-        (u, v), (_, v_above) = _project(task, goal), _project(task, goal + [0.0, 0.0, 0.2])
-        if v_above > v:  # the camera's own image has the world upside down: upright = turned 180 degrees
-            u, v = 96 - u, 96 - v
-        r, g, b = (image[..., i].astype(int) for i in range(3))
-        rows, cols = np.nonzero((g > 120) & (r < 90) & (b < 90))
-        assert rows.size >= 3, "no goal marker in the image"
-        assert abs(cols.mean() - u) < 3 and abs(rows.mean() - v) < 3, (cols.mean(), rows.mean(), u, v)
+    with MetaWorldTask("push-v3", image_size=96, camera=camera, fovy=fovy) as task:  # goal marker: green
+        for index in range(3):  # the first image after each reset, also after earlier episodes
+            task.reset(placement_seed(0, "test", index))
+            image = task.render()
+            assert image.shape == (96, 96, 3) and image.dtype == np.uint8
+            goal = task.env._target_pos
+            (u, v), (_, v_above) = _project(task, goal), _project(task, goal + [0.0, 0.0, 0.2])
+            if v_above > v:  # the camera's own image has the world upside down: upright = turned 180 degrees
+                u, v = 96 - u, 96 - v
+            r, g, b = (image[..., i].astype(int) for i in range(3))
+            rows, cols = np.nonzero((g > 120) & (r < 90) & (b < 90))
+            assert rows.size >= 3, "no goal marker in the image"
+            assert abs(cols.mean() - u) < 1.5 and abs(rows.mean() - v) < 1.5, (
+                index,
+                cols.mean(),
+                rows.mean(),
+                u,
+                v,
+            )
 
 
 def test_narrower_field_of_view_magnifies_the_marker():

@@ -199,6 +199,11 @@ class MetaWorldTask:
             warnings.simplefilter("ignore")
             env.seed(int(seed))  # Meta-World ignores reset(seed=...)
             self._obs, _ = env.reset()
+        import mujoco
+
+        # Meta-World moves the goal site after its last forward pass: without this the first image
+        # of an episode shows the goal marker where the previous placement's put it
+        mujoco.mj_forward(env.model, env.data)
         self.placement = np.asarray(env._last_rand_vec, dtype=np.float64).copy()
         # the state's hand point (between the finger pads) sits a fixed offset from the mocap body
         self._offset = np.asarray(self._obs[:3], dtype=np.float64) - env.data.mocap_pos[0]
