@@ -92,3 +92,11 @@ def test_a_folder_lfd_did_not_write_is_refused_and_its_own_is_replaced(tmp_path,
     out = capsys.readouterr().out
     assert (ours / "recording.csv").read_text().startswith("t,joint,x,y,z,tracked")
     assert "samples: teach_export/" in out and f"in {ours}" in out.splitlines()[-1]
+
+
+def test_an_output_path_under_a_file_is_one_line(tmp_path, capsys):
+    (tmp_path / "afile").write_text("mine")
+    assert lfd.samples.main([str(tmp_path / "afile" / "sub")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("lfd-samples: ") and len(err.splitlines()) == 1
+    assert (tmp_path / "afile").read_text() == "mine"

@@ -345,7 +345,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         written = write_samples(args.out_dir, log=log)
-    except (OutputRefused, NotADirectoryError, PermissionError) as exc:
+    except (OutputRefused, OSError) as exc:
         print(f"lfd-samples: {exc}", file=sys.stderr)
         return 2
     files = [p for p in written.values() for p in ([p] if p.is_file() else sorted(p.rglob("*")))]

@@ -105,3 +105,25 @@ def test_pip_check_is_clean():
         f"a clean pip check ({first})",
         'pip install -c .ci/constraints.txt -e ".[test,video]" && lfd-install-mediapipe',
     )
+
+
+def test_a_corrupt_wheel_and_a_failed_pip_are_one_line(tmp_path, capsys, monkeypatch):
+    import subprocess
+
+    corrupt = tmp_path / "mediapipe-0.10.14-cp311-cp311-manylinux_2_17_x86_64.whl"
+    corrupt.write_bytes(b"not a zip file")
+    with pytest.raises(SystemExit) as exit_:
+        cli(["--wheel", str(corrupt)])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"lfd-install-mediapipe: {corrupt}:") and len(err.splitlines()) == 1
+
+    def failing_pip(*args):
+        raise subprocess.CalledProcessError(1, [sys.executable, "-m", "pip", *args])
+
+    monkeypatch.setattr("lfd.cli.install_mediapipe._pip", failing_pip)
+    with pytest.raises(SystemExit) as exit_:
+        cli([])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "lfd-install-mediapipe: pip download failed (exit 1); see pip's message above"

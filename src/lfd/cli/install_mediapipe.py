@@ -110,8 +110,17 @@ def cli(argv: list[str] | None = None) -> None:
         "--wheel", type=Path, help=f"a downloaded mediapipe-{VERSION} wheel (default: pip download)"
     )
     args = parser.parse_args(argv)
+    try:
+        _install(parser, args.wheel)
+    except subprocess.CalledProcessError as e:
+        parser.exit(
+            2,
+            f"lfd-install-mediapipe: pip {e.cmd[3]} failed (exit {e.returncode}); see pip's message above\n",
+        )
+
+
+def _install(parser: argparse.ArgumentParser, wheel: Path | None) -> None:
     with tempfile.TemporaryDirectory(prefix="lfd-mediapipe-") as tmp:
-        wheel = args.wheel
         if wheel is None:
             _pip("download", "--no-deps", "--only-binary=:all:", f"mediapipe=={VERSION}", "-d", tmp)
             wheel = next(Path(tmp).glob("mediapipe-*.whl"))
@@ -121,8 +130,8 @@ def cli(argv: list[str] | None = None) -> None:
             )
         try:
             rewritten = rewrite_wheel(wheel, Path(tmp))
-        except ValueError as e:
-            parser.exit(2, f"lfd-install-mediapipe: {e}\n")
+        except (ValueError, zipfile.BadZipFile) as e:
+            parser.exit(2, f"lfd-install-mediapipe: {wheel}: {e}\n")
         _pip("install", "--no-deps", "--force-reinstall", str(rewritten))
     print(f"[lfd] installed {rewritten.name} (left out of its requirements: {', '.join(LEFT_OUT)})")
 

@@ -166,6 +166,8 @@ def _rows(path: Path) -> list[dict[str, str]]:
         ({"gif_every": 0}, "eval.gif_every must be an integer >= 1"),
         ({"torch_threads": True}, "eval.torch_threads must be an integer >= 1"),
         ({"dmp_replan_every": 0}, "eval.dmp_replan_every must be an integer >= 1 \\(or None\\)"),
+        ({"dmp_replan_weights": 1}, "eval.dmp_replan_weights must be true or false"),
+        ({"dmp_replan_weights": True}, "eval.dmp_replan_weights=true needs eval.dmp_replan_every"),
         ({"kinds": ["nope"]}, "eval.kinds must be a subset of .*got unknown nope"),
         ({"kinds": []}, "eval.kinds must be a non-empty list"),
         ({"kinds": "cnn_dmp"}, "eval.kinds must be a list of policy kinds"),

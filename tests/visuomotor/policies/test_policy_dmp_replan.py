@@ -378,3 +378,9 @@ def test_bad_replan_weights_is_refused(policy, bad):
     with pytest.raises(ValueError, match="replan_weights") as error:
         PlanController(policy, DT, 5, bad)
     assert "\n" not in str(error.value)
+
+
+def test_replan_weights_without_replan_every_is_refused(policy):
+    with pytest.raises(ValueError, match="replan_weights=True needs replan_every") as error:
+        policy.controller(DT, replan_weights=True)
+    assert "\n" not in str(error.value)

@@ -165,6 +165,8 @@ class MetaWorldEvalSettings:
             raise ValueError(
                 f"eval.dmp_replan_weights must be true or false, got {self.dmp_replan_weights!r}"
             )
+        if self.dmp_replan_weights and self.dmp_replan_every is None:
+            raise ValueError("eval.dmp_replan_weights=true needs eval.dmp_replan_every (an int >= 1)")
         fix("kinds", _kind_list(self.kinds, "eval.kinds", optional=True))
         fix("colour_tta", _kind_list(self.colour_tta, "eval.colour_tta", optional=False))
         execution = self.chunk_execution or {}

@@ -76,6 +76,8 @@ class PlanController(_PolicyController):
         self.replan_every, _ = chunk_execution(replan_every, None, "PlanController")
         if not isinstance(replan_weights, bool):
             raise ValueError(f"PlanController: replan_weights must be a bool, got {replan_weights!r}")
+        if replan_weights and self.replan_every is None:
+            raise ValueError("PlanController: replan_weights=True needs replan_every (an int >= 1)")
         self.replan_weights = replan_weights
         self.plan: np.ndarray | None = None
         self.velocity: np.ndarray | None = None
