@@ -22,7 +22,7 @@ Examples::
 """
 
 from lfd.cli.evaluate import *  # noqa: F403  (the entry point's functions, as the tests and notebooks import them)
-from lfd.cli.evaluate import CONFIGS, cli, main, summary_lines  # noqa: F401
+from lfd.cli.evaluate import CONFIGS, cli, main  # noqa: F401
 
 if __name__ == "__main__":
     cli()

@@ -198,53 +198,6 @@ def evaluate(cfg: DictConfig, out_dir: str | Path, overrides: Sequence[str] | No
     return evaluator.run(datamodule=datamodule, checkpoints=checkpoints, out_dir=Path(out_dir))
 
 
-def summary_lines(metrics: dict[str, Any]) -> list[str]:
-    """One line per evaluated policy kind: for reaching, mean final distance, success and correct
-    approach (where the metrics have them); for a task scored by its success rate (Meta-World's
-    ``success_rate``), the successes out of the episodes, the rate with its 95 % interval, the task
-    and split, and the mean time to success (where the metrics have them), e.g.
-    ``cnn_dmp: 42/50 successes (84 %, 95 % CI 71-92 %) on push-v3 test placements, 0.81 s to success``."""
-
-    def number(value: Any) -> bool:
-        return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-    def success_line(kind: str, m: dict[str, Any]) -> str:
-        rate, n, wins = m["success_rate"], m.get("episodes"), m.get("successes")
-        if not number(wins) and number(n) and number(rate):
-            wins = round(rate * n)
-        line = f"{kind}: {wins}/{n} successes" if number(n) and number(wins) else f"{kind}: success"
-        detail = [f"{100 * rate:.0f} %"] if number(rate) else []
-        ci = m.get("success_ci95")
-        if isinstance(ci, (list, tuple)) and len(ci) == 2 and all(map(number, ci)):
-            detail.append(f"95 % CI {100 * ci[0]:.0f}-{100 * ci[1]:.0f} %")
-        if detail:
-            line += f" ({', '.join(detail)})"
-        where = " ".join(str(m[k]) for k in ("task", "split") if m.get(k) is not None)
-        if where:
-            line += f" on {where} placements"
-        time = m.get("mean_time_to_success_s")
-        if number(time):
-            line += f", {time:.2f} s to success"
-        return line
-
-    lines = []
-    for kind, m in metrics.items():
-        if not isinstance(m, dict):
-            continue
-        if "final_distance_m" not in m:
-            if "success_rate" in m:
-                lines.append(success_line(kind, m))
-            continue
-        d = m["final_distance_m"]
-        mean = d.get("mean") if isinstance(d, dict) else d
-        parts = [f"{kind}: mean final distance {100 * mean:.2f} cm"]
-        for key, label in (("success_5cm", "success"), ("approach_correct", "correct approach")):
-            if isinstance(m.get(key), (int, float)):
-                parts.append(f"{label} {100 * m[key]:.0f} %")
-        lines.append(", ".join(parts) + f" ({m.get('episodes', '?')} episodes)")
-    return lines
-
-
 def _number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
