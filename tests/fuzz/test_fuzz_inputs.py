@@ -1,0 +1,263 @@
+"""Fuzzing every input format: mutated valid samples end in success or one clear line, in bounded time
+and memory (harness in ``fuzz_targets.py``).
+
+For each format a valid sample (from :func:`lfd.samples.write_samples`, the LeRobot reference fixture,
+a tiny policy checkpoint) is mutated by hypothesis: byte edits (flip, truncate, insert, duplicate,
+delete), number tokens in text replaced by hostile values (NaN, inf, 0, -1, 1e9, 1e308, empty, a list,
+an alias), and for JSON and checkpoints structured edits (a leaf replaced, a key dropped or added, a
+tensor reshaped). Every mutated file is read by the format's public reader in a sandboxed worker
+process. The test fails on any run that ends in another exception's traceback, hangs past
+``RUN_TIMEOUT_S``, kills the worker (memory past ``MEMORY_HEADROOM``), refuses in more than one line or
+without naming the file, or writes anything inside the input.
+
+The default suite runs a fixed, derandomised budget per format (``FUZZ_EXAMPLES``); ``-m slow`` runs a
+longer random one (``FUZZ_EXAMPLES_SLOW``).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import re
+import shutil
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+from fuzz_targets import MAX_MESSAGE, TARGETS, Sandbox
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+FUZZ_EXAMPLES = 25
+FUZZ_EXAMPLES_SLOW = 150
+HOSTILE = (
+    "nan", "NaN", "inf", "-inf", "0", "-1", "-3", "1e9", "1e308", "-1e308", "1e-320", "", "[]", "{}",
+    "null", "true", '"x"', "999999999999999999999", "0.0000001", "*a", "[1e9, 1e9]",
+)  # fmt: skip
+NUMBER = re.compile(rb"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
+REFERENCE_LEROBOT = Path(__file__).resolve().parents[1] / "fixtures" / "lerobot_v3_reference"
+
+
+# ---------------------------------------------------------------------------- samples
+@pytest.fixture(scope="module")
+def samples(tmp_path_factory) -> Path:
+    """A samples folder (lfd.samples) plus a LeRobot dataset and a tiny policy checkpoint."""
+    import lightning as L
+    import torch
+
+    from lfd.samples import write_samples
+    from lfd.visuomotor.policies import POLICIES
+
+    root = tmp_path_factory.mktemp("fuzz") / "samples"
+    write_samples(root)
+    shutil.copytree(REFERENCE_LEROBOT, root / "lerobot")
+    policy = POLICIES["cnn_dmp"](
+        image_size=32, channels=[4, 4], hidden=[8], n_basis=5, robot=None, n_joints=4
+    )
+    ckpt = {
+        "state_dict": policy.state_dict(),
+        "hyper_parameters": dict(policy.hparams),
+        "pytorch-lightning_version": L.__version__,
+    }
+    torch.save(ckpt, root / "policy.ckpt")
+    return root
+
+
+# ---------------------------------------------------------------------------- mutations
+@dataclass(frozen=True)
+class Edit:
+    """One mutation, drawn by hypothesis (its repr is what a failure report shows)."""
+
+    kind: str
+    at: int = 0
+    arg: object = None
+
+    def apply(self, data: bytes) -> bytes:
+        at, arg = self.at, self.arg
+        if self.kind == "flip":
+            return data[:at] + bytes([data[at] ^ arg]) + data[at + 1 :] if at < len(data) else data
+        if self.kind == "truncate":
+            return data[:at]
+        if self.kind == "insert":
+            return data[:at] + arg + data[at:]
+        if self.kind == "duplicate":
+            length, times = arg
+            return data[: at + length] + data[at : at + length] * times + data[at + length :]
+        if self.kind == "delete":
+            return data[:at] + data[at + arg :]
+        if self.kind == "number":
+            numbers = list(NUMBER.finditer(data))
+            if not numbers:
+                return data
+            m = numbers[at % len(numbers)]
+            return data[: m.start()] + arg.encode() + data[m.end() :]
+        if self.kind == "json":
+            return _json_apply(data, at, arg)
+        if self.kind == "checkpoint":
+            return _checkpoint_apply(data, at, arg)
+        raise AssertionError(self.kind)
+
+
+def byte_edit(size: int):
+    at = st.integers(0, max(size - 1, 0))
+    return st.one_of(
+        st.builds(Edit, st.just("flip"), at, st.integers(1, 255)),
+        st.builds(Edit, st.just("truncate"), at),
+        st.builds(Edit, st.just("insert"), at, st.binary(min_size=1, max_size=64)),
+        st.builds(Edit, st.just("duplicate"), at, st.tuples(st.integers(1, 4096), st.integers(1, 50))),
+        st.builds(Edit, st.just("delete"), at, st.integers(1, 256)),
+        st.builds(Edit, st.just("number"), st.integers(0, 10**6), st.sampled_from(HOSTILE)),
+        st.builds(Edit, st.just("number"), st.integers(0, 10**6), st.sampled_from(HOSTILE)),
+    )
+
+
+def _json_leaves(node, path=()):
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield from _json_leaves(v, (*path, k))
+    elif isinstance(node, list) and node and not isinstance(node[0], (int, float)):
+        for i, v in enumerate(node):
+            yield from _json_leaves(v, (*path, i))
+    yield path
+
+
+HOSTILE_JSON = (float("nan"), float("inf"), 0, -1, -3, 10**9, 1e308, "", "x", None, True, [], {}, [1e9, 1e9])
+
+
+def _json_apply(data: bytes, at: int, arg) -> bytes:
+    """Replace (or, with ``arg`` "drop", delete) the ``at``-th leaf of a JSON document."""
+    doc = json.loads(data)
+    paths = [p for p in _json_leaves(doc) if p]
+    path = paths[at % len(paths)]
+    parent = doc
+    for key in path[:-1]:
+        parent = parent[key]
+    if arg == "drop" and isinstance(parent, dict):
+        del parent[path[-1]]
+    else:
+        parent[path[-1]] = None if arg == "drop" else arg
+    return json.dumps(doc).encode()
+
+
+def _checkpoint_apply(data: bytes, at: int, arg) -> bytes:
+    import torch
+
+    what, value = arg
+    ckpt = torch.load(io.BytesIO(data), weights_only=True)
+    hp, sd = ckpt["hyper_parameters"], ckpt["state_dict"]
+    if what == "hparam":
+        keys = sorted(hp) + ["unknown_field"]
+        hp[keys[at % len(keys)]] = value
+    elif what == "drop":
+        del sd[sorted(sd)[at % len(sd)]]
+    elif what == "add":
+        sd["extra.weight"] = torch.zeros(3)
+    elif what == "reshape":
+        key = sorted(sd)[at % len(sd)]
+        sd[key] = torch.zeros(sd[key].numel() + 1)
+    out = io.BytesIO()
+    torch.save(ckpt, out)
+    if what != "deflate":
+        return out.getvalue()
+    src, dst = zipfile.ZipFile(io.BytesIO(out.getvalue())), io.BytesIO()
+    with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as z:
+        for info in src.infolist():
+            z.writestr(info.filename, src.read(info), compress_type=zipfile.ZIP_DEFLATED)
+    return dst.getvalue()
+
+
+HOSTILE_HPARAMS = (-3, 0, float("nan"), 10**9, [200000, 200000], "act", "x", None, [], 1e308)
+
+
+def mutation(target_name: str, file_name: str, size: int):
+    """The edits tried on one file of a format."""
+    if target_name == "checkpoint":
+        index = st.integers(0, 10**6)
+        return st.one_of(
+            byte_edit(size),
+            st.builds(
+                Edit,
+                st.just("checkpoint"),
+                index,
+                st.tuples(st.just("hparam"), st.sampled_from(HOSTILE_HPARAMS)),
+            ),
+            st.builds(
+                Edit,
+                st.just("checkpoint"),
+                index,
+                st.tuples(st.sampled_from(["drop", "add", "reshape", "deflate"]), st.none()),
+            ),
+        )
+    if file_name.endswith(".json"):
+        json_edits = st.builds(
+            Edit, st.just("json"), st.integers(0, 10**6), st.sampled_from((*HOSTILE_JSON, "drop"))
+        )
+        return st.one_of(json_edits, json_edits, byte_edit(size))
+    return byte_edit(size)
+
+
+# ---------------------------------------------------------------------------- the check
+def _snapshot(root: Path) -> dict[str, int]:
+    return (
+        {str(p.relative_to(root)): p.stat().st_size for p in sorted(root.rglob("*"))} if root.is_dir() else {}
+    )
+
+
+def check_run(target_name: str, sandbox: Sandbox, path: Path, mutated: str) -> None:
+    before = _snapshot(path)
+    outcome, message = sandbox.run(path)
+    assert outcome in ("ok", "refused"), f"{target_name} ({mutated}): {outcome}\n{message}"
+    if outcome == "refused":
+        assert "\n" not in message.strip(), f"{target_name} ({mutated}): more than one line: {message!r}"
+        assert len(message) <= MAX_MESSAGE, f"{target_name} ({mutated}): {len(message)} characters"
+        assert path.name in message or (path.parent.name in message and path.is_dir()), (
+            f"{target_name} ({mutated}): the message does not name the input: {message}"
+        )
+    assert _snapshot(path) == before, f"{target_name} ({mutated}): the reader wrote inside its input"
+
+
+def fuzz(target_name: str, samples: Path, tmp_path_factory, examples: int, derandomize: bool) -> None:
+    target = TARGETS[target_name]
+    sample = samples / target.sample
+    files = target.mutable or ("",)
+    sandbox = Sandbox(target_name)
+    try:
+        assert sandbox.run(sample) == ("ok", ""), f"the valid {target_name} sample is not read"
+
+        @settings(
+            max_examples=examples,
+            derandomize=derandomize,
+            deadline=None,
+            database=None,
+            suppress_health_check=list(HealthCheck),
+        )
+        @given(st.data())
+        def one(data):
+            work = tmp_path_factory.mktemp(target_name) / sample.name
+            if sample.is_dir():
+                shutil.copytree(sample, work)
+            else:
+                shutil.copy2(sample, work)
+            rel = data.draw(st.sampled_from(files), label="file")
+            victim = work / rel if rel else work
+            original = victim.read_bytes()
+            edit = data.draw(mutation(target_name, victim.name, len(original)), label="edit")
+            victim.write_bytes(edit.apply(original))
+            check_run(target_name, sandbox, work, f"{rel or victim.name}: {edit}")
+            shutil.rmtree(work.parent)
+
+        one()
+    finally:
+        sandbox.close()
+
+
+@pytest.mark.parametrize("target_name", sorted(TARGETS))
+def test_fuzzed_inputs_end_in_success_or_one_line(target_name, samples, tmp_path_factory):
+    fuzz(target_name, samples, tmp_path_factory, FUZZ_EXAMPLES, derandomize=True)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("target_name", sorted(TARGETS))
+def test_fuzzed_inputs_long_budget(target_name, samples, tmp_path_factory):
+    fuzz(target_name, samples, tmp_path_factory, FUZZ_EXAMPLES_SLOW, derandomize=False)
