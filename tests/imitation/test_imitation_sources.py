@@ -208,3 +208,34 @@ def test_bad_sources_are_one_line(tmp_path, write_joint_state_bag):
     )
     with pytest.raises(ValueError, match="shoulder|elbow|wrist|arm"):
         _run(tmp_path, f"source={head_only}")
+
+
+@pytest.mark.parametrize(
+    ("recording", "names", "expected"),
+    [
+        ({"t": float("nan"), "q": [[0.0] * 4] * 5}, None, r"need at least 4 samples .* got times of shape \(\)"),
+        ({"t": [0, 1, 2, 3, 4], "q": [[0.0] * 4, []] * 2 + [[0.0] * 4]}, None, "a table of numbers"),
+        ({"t": [0, 1, 2, 3, 4], "q": [[0.0] * 3] * 5}, None, "3 columns for 4 joint_names"),
+        ("not a mapping", None, "a 'recording' mapping"),
+        ({"t": [0, 1, 2, 3, 4], "q": [[0.0] * 4] * 5}, [1, 2, 3, 4], "a list of names"),
+    ],
+)
+def test_a_damaged_teach_export_is_one_line_naming_it(tmp_path, recording, names, expected):
+    """Shapes and types of demo.json are checked before any array is built (found by the fuzz harness:
+    a NaN for the times, a ragged table or numbers as joint names ended in a TypeError or numpy's message)."""
+    from lfd.imitation.sources import load_robot_source
+
+    robot = load_robot("wam4")
+    (tmp_path / "demo.json").write_text(
+        json.dumps(
+            {
+                "format": "lfd-teach-demonstration",
+                "robot": "wam4",
+                "joint_names": list(robot.joint_names) if names is None else names,
+                "recording": recording,
+            }
+        )
+    )
+    with pytest.raises(ValueError, match=expected) as info:
+        load_robot_source(tmp_path, "teach", robot)
+    assert str(tmp_path) in str(info.value) and "\n" not in str(info.value)

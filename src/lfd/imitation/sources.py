@@ -155,8 +155,11 @@ def _match_columns(names: Sequence[str], robot_names: Sequence[str], where: str)
 
 
 def _checked(t: np.ndarray, q: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray]:
-    if q.ndim != 2 or len(t) != len(q) or len(t) < 4:
-        raise ValueError(f"{where}: need at least 4 samples of every joint, got {len(t)}")
+    if t.ndim != 1 or q.ndim != 2 or len(t) != len(q) or len(t) < 4:
+        got = f"times of shape {t.shape} and joints of shape {q.shape}"
+        raise ValueError(
+            f"{where}: need at least 4 samples of every joint (times (T,), joints (T, J)), got {got}"
+        )
     if not (np.isfinite(t).all() and np.isfinite(q).all()):
         raise ValueError(f"{where}: times or joint positions hold NaN or inf")
     if np.any(np.diff(t) <= 0):
@@ -197,10 +200,22 @@ def _read_teach(path: Path, robot_name: str, robot_names: Sequence[str]):
             f"{path}: recorded on {info.get('robot')!r}, not on robot={robot_name!r}; "
             f"pass robot={info.get('robot')} (robot sources are not retargeted across robots)"
         )
-    rec = info.get("recording") or {}
-    q = np.asarray(rec.get("q", []), dtype=np.float64)
-    columns = _match_columns(list(info.get("joint_names", [])), robot_names, str(path / "demo.json"))
-    return np.asarray(rec.get("t", []), dtype=np.float64), q[:, columns] if q.ndim == 2 else q, {}
+    where = path / "demo.json"
+    rec = info.get("recording")
+    names = info.get("joint_names")
+    if not isinstance(rec, dict) or not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise ValueError(f"{where}: expected a 'recording' mapping and 'joint_names' as a list of names")
+    try:
+        t = np.asarray(rec.get("t", []), dtype=np.float64)
+        q = np.asarray(rec.get("q", []), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{where}: recording 't' and 'q' must be a list of numbers and a table of numbers"
+        ) from None
+    columns = _match_columns(names, robot_names, str(where))
+    if q.ndim == 2 and q.shape[1] != len(names):
+        raise ValueError(f"{where}: recording 'q' has {q.shape[1]} columns for {len(names)} joint_names")
+    return t, q[:, columns] if q.ndim == 2 else q, {}
 
 
 def load_robot_source(
