@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import re
 import shutil
 import zipfile
@@ -30,7 +31,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 FUZZ_EXAMPLES = 25
-FUZZ_EXAMPLES_SLOW = 150
+FUZZ_EXAMPLES_SLOW = int(os.environ.get("LFD_FUZZ_EXAMPLES", "150"))
 HOSTILE = (
     "nan", "NaN", "inf", "-inf", "0", "-1", "-3", "1e9", "1e308", "-1e308", "1e-320", "", "[]", "{}",
     "null", "true", '"x"', "999999999999999999999", "0.0000001", "*a", "[1e9, 1e9]",
