@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.interop.lerobot.io import LeRobotDatasetError
 from lfd.interop.lerobot.reader import LeRobotFolder, parse_splits, read_info
 
 
@@ -106,6 +107,27 @@ def _velocity_dataset_class():
             }
 
     return VelocityDataset
+
+
+def _column(folder: LeRobotFolder, e: int, name: str, size: int | None = None) -> np.ndarray:
+    """Episode ``e``'s ``meta/episodes`` column ``name`` as a float64 array, checked: numbers,
+    all finite, ``size`` values when given.
+
+    Raises:
+        LeRobotDatasetError: one line naming the ``meta/episodes`` file, the column and the episode.
+    """
+    where = f"{folder.episode_files[e]} episode {e}: {name}"
+    try:
+        value = np.asarray(folder.episodes[e][name], dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise LeRobotDatasetError(
+            f"{where}: expected numbers, got {folder.episodes[e][name]!r:.60}"
+        ) from None
+    if size is not None and value.size != size:
+        raise LeRobotDatasetError(f"{where}: expected {size} values, got {value.size}")
+    if not np.isfinite(value).all():
+        raise LeRobotDatasetError(f"{where}: not finite (NaN or inf)")
+    return value
 
 
 def _import_lightning():
@@ -239,16 +261,26 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                 arrays["approach_mode"] = np.str_(row["lfd/approach_mode"])
             if self.mode == "dmp":
                 if "lfd/dmp_goal" in row:
-                    k = int(row["lfd/n_basis"])
+                    k = row.get("lfd/n_basis")
+                    if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= 10_000:
+                        raise LeRobotDatasetError(
+                            f"{folder.episode_files[e]} episode {e}: lfd/n_basis expected an integer in "
+                            f"[1, 10000], got {k!r:.40}"
+                        )
                     if self.n_basis is not None and self.n_basis != k:
                         raise ValueError(
                             f"LeRobotDataModule.n_basis={self.n_basis}, but {self.root} holds DMPs with {k} bases"
                         )
+                    tau = _column(folder, e, "lfd/dmp_tau", 1)
+                    if tau[0] <= 0:
+                        raise LeRobotDatasetError(
+                            f"{folder.episode_files[e]} episode {e}: lfd/dmp_tau expected > 0, got {tau[0]}"
+                        )
                     arrays.update(
-                        dmp_goal=np.asarray(row["lfd/dmp_goal"]),
-                        dmp_weights=np.asarray(row["lfd/dmp_weights"]).reshape(n, k),
-                        dmp_y0=np.asarray(row["lfd/dmp_y0"]),
-                        dmp_tau=np.float64(row["lfd/dmp_tau"]),
+                        dmp_goal=_column(folder, e, "lfd/dmp_goal", n),
+                        dmp_weights=_column(folder, e, "lfd/dmp_weights", n * k).reshape(n, k),
+                        dmp_y0=_column(folder, e, "lfd/dmp_y0", n),
+                        dmp_tau=np.float64(tau[0]),
                     )
                 else:
                     dmp = DMP(n_basis=self.n_basis or 20).fit(t, joints)
@@ -259,7 +291,7 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                         dmp_tau=np.float64(dmp.tau_),
                     )
                 if "lfd/ee_path" in row:
-                    ee = np.asarray(row["lfd/ee_path"]).reshape(-1, 3)
+                    ee = _column(folder, e, "lfd/ee_path", 3 * len(t)).reshape(-1, 3)
                 else:
                     fk = fk or _fk(robot_type, self.root)
                     ee = fk(joints)
@@ -267,10 +299,12 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
                 poses[:, :3, 3] = ee
                 arrays["ee_poses"] = poses
                 arrays["target_point"] = (
-                    np.asarray(row["lfd/target_point"]) if "lfd/target_point" in row else ee[-1]
+                    _column(folder, e, "lfd/target_point", 3) if "lfd/target_point" in row else ee[-1]
                 )
             else:
-                arrays["target_point"] = np.asarray(row.get("lfd/target_point", np.zeros(3)))
+                arrays["target_point"] = (
+                    _column(folder, e, "lfd/target_point", 3) if "lfd/target_point" in row else np.zeros(3)
+                )
                 arrays["dmp_goal"], arrays["dmp_weights"] = joints[-1], np.zeros((n, 1))
             episodes.append(
                 _Episode(folder, e, split_of.get(e, "train"), key, arrays, first_only=self.mode == "dmp")

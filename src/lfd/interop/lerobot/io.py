@@ -13,7 +13,21 @@ from typing import Any
 
 import numpy as np
 
-from lfd.io.files import write_text_atomic
+from lfd.io.files import DatasetError, write_text_atomic
+
+#: Largest ``meta/*.json`` file read (bytes): ``info.json`` and ``stats.json`` of real datasets
+#: are a few hundred KiB at most.
+MAX_JSON_BYTES = 16 * 1024 * 1024
+
+
+class LeRobotDatasetError(DatasetError):
+    """A LeRobot dataset that is corrupt, inconsistent or over lfd's limits (a :class:`ValueError`);
+    the one-line message names the file, the field and, where there is one, the episode."""
+
+
+class LeRobotFileMissing(LeRobotDatasetError, FileNotFoundError):
+    """A LeRobot dataset folder or one of its files is missing (both a :class:`ValueError`, through
+    :class:`~lfd.io.files.DatasetError`, and a :class:`FileNotFoundError`)."""
 
 
 def pyarrow_modules():
@@ -24,6 +38,7 @@ def pyarrow_modules():
     """
     try:
         import pyarrow as pa
+        import pyarrow.compute  # pa.compute
         import pyarrow.parquet as pq
     except ImportError as e:  # pragma: no cover - pyarrow is a declared dependency
         raise ImportError("lfd.interop needs pyarrow: pip install pyarrow") from e
@@ -71,32 +86,56 @@ def write_json(path: Path, obj: Any) -> None:
 
 
 def read_json(path: Path) -> Any:
-    """The parsed JSON file ``path``.
+    """The parsed JSON file ``path`` (at most :data:`MAX_JSON_BYTES`).
 
     Raises:
-        FileNotFoundError: no file at ``path``.
-        ValueError: the file is not valid UTF-8 JSON.
+        LeRobotFileMissing: no file at ``path``.
+        LeRobotDatasetError: the file is larger than :data:`MAX_JSON_BYTES`, not valid UTF-8
+            JSON, or nested too deep to parse.
     """
+    path = Path(path)
+    if not path.is_file():
+        raise LeRobotFileMissing(f"{path} not found")
+    size = path.stat().st_size
+    if size > MAX_JSON_BYTES:
+        raise LeRobotDatasetError(
+            f"{path}: {size} bytes, more than lfd reads ({MAX_JSON_BYTES} bytes at most)"
+        )
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"{path}: corrupt JSON ({e})") from e
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
+        raise LeRobotDatasetError(f"{path}: corrupt JSON ({' '.join(str(e).split())})") from None
 
 
 def read_table(path: Path):
     """The parquet file ``path`` as a pyarrow table.
 
     Raises:
-        FileNotFoundError: no file at ``path``.
-        ValueError: ``path`` is not a readable parquet file (the message names it).
+        LeRobotFileMissing: no file at ``path``.
+        LeRobotDatasetError: ``path`` is not a readable parquet file (the message names it).
     """
     pa, pq = pyarrow_modules()
     if not Path(path).is_file():
-        raise FileNotFoundError(f"{path} not found")
+        raise LeRobotFileMissing(f"{path} not found")
     try:
         return pq.read_table(path)
     except (pa.ArrowException, OSError) as e:
-        raise ValueError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
+        raise LeRobotDatasetError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
+
+
+def parquet_rows(path: Path) -> int:
+    """The number of rows the footer of parquet file ``path`` declares (nothing else is read).
+
+    Raises:
+        LeRobotFileMissing, LeRobotDatasetError: as :func:`read_table`.
+    """
+    pa, pq = pyarrow_modules()
+    if not Path(path).is_file():
+        raise LeRobotFileMissing(f"{path} not found")
+    try:
+        return int(pq.read_metadata(path).num_rows)
+    except (pa.ArrowException, OSError) as e:
+        raise LeRobotDatasetError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
 
 
 def write_tasks(path: Path, tasks: Sequence[str]) -> None:
@@ -151,7 +190,7 @@ def read_tasks(path: Path) -> list[str]:
     column, or in the pandas index ``__index_level_0__`` as lerobot writes them)."""
     t = read_table(path).to_pydict()
     if "task_index" not in t or not {"task", "__index_level_0__"} & set(t):
-        raise ValueError(
+        raise LeRobotDatasetError(
             f"{path}: expected columns task_index and task (or __index_level_0__), got {sorted(t)}"
         )
     name_col = "task" if "task" in t else "__index_level_0__"
@@ -166,12 +205,20 @@ def read_parquet_columns(paths: Sequence[Path]) -> dict[str, np.ndarray]:
     try:
         table = pa.concat_tables(tables)
     except pa.ArrowException as e:
-        raise ValueError(f"{', '.join(map(str, paths))}: parquet files with different columns ({e})") from e
+        raise LeRobotDatasetError(
+            f"{', '.join(map(str, paths))}: parquet files with different columns ({' '.join(str(e).split())})"
+        ) from e
     out = {}
     for key in table.column_names:
         col = table.column(key).combine_chunks()
         if pa.types.is_fixed_size_list(col.type) or pa.types.is_list(col.type):
-            out[key] = np.asarray(col.flatten().to_numpy(zero_copy_only=False)).reshape(len(col), -1)
+            flat = np.asarray(col.flatten().to_numpy(zero_copy_only=False))
+            lengths = pa.compute.min_max(pa.compute.list_value_length(col))
+            if len(col) and (col.null_count or lengths["min"] != lengths["max"]):
+                raise LeRobotDatasetError(
+                    f"{', '.join(map(str, paths))}: column {key} has rows of different lengths (or empty rows)"
+                )
+            out[key] = flat.reshape(len(col), -1)
         else:
             out[key] = col.to_numpy(zero_copy_only=False)
     return out

@@ -23,6 +23,8 @@ from __future__ import annotations
 import string
 from pathlib import Path, PurePosixPath, PureWindowsPath
 
+from lfd.interop.lerobot.io import LeRobotDatasetError
+
 CODEBASE_VERSION = "v3.0"
 #: Files per chunk (lerobot's default).
 DEFAULT_CHUNK_SIZE = 1000
@@ -64,21 +66,23 @@ def check_template(info_path: str | Path, name: str, template: object) -> str:
     :data:`TEMPLATE_FIELDS` (no attribute or index access).
 
     Raises:
-        ValueError: one line naming ``info_path`` and the field.
+        LeRobotDatasetError: (a ``ValueError``) one line naming ``info_path`` and the field.
     """
     where = f"{info_path} {name}"
     if not isinstance(template, str):
-        raise ValueError(f"{where}: expected a relative path template, got {template!r}")
+        raise LeRobotDatasetError(f"{where}: expected a relative path template, got {template!r}")
     allowed = TEMPLATE_FIELDS[name]
     try:
         fields = [f for _, f, _, _ in string.Formatter().parse(template) if f is not None]
     except ValueError as e:
-        raise ValueError(f"{where}: {template!r} is not a format template ({e})") from e
+        raise LeRobotDatasetError(f"{where}: {template!r} is not a format template ({e})") from e
     bad = [f for f in fields if f not in allowed]
     if bad:
-        raise ValueError(f"{where}: {template!r} uses {bad}; allowed fields are {list(allowed)}")
+        raise LeRobotDatasetError(f"{where}: {template!r} uses {bad}; allowed fields are {list(allowed)}")
     if not _relative_inside(template):
-        raise ValueError(f"{where}: {template!r} points outside the dataset folder (absolute or '..')")
+        raise LeRobotDatasetError(
+            f"{where}: {template!r} points outside the dataset folder (absolute or '..')"
+        )
     return template
 
 
@@ -87,10 +91,10 @@ def dataset_file(root: str | Path, what: str, rel: str | Path) -> Path:
     absolute paths and symbolic links followed).
 
     Raises:
-        ValueError: one line naming ``what`` (the field or file the path came from).
+        LeRobotDatasetError: (a ``ValueError``) one line naming ``what`` (the field or file the path came from).
     """
     root = Path(root)
     path = root / rel
     if not _relative_inside(str(rel)) or not path.resolve().is_relative_to(root.resolve()):
-        raise ValueError(f"{root}: {what} {str(rel)!r} leads outside the dataset folder")
+        raise LeRobotDatasetError(f"{root}: {what} {str(rel)!r} leads outside the dataset folder")
     return path

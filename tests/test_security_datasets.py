@@ -1,0 +1,217 @@
+"""LeRobot folders and lfd's own datasets under hostile and careless input (second round).
+
+* Every count or size a LeRobot ``meta/info.json`` declares is checked against lfd's caps and
+  the parquet footers before anything is allocated (a 10**9-episode claim under a 1.5 GiB
+  address-space limit ends in one line, not in ``MemoryError``).
+* ``fps=0``, a feature that is not an object, a bad feature (video) name, an episode whose
+  frame range is reversed or shared with another episode, NaN in ``observation.state`` or in
+  the DMP columns: each refused with one line naming the file, the field and the episode.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from lfd.interop import LeRobotDataModule, LeRobotFolder
+from lfd.interop.lerobot.io import LeRobotDatasetError
+from lfd.interop.lerobot.reader import MAX_EPISODES, MAX_FRAMES
+
+ROOT = Path(__file__).resolve().parents[1]
+REFERENCE = ROOT / "tests" / "fixtures" / "lerobot_v3_reference"
+EPISODES = Path("meta/episodes/chunk-000/file-000.parquet")
+DATA = Path("data/chunk-000/file-000.parquet")
+
+
+@pytest.fixture()
+def reference(tmp_path) -> Path:
+    """A writable copy of the lerobot-written reference dataset (3 episodes: 20, 25, 30 frames)."""
+    dst = tmp_path / "ds"
+    shutil.copytree(REFERENCE, dst)
+    for p in dst.rglob("*"):
+        p.chmod(0o755 if p.is_dir() else 0o644)
+    return dst
+
+
+def _info(root: Path, **changes) -> None:
+    path = root / "meta" / "info.json"
+    path.write_text(json.dumps({**json.loads(path.read_text()), **changes}))
+
+
+def _feature(root: Path, name: str, value) -> None:
+    path = root / "meta" / "info.json"
+    info = json.loads(path.read_text())
+    info["features"][name] = value
+    path.write_text(json.dumps(info))
+
+
+def _column(root: Path, rel: Path, name: str, change) -> None:
+    """Rewrite column ``name`` of parquet file ``root / rel`` as ``change(list of values)``."""
+    table = pq.read_table(root / rel)
+    values = change(table.column(name).to_pylist())
+    i = table.column_names.index(name)
+    table = table.set_column(i, table.schema.field(i), pa.array(values, type=table.schema.field(i).type))
+    pq.write_table(table, root / rel)
+
+
+def _refused(root: Path, *fragments: str, load=LeRobotFolder) -> str:
+    with pytest.raises(LeRobotDatasetError) as e:
+        load(root)
+    message = str(e.value)
+    assert "\n" not in message, message
+    for fragment in fragments:
+        assert fragment in message, message
+    return message
+
+
+BOUNDED = """
+import resource, sys
+limit = 1536 << 20  # 1.5 GiB of address space: 10**9 of anything does not fit
+resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+from lfd.interop import LeRobotFolder
+try:
+    LeRobotFolder(sys.argv[1])
+except ValueError as e:
+    print("refused:", e)
+"""
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"total_episodes": 10**9},
+        {"total_episodes": 1e9},
+        {"total_frames": 10**9},
+        {"total_episodes": MAX_EPISODES + 1},
+        {"total_frames": MAX_FRAMES + 1},
+    ],
+    ids=["episodes-1e9", "episodes-float", "frames-1e9", "episodes-cap", "frames-cap"],
+)
+def test_lerobot_declared_counts_are_capped_before_anything_is_allocated(reference, changes):
+    _info(reference, **changes)
+    (name,) = changes
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    res = subprocess.run(
+        [sys.executable, "-c", BOUNDED, str(reference)], capture_output=True, text=True, timeout=120, env=env
+    )
+    assert res.returncode == 0, res.stderr[-1500:]
+    lines = res.stdout.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("refused: ") and f"info.json {name}: " in lines[0], lines
+
+
+@pytest.mark.parametrize(
+    ("changes", "fragment"),
+    [
+        ({"total_episodes": 4}, "meta/episodes holds 3 episodes, "),
+        ({"total_frames": 76}, "75 frames in data/, "),
+    ],
+)
+def test_lerobot_declared_counts_must_match_the_files(reference, changes, fragment):
+    _info(reference, **changes)
+    _refused(reference, fragment, f"total_{next(iter(changes)).split('_')[1]} says")
+
+
+@pytest.mark.parametrize("fps", [0, -10, "10", None, 1e300])
+def test_lerobot_fps_must_be_a_positive_number(reference, fps):
+    _info(reference, fps=fps)
+    _refused(reference, "info.json fps: expected a number in (0, ")
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "fragment"),
+    [
+        ("action", "float32", "features.action: expected an object"),
+        ("action", {"dtype": "float32", "shape": [0]}, "features.action.shape: "),
+        ("action", {"dtype": "float32", "shape": [10**9]}, "features.action.shape: "),
+        ("action", {"dtype": 7, "shape": [7]}, "features.action.dtype: "),
+        ("observation.images.front", {"dtype": "video", "shape": [64, 64]}, "observation.images.front.shape"),
+        ("observation.images.../../x", {"dtype": "video", "shape": [64, 64, 3]}, "is not a feature name"),
+        (
+            "observation.images.side",
+            {"dtype": "video", "shape": [64, 64, 3]},
+            "videos/observation.images.side",
+        ),
+    ],
+    ids=["not-a-dict", "zero-size", "huge", "dtype", "video-shape", "video-name", "video-without-columns"],
+)
+def test_lerobot_bad_features_are_refused_naming_them(reference, name, value, fragment):
+    _feature(reference, name, value)
+    _refused(reference, fragment)
+
+
+def test_lerobot_reversed_and_shared_frame_ranges_are_refused_naming_the_episode(reference, tmp_path):
+    _column(reference, EPISODES, "dataset_to_index", lambda v: [v[0], 10, v[2]])  # episode 1: 20..10
+    _refused(reference, f"{EPISODES} episode 1: frames dataset_from_index 20 .. dataset_to_index 10")
+    shutil.rmtree(reference)
+    shutil.copytree(REFERENCE, reference)
+    for p in reference.rglob("*"):
+        p.chmod(0o755 if p.is_dir() else 0o644)
+    # every episode points at episode 0's frames (lengths kept consistent)
+    _column(reference, EPISODES, "dataset_from_index", lambda v: [0, 0, 0])
+    _column(reference, EPISODES, "dataset_to_index", lambda v: [20, 20, 20])
+    _column(reference, EPISODES, "length", lambda v: [20, 20, 20])
+    _refused(reference, "episode 1: frames 0..20 overlap episode 0")
+
+
+def test_lerobot_frames_of_another_episode_are_refused(reference):
+    # episode 1 claims frames 20..45, but the frame table says they belong to episode 2
+    _column(reference, DATA, "episode_index", lambda v: [2 if 20 <= i < 45 else e for i, e in enumerate(v)])
+    _refused(reference, f"{DATA} episode 1: frame 20", "has episode_index 2")
+
+
+def test_lerobot_nan_state_is_refused_naming_the_episode_and_frame(reference):
+    def nan_at_frame_3_of_episode_2(rows):
+        rows[45 + 3][0] = float("nan")
+        return rows
+
+    _column(reference, DATA, "observation.state", nan_at_frame_3_of_episode_2)
+    _refused(reference, f"{DATA} episode 2: observation.state is not finite", "at frame 3 (index 48)")
+
+
+@pytest.fixture(scope="module")
+def lfd_lerobot(tmp_path_factory) -> Path:
+    """A LeRobot export of a tiny lfd dataset (3 episodes, 32 px, 20 steps: DMP columns)."""
+    from lfd.interop import export_lerobot
+    from lfd.visuomotor.data import ReachDataModule
+
+    root = tmp_path_factory.mktemp("security_datasets")
+    params = dict(
+        seed=3,
+        n_train_objects=1,
+        n_train_placements=2,
+        n_test_objects=1,
+        n_test_placements=1,
+        n_val_objects=0,
+        n_val_object_placements=0,
+        image_size=32,
+        n_steps=20,
+        n_basis=8,
+    )
+    ReachDataModule(name="tiny", root=root, progress=False, num_gen_workers=1, **params).prepare_data()
+    return export_lerobot(root / "tiny", root / "tiny.lerobot", codec="h264", progress=False)
+
+
+@pytest.mark.parametrize(
+    ("column", "change"),
+    [
+        ("lfd/dmp_weights", lambda w: [[np.nan, *row[1:]] if i == 1 else row for i, row in enumerate(w)]),
+        ("lfd/dmp_goal", lambda g: [[np.inf, *row[1:]] if i == 1 else row for i, row in enumerate(g)]),
+        ("lfd/dmp_weights", lambda w: [row[:-1] if i == 1 else row for i, row in enumerate(w)]),
+    ],
+    ids=["nan-weights", "inf-goal", "short-weights"],
+)
+def test_lerobot_bad_dmp_columns_are_refused_naming_the_episode(lfd_lerobot, tmp_path, column, change):
+    ds = tmp_path / "ds"
+    shutil.copytree(lfd_lerobot, ds)
+    _column(ds, EPISODES, column, change)
+    dm = LeRobotDataModule(ds, mode="dmp", num_workers=0, batch_size=2)
+    _refused(ds, f"{EPISODES} episode 1: {column}: ", load=lambda _: dm.setup("fit"))
