@@ -318,3 +318,183 @@ def test_evaluate_never_instantiates_a_checkpoints_recorded_run(tmp_path):
     proc = run_entry_point("evaluate.py", f"ckpt={ckpt}", f"paths.root_dir={tmp_path}", cwd=tmp_path)
     assert_one_line_error(proc, "evaluate", str(ckpt), "data.batch_size must be a plain value")
     assert not marker.exists() and not (tmp_path / "data").exists()
+
+
+# ---------------------------------------------------------------------------- checkpoints that do not fit
+#: Tiny settings of each policy kind (a checkpoint of a few kB).
+TINY_POLICY = {"image_size": 32, "n_steps": 30, "channels": [4, 4, 4, 8], "hidden": [16, 16]}
+
+
+def policy_checkpoint(path: Path, kind: str = "velocity", state=None, **hparams) -> Path:
+    """A checkpoint as ``train.py`` writes it (Lightning's keys) of a tiny ``kind`` policy; ``state``
+    (``{key: tensor or None}``: None drops the key) and ``hparams`` change what is stored."""
+    import lightning
+
+    from lfd.visuomotor.policies import POLICIES
+
+    policy = POLICIES[kind](**TINY_POLICY)
+    state_dict = {**policy.state_dict(), **(state or {})}
+    torch.save(
+        {
+            "state_dict": {k: v for k, v in state_dict.items() if v is not None},
+            "hyper_parameters": {**policy.hparams, **hparams},
+            "pytorch-lightning_version": lightning.__version__,
+            "epoch": 0,
+            "global_step": 0,
+        },
+        path,
+    )
+    return path
+
+
+#: ``{case: (state changes, hyper-parameter changes, fragments of the one line)}``; each line also
+#: names the file and the checkpoint's kind.
+MISFITS = {
+    "wrong shape": (
+        {"bias_input": torch.zeros(3, 3)},
+        {},
+        ["state_dict['bias_input'] has shape (3, 3)", "(10,)"],
+    ),
+    "missing key": ({"bias_input": None}, {}, ["misses key(s) ['bias_input']"]),
+    "extra key": ({"bogus.weight": torch.zeros(2)}, {}, ["has key(s) ['bogus.weight']"]),
+    "negative n_joints": ({}, {"n_joints": -3}, ["VelocityPolicy.n_joints must be an integer >= 1, got -3"]),
+    "unknown": (
+        {},
+        {"frobnicate": 1},
+        ["hyper-parameter(s) ['frobnicate'] that VelocityPolicy does not take"],
+    ),
+    "another kind's": ({}, {"chunk_size": 8}, ["['chunk_size'] (taken by kind 'act', 'diffusion')"]),
+    "float widths": (
+        {},
+        {"hidden": [2e5, 2e5]},
+        ["VelocityPolicy.hidden[0] must be an integer >= 1, got 200000.0"],
+    ),
+    "huge widths": (
+        {},
+        {"hidden": [200_000, 200_000]},
+        [
+            "a model of more than 1024 MiB",
+            "(200000, 200000)",
+            "MAX_CHECKPOINT_MODEL_BYTES",
+            "before allocating",
+        ],
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(MISFITS))
+def test_a_checkpoint_that_does_not_fit_its_kind_is_one_line(tmp_path, case):
+    """A checkpoint whose tensors or hyper-parameters do not fit its kind: one line naming the file,
+    the kind and the key, shape or field, from every loader (never torch's multi-line error); the
+    model a checkpoint asks for is bounded before it is allocated (``hidden=[200000, 200000]``
+    would take 160 GB)."""
+    state, hparams, fragments = MISFITS[case]
+    path = policy_checkpoint(tmp_path / "misfit.ckpt", state=state, **hparams)
+    with pytest.raises(CheckpointError) as info:
+        load_policy(path)
+    message = str(info.value)
+    assert "\n" not in message and message.startswith(f"{path}: a 'velocity' checkpoint"), message
+    for fragment in fragments:
+        assert fragment in message, message
+
+
+def test_the_model_size_limit_is_checked_before_each_allocation(tmp_path, monkeypatch):
+    """The limit holds for the model as a whole: a tiny policy passes it, and the same policy is
+    refused once the limit is below its size (the first tensor past it is never made)."""
+    import lfd.training
+
+    path = policy_checkpoint(tmp_path / "tiny.ckpt")
+    assert load_policy(path).kind == "velocity"
+    monkeypatch.setattr(lfd.training, "MAX_CHECKPOINT_MODEL_BYTES", 1000)
+    with pytest.raises(CheckpointError, match=r"a model of more than 0 MiB \(a tensor of shape"):
+        load_policy(path)
+
+
+def test_sawyer_checkpoint_with_a_reshaped_tensor_is_one_line(tmp_path):
+    """The Sawyer models' loader checks the same way (one line naming the file, key and shapes)."""
+    from lfd.model_reaching import SawyerModels
+
+    models = SawyerModels(forward={"width": 8, "n_blocks": 1}, inverse={"hidden": [8]})
+    state = models.state_dict()
+    key = next(k for k, v in state.items() if v.ndim == 2)
+    path = tmp_path / "sawyer.ckpt"
+    torch.save(
+        {"state_dict": {**state, key: torch.zeros(1, 1)}, "hyper_parameters": dict(models.hparams)}, path
+    )
+    with pytest.raises(CheckpointError) as info:
+        load_sawyer_models(path)
+    assert str(info.value).startswith(f"{path}: a 'sawyer_models' checkpoint whose state_dict[{key!r}]")
+
+
+def deflated(source: Path, path: Path) -> Path:
+    """``source`` re-zipped with every member compressed (ZIP_DEFLATED)."""
+    with zipfile.ZipFile(source) as src, zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as dst:
+        for member in src.infolist():
+            dst.writestr(member.filename, src.read(member.filename))
+    return path
+
+
+def test_a_checkpoint_rezipped_with_compression_is_refused(tmp_path):
+    """torch maps a checkpoint's stored bytes: a re-zipped (deflated) one would be read as garbage
+    tensors; it is refused in one line naming the file and a compressed member."""
+    good = policy_checkpoint(tmp_path / "good.ckpt")
+    assert torch.equal(read_checkpoint(good)["state_dict"]["bias_input"], load_policy(good).bias_input)
+    bad = deflated(good, tmp_path / "deflated.ckpt")
+    for load in (read_checkpoint, load_policy):
+        with pytest.raises(CheckpointError) as info:
+            load(bad)
+        message = str(info.value)
+        assert message.startswith(f"{bad}: not a PyTorch Lightning checkpoint (") and "\n" not in message
+        assert "compressed zip member(s)" in message and "data.pkl" in message
+
+
+def test_evaluate_a_checkpoint_asking_for_a_huge_model_is_one_line(tmp_path, compose, capsys):
+    """``evaluate.py ckpt=...`` of a checkpoint whose hyper-parameters ask for a 160 GB model:
+    one line naming the file and the limit, exit status 2, nothing allocated."""
+    path = policy_checkpoint(tmp_path / "huge.ckpt", hidden=[200_000, 200_000])
+    cfg = compose(
+        "evaluate", f"ckpt={path}", "eval.kinds=[velocity]", *TINY_EVAL, f"paths.root_dir={tmp_path}"
+    )
+    line = entry_point_error(evaluate.main, cfg, capsys)
+    assert line.startswith(
+        f"evaluate: {path}: a 'velocity' checkpoint whose hyper-parameters ask for a model"
+    )
+
+
+#: A tiny dataset for the evaluation entry point tests (its config, never generated past the checks).
+TINY_EVAL = ("data.image_size=32", "data.n_steps=30", "data.progress=false")
+
+
+@pytest.mark.parametrize(
+    ("change", "fragment"),
+    [
+        ({"kind": "cnn_dmp"}, "a 'cnn_dmp' checkpoint, this run's model is 'velocity'"),
+        ({"hidden": [8]}, "whose state_dict misses key(s)"),
+    ],
+)
+def test_train_refuses_to_resume_from_a_checkpoint_of_another_model(
+    tmp_path, compose, capsys, change, fragment
+):
+    """``train.py ckpt_path=...`` of another kind's checkpoint, or of one with other layer sizes:
+    one line naming the file and what differs, exit status 2, before any data is made."""
+    hidden = change.get("hidden")
+    path = policy_checkpoint(tmp_path / "other.ckpt", **({"hidden": hidden} if hidden else {}))
+    if "kind" in change:
+        ckpt = torch.load(path, weights_only=True)
+        ckpt["hyper_parameters"]["kind"] = change["kind"]
+        torch.save(ckpt, path)
+    if hidden:  # the state_dict of the other sizes
+        from lfd.visuomotor.policies import VelocityPolicy
+
+        state = VelocityPolicy(**{**TINY_POLICY, "hidden": hidden}).state_dict()
+        ckpt = torch.load(path, weights_only=True)
+        ckpt["state_dict"] = state
+        torch.save(ckpt, path)
+    cfg = compose(
+        "train", "model=velocity", "model.channels=[4,4,4,8]", "model.hidden=[16,16]", *TINY_EVAL,
+        f"ckpt_path={path}", f"paths.root_dir={tmp_path}",
+    )  # fmt: skip
+    line = entry_point_error(train.main, cfg, capsys)
+    assert line.startswith(f"train: ckpt_path={path}: {path}: a "), line
+    assert fragment in line, line
+    assert not (tmp_path / "data").exists()

@@ -14,6 +14,7 @@ Example::
 
 from __future__ import annotations
 
+import inspect
 import math
 import pickle
 import re
@@ -26,18 +27,23 @@ from typing import Any, Protocol, runtime_checkable
 import lightning as L
 import torch
 from torch import nn
+from torch.overrides import TorchFunctionMode
 
 __all__ = [
     "ACTIVATIONS",
     "CHECKPOINT_GLOB",
     "EXPECTED_CHECKPOINT",
+    "MAX_CHECKPOINT_MODEL_BYTES",
     "SCHEDULERS",
     "Adaptable",
     "AdaptationSource",
     "CheckpointError",
     "Evaluator",
+    "check_state_dict",
     "checkpoint_kind",
     "find_checkpoints",
+    "init_arguments",
+    "load_checkpoint_module",
     "make_activation",
     "make_optimizer",
     "read_checkpoint",
@@ -118,8 +124,10 @@ def read_checkpoint(path: str | Path, keys: tuple[str, ...] = ()) -> dict[str, A
     Raises:
         FileNotFoundError: nothing at ``path``.
         CheckpointError: a folder, an empty, truncated or foreign file, a legacy (non-zip)
-            ``torch.save`` file, a pickled payload, not a dictionary, or a missing key
-            (one line: ``<path>: not a PyTorch Lightning checkpoint (<why>); expected ...``).
+            ``torch.save`` file, a zip archive with compressed members (torch maps the stored
+            bytes, so a re-zipped checkpoint's tensors would be garbage), a pickled payload, not a
+            dictionary, or a missing key (one line: ``<path>: not a PyTorch Lightning checkpoint
+            (<why>); expected ...``).
     """
     path = Path(path)
 
@@ -136,11 +144,17 @@ def read_checkpoint(path: str | Path, keys: tuple[str, ...] = ()) -> dict[str, A
         raise error("not a zip archive: truncated, or not written by torch.save")
     try:
         with zipfile.ZipFile(path) as archive:
-            names = archive.namelist()
+            members = archive.infolist()
     except (zipfile.BadZipFile, OSError) as e:
         raise error(f"unreadable zip archive: {e}") from e
-    if not any(n.endswith("/data.pkl") for n in names):
+    if not any(m.filename.endswith("/data.pkl") for m in members):
         raise error("a zip archive without data.pkl")
+    compressed = [m.filename for m in members if m.compress_type != zipfile.ZIP_STORED]
+    if compressed:  # torch maps stored bytes: a compressed tensor would be read as garbage
+        raise error(
+            f"{len(compressed)} compressed zip member(s), e.g. {compressed[0]!r}: torch.save stores them "
+            "uncompressed (re-zipped with compression?)"
+        )
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True, mmap=True)
     except pickle.UnpicklingError as e:
@@ -171,6 +185,177 @@ def checkpoint_kind(path: str | Path) -> str | None:
     """
     kind = read_checkpoint(path).get("hyper_parameters", {}).get("kind")
     return kind if isinstance(kind, str) else None
+
+
+#: The most memory (bytes) the tensors of a model built from a checkpoint's hyper-parameters may
+#: take (:func:`load_checkpoint_module`): 1 GiB, about 50 times lfd's largest policy (ACT with a
+#: ResNet-18, 18 MiB). A checkpoint asking for more is refused before the tensor that would pass
+#: the limit is allocated.
+MAX_CHECKPOINT_MODEL_BYTES = 1 << 30
+
+#: Factory functions whose result's size is checked before it is made (torch's own list: those a
+#: ``torch.device`` context directs).
+_CONSTRUCTORS = None
+
+
+class _OverBudget(Exception):
+    """A model being built asked for more than :data:`MAX_CHECKPOINT_MODEL_BYTES`."""
+
+
+class _TensorBudget(TorchFunctionMode):
+    """While active, every tensor factory call (``torch.empty``, ``zeros``, ``tensor``, ...) is
+    first run on the ``meta`` device (no memory) to learn its size, and refused with
+    :class:`_OverBudget` once the sizes made so far would pass ``limit`` bytes."""
+
+    def __init__(self, limit: int) -> None:
+        super().__init__()
+        global _CONSTRUCTORS
+        if _CONSTRUCTORS is None:
+            from torch.utils._device import _device_constructors
+
+            _CONSTRUCTORS = _device_constructors()
+        self.limit, self.used = limit, 0
+
+    def __torch_function__(self, func, types, args=(), kwargs=None):
+        kwargs = kwargs or {}
+        if func in _CONSTRUCTORS:
+            probe = func(*args, **{**kwargs, "device": "meta"})
+            size = probe.numel() * probe.element_size() if isinstance(probe, torch.Tensor) else 0
+            if self.used + size > self.limit:
+                raise _OverBudget(f"a tensor of shape {tuple(probe.shape)} after {self.used / 2**20:.0f} MiB")
+            self.used += size
+        return func(*args, **kwargs)
+
+
+def _first_line(e: BaseException) -> str:
+    """An exception's message as one short printable line (its type when it has none)."""
+    text = str(e).strip()
+    line = text.splitlines()[0] if text else type(e).__name__
+    return "".join(c for c in line if c.isprintable())[:300]
+
+
+def _names(keys: Sequence[str], at_most: int = 5) -> str:
+    shown = [str(k)[:80] for k in keys[:at_most]]
+    return f"{shown}" + (f" (+{len(keys) - at_most} more)" if len(keys) > at_most else "")
+
+
+def init_arguments(cls: type) -> set[str]:
+    """The keyword arguments the constructor of a LightningModule class ``cls`` takes by name,
+    along its class hierarchy (a subclass passing ``**common`` to its base takes the base's too)."""
+    names: set[str] = set()
+    for klass in cls.__mro__:
+        if klass is L.LightningModule or not issubclass(klass, L.LightningModule):
+            break
+        init = klass.__dict__.get("__init__")
+        if init is None:
+            continue
+        for p in list(inspect.signature(init).parameters.values())[1:]:
+            if p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL):
+                names.add(p.name)
+    return names
+
+
+def check_state_dict(
+    path: str | Path, kind: Any, expected: Mapping[str, torch.Tensor], given: Any, built: str = "the model"
+) -> None:
+    """Refuse a checkpoint's ``state_dict`` (``given``) that does not fit the model it is loaded
+    into (``expected``: the model's ``state_dict()``): a missing or an unexpected key, a value
+    that is no tensor, or a tensor of another shape. Only shapes are read (a memory-mapped tensor
+    stays unread).
+
+    Args:
+        path: the checkpoint file (named in the message); ``kind``: the model kind it is for.
+        built: what ``expected`` is, in the message (e.g. ``"a 'velocity' policy with its
+            hyper-parameters"``).
+
+    Raises:
+        CheckpointError: one line naming the file, its kind and the first key that does not fit.
+    """
+    what = f"{path}: a {kind!r} checkpoint"
+    if not isinstance(given, Mapping):
+        raise CheckpointError(f"{what} whose state_dict is a {type(given).__name__}, not a mapping")
+    missing = [k for k in expected if k not in given]
+    if missing:
+        raise CheckpointError(f"{what} whose state_dict misses key(s) {_names(missing)} of {built}")
+    extra = [str(k) for k in given if k not in expected]
+    if extra:
+        raise CheckpointError(
+            f"{what} whose state_dict has key(s) {_names(extra)} that {built} does not have"
+        )
+    for key, tensor in expected.items():
+        value = given[key]
+        if not isinstance(value, torch.Tensor):
+            raise CheckpointError(
+                f"{what} whose state_dict[{key!r}] is a {type(value).__name__}, not a tensor"
+            )
+        if value.shape != tensor.shape:
+            raise CheckpointError(
+                f"{what} whose state_dict[{key!r}] has shape {tuple(value.shape)}, "
+                f"where {built} has {tuple(tensor.shape)}"
+            )
+
+
+def load_checkpoint_module(
+    cls: type[L.LightningModule],
+    path: str | Path,
+    map_location: str | torch.device = "cpu",
+    others: Mapping[str, type] | None = None,
+) -> L.LightningModule:
+    """The LightningModule ``cls`` built from the checkpoint file ``path`` (its
+    ``hyper_parameters``) and loaded with its ``state_dict``, in eval mode on ``map_location``:
+    the file is read by :func:`read_checkpoint` (no code from it runs), and everything is checked
+    before the model's tensors are filled: the hyper-parameter names (those ``cls`` takes:
+    :func:`init_arguments`), their values (``cls``'s own checks), the memory the model takes
+    (at most :data:`MAX_CHECKPOINT_MODEL_BYTES`, refused before allocating past it) and the
+    state_dict's keys and shapes (:func:`check_state_dict`). The caller checks the kind.
+
+    Args:
+        others: ``{kind: class}`` of other model kinds, to say whose hyper-parameters a
+            checkpoint with foreign ones carries (e.g. :data:`lfd.visuomotor.policies.POLICIES`).
+
+    Raises:
+        FileNotFoundError: nothing at ``path``.
+        CheckpointError: a file :func:`read_checkpoint` refuses, or one whose hyper-parameters or
+            state_dict do not fit ``cls`` (one line naming the file, its kind and the key, field
+            or shape).
+    """
+    ckpt = read_checkpoint(path, keys=("state_dict", "hyper_parameters"))
+    hparams = {str(k): v for k, v in ckpt["hyper_parameters"].items()}
+    kind = hparams.get("kind")
+    what = f"{path}: a {kind!r} checkpoint"
+    unknown = sorted(set(hparams) - init_arguments(cls))
+    if unknown:
+        owners = sorted(
+            k for k, c in (others or {}).items() if c is not cls and set(unknown) <= init_arguments(c)
+        )
+        whose = f" (taken by kind {', '.join(map(repr, owners))})" if owners else ""
+        raise CheckpointError(
+            f"{what} with hyper-parameter(s) {_names(unknown)}{whose} that {cls.__name__} does not take"
+        )
+    budget = _TensorBudget(MAX_CHECKPOINT_MODEL_BYTES)
+    try:
+        with budget:
+            model = cls(**hparams)
+    except _OverBudget as e:
+        raise CheckpointError(
+            f"{what} whose hyper-parameters ask for a model of more than {MAX_CHECKPOINT_MODEL_BYTES >> 20} MiB "
+            f"({e}; the limit is lfd.training.MAX_CHECKPOINT_MODEL_BYTES); refused before allocating it"
+        ) from None
+    except Exception as e:  # a value the model's own checks (or torch) refuse: TypeError, ValueError, ...
+        raise CheckpointError(
+            f"{what} whose hyper-parameters {cls.__name__} refuses: {_first_line(e)}"
+        ) from None
+    try:
+        model.on_load_checkpoint(ckpt)  # e.g. drops an earlier release's retired entries
+    except Exception as e:
+        raise CheckpointError(f"{what} that {cls.__name__} cannot read: {_first_line(e)}") from None
+    given = ckpt["state_dict"]
+    check_state_dict(path, kind, model.state_dict(), given, f"{cls.__name__} built from its hyper-parameters")
+    try:
+        model.load_state_dict(given, strict=True)
+    except Exception as e:  # e.g. a tensor of a dtype that cannot be copied
+        raise CheckpointError(f"{what} whose state_dict cannot be loaded: {_first_line(e)}") from None
+    return model.to(map_location).eval()
 
 
 def find_checkpoints(output_root: str | Path, kinds: tuple[str, ...]) -> dict[str, Path]:

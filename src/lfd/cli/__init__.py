@@ -15,7 +15,8 @@ repository's top-level ``train.py``, ``evaluate.py`` and ``scripts/*.py``, which
 The configs are the repository's ``configs/`` folder when lfd runs from a checkout (editable
 install), else the copy shipped inside the package (``lfd/configs``, copied there when the wheel is
 built): :func:`configs_dir`. ``--help`` (``-h``) prints a short usage of each command
-(:func:`run_app`); Hydra's own long help stays available as ``--hydra-help``.
+(:func:`run_app`); Hydra's own long help stays available as ``--hydra-help``. A user's error (a bad
+file or setting) ends a command with one line on stderr and exit status 2 (:func:`user_errors`).
 """
 
 from __future__ import annotations
@@ -23,7 +24,8 @@ from __future__ import annotations
 import logging
 import sys
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 #: The package folder (``src/lfd`` in a checkout, ``site-packages/lfd`` when installed).
@@ -107,3 +109,21 @@ def run_app(main: Callable[[], object], usage: str, argv: Sequence[str] | None =
         return
     sys.argv = [sys.argv[0], *args]
     main()
+
+
+#: Errors that are the user's input (a bad file, checkpoint or setting; a missing file): a command
+#: prints their message as one line, without a traceback, and exits with status 2 (:func:`user_errors`).
+USER_ERRORS: tuple[type[BaseException], ...] = (ValueError, FileNotFoundError)
+
+
+@contextmanager
+def user_errors(command: str, errors: tuple[type[BaseException], ...] = USER_ERRORS) -> Iterator[None]:
+    """Within the block, an error of ``errors`` (default :data:`USER_ERRORS`) ends the command: its
+    message, on one line, as ``<command>: <message>`` on stderr, no traceback, exit status 2
+    (``SystemExit(2)``)."""
+    try:
+        yield
+    except errors as e:
+        message = " ".join(line.strip() for line in str(e).strip().splitlines()) or type(e).__name__
+        print(f"{command}: {message}", file=sys.stderr)
+        raise SystemExit(2) from None

@@ -9,7 +9,6 @@ open, runs the evaluator in this run's output directory and prints a table of th
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -18,12 +17,9 @@ import hydra
 from hydra.errors import InstantiationException
 from omegaconf import DictConfig, ListConfig, OmegaConf, open_dict
 
-from lfd.cli import config_file, configs_dir, quiet, run_app
+from lfd.cli import config_file, configs_dir, quiet, run_app, user_errors
 from lfd.training import Evaluator
 
-#: Errors that are the user's input (a bad checkpoint, scenario file or setting; a missing
-#: file): ``main`` prints their one-line message without a traceback and exits with status 2.
-USER_ERRORS = (ValueError, FileNotFoundError)
 #: Command-line keys after which the data settings are the command line's, not the checkpoints'.
 DATA_OVERRIDES = ("seed", "data")
 #: The configs composed (the checkout's configs/, else the packaged copy: :func:`lfd.cli.configs_dir`).
@@ -269,11 +265,8 @@ def main(cfg: DictConfig) -> str:
     from hydra.core.hydra_config import HydraConfig
 
     out_dir = Path(cfg.paths.output_dir)
-    try:
+    with user_errors("evaluate"):  # a bad checkpoint, scenario file or setting: one line, exit status 2
         metrics = evaluate(cfg, out_dir, overrides=list(HydraConfig.get().overrides.task))
-    except USER_ERRORS as e:
-        print(f"evaluate: {e}", file=sys.stderr)
-        raise SystemExit(2) from None
     print(f"[lfd] evaluation written to: {out_dir}")
     table = results_table(metrics)
     if table:

@@ -18,9 +18,9 @@ import hydra
 from hydra.errors import InstantiationException
 from omegaconf import DictConfig, OmegaConf
 
-from lfd.cli import configs_dir, quiet, run_app
+from lfd.cli import configs_dir, quiet, run_app, user_errors
 from lfd.io.files import write_json_atomic
-from lfd.training import Adaptable, AdaptationSource, CheckpointError, read_checkpoint
+from lfd.training import Adaptable, AdaptationSource, CheckpointError, check_state_dict, read_checkpoint
 
 #: ``ckpt_path`` values Lightning resolves itself (no file of that name is read here).
 LIGHTNING_CKPT_NAMES = ("last", "best", "hpc")
@@ -43,6 +43,29 @@ def check_resume(ckpt_path: str | None) -> None:
         return
     try:
         read_checkpoint(ckpt_path, keys=("state_dict",))
+    except (CheckpointError, FileNotFoundError) as e:
+        print(f"train: ckpt_path={ckpt_path}: {e}", file=sys.stderr)
+        raise SystemExit(2) from None
+
+
+def check_resume_fits(ckpt_path: str | None, model) -> None:
+    """Refuse a ``ckpt_path`` to resume from that was written for another model than this run's:
+    another kind (the ``kind`` hyper-parameter), or a state_dict with a missing or extra key or a
+    tensor of another shape (:func:`lfd.training.check_state_dict`; shapes only, no tensor is
+    read); one line on stderr naming the file, its kind and the key or shape, exit status 2."""
+    if ckpt_path is None or str(ckpt_path) in LIGHTNING_CKPT_NAMES:
+        return
+    try:
+        ckpt = read_checkpoint(ckpt_path, keys=("state_dict",))
+        hparams = ckpt.get("hyper_parameters", {})
+        kind, own = hparams.get("kind"), getattr(model, "kind", None)
+        if own and kind != own:
+            raise CheckpointError(
+                f"{ckpt_path}: a {kind!r} checkpoint, this run's model is {own!r} (model=...)"
+            )
+        ckpt = {**ckpt, "state_dict": dict(ckpt["state_dict"])}  # the model's hook may drop retired entries
+        model.on_load_checkpoint(ckpt)
+        check_state_dict(ckpt_path, kind, model.state_dict(), ckpt["state_dict"], f"this run's model={own}")
     except (CheckpointError, FileNotFoundError) as e:
         print(f"train: ckpt_path={ckpt_path}: {e}", file=sys.stderr)
         raise SystemExit(2) from None
@@ -136,6 +159,14 @@ def evaluate_checkpoint(cfg: DictConfig, kind: str, ckpt: str, datamodule) -> Pa
 
 @hydra.main(version_base="1.3", config_path=str(CONFIGS), config_name="train")
 def main(cfg: DictConfig) -> str | None:
+    with user_errors("train"):  # a bad file or setting (a dataset, a checkpoint): one line, exit status 2
+        return run(cfg)
+
+
+def run(cfg: DictConfig) -> str | None:
+    """Fit the model of ``cfg`` on its data (resuming from ``ckpt_path``), print the run directory
+    and the checkpoint, write ``timing.json``, score the checkpoint with ``evaluate=true``;
+    returns the last checkpoint's path (None without a checkpoint callback)."""
     import lightning as L
 
     check_resume(cfg.get("ckpt_path"))
@@ -148,6 +179,7 @@ def main(cfg: DictConfig) -> str | None:
     # a model that takes statistics (and demonstrations) from its data gets them as plain objects
     if isinstance(model, Adaptable) and isinstance(datamodule, AdaptationSource):
         model.adapt(datamodule.adaptation_data())
+    check_resume_fits(cfg.get("ckpt_path"), model)
 
     if trainer.is_global_zero:
         print(OmegaConf.to_yaml(cfg, resolve=False))

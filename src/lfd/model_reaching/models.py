@@ -31,7 +31,7 @@ from torch import Tensor, nn
 from lfd.model_reaching.demonstrations import InverseData
 from lfd.model_reaching.forward import ForwardModel, error_summary, format_error_table, report_test_errors
 from lfd.model_reaching.inverse import DEMOS_KEY, InverseModel
-from lfd.training import CheckpointError, make_optimizer, read_checkpoint
+from lfd.training import CheckpointError, load_checkpoint_module, make_optimizer, read_checkpoint
 
 __all__ = ["SawyerModels", "load_sawyer_models"]
 
@@ -182,7 +182,7 @@ def load_sawyer_models(path, map_location: str | torch.device = "cpu") -> Sawyer
             f"{path}: checkpoint kind {kind!r} is not {SawyerModels.kind!r}; "
             "expected a checkpoint of `python train.py experiment=sawyer_models`"
         )
-    models = SawyerModels.load_from_checkpoint(path, map_location=map_location, weights_only=True).eval()
+    models = load_checkpoint_module(SawyerModels, path, map_location)  # sizes, keys, shapes checked
     missing = [t for t, m in models.inverse_models.items() if m.demo is None]
     if missing:
         raise ValueError(f"{path}: no demonstration stored for task(s) {missing}")

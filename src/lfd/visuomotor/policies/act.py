@@ -32,6 +32,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from lfd.visuomotor.policies.backbones import ImageBackbone, grid_embedding, sinusoidal_embedding
+from lfd.visuomotor.policies.base import check_sizes
 from lfd.visuomotor.policies.chunking import ChunkPolicy
 
 
@@ -85,6 +86,17 @@ class ACTPolicy(ChunkPolicy):
         max_grid: int = 8,
         **common,
     ) -> None:
+        check_sizes(
+            "ACTPolicy",
+            d_model=d_model,
+            n_heads=n_heads,
+            dim_feedforward=dim_feedforward,
+            n_encoder_layers=n_encoder_layers,
+            n_decoder_layers=n_decoder_layers,
+            latent_dim=latent_dim,
+            n_vae_layers=n_vae_layers,
+            max_grid=max_grid,
+        )
         super().__init__(chunk_size=chunk_size, **common)
         if d_model % 4 or d_model % n_heads:
             raise ValueError(

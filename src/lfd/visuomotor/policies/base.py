@@ -27,6 +27,7 @@ import lightning as L
 import numpy as np
 import torch
 
+from lfd.checks import check_int
 from lfd.sim.depth import DEPTH_ENCODINGS
 from lfd.training import SCHEDULERS, make_optimizer
 from lfd.visuomotor.policies.plots import log_sample_figure
@@ -46,6 +47,25 @@ DATA_KEYS = ("image_size", "depth", "duration", "n_steps", "robot")
 FINGERPRINT_KEY = "lfd_dataset_fingerprint"
 #: Checkpoint key of the training run's settings (:attr:`VisuomotorPolicy.training_run`).
 TRAINING_RUN_KEY = "lfd_training_run"
+
+
+def check_sizes(owner: str, **sizes: Any) -> None:
+    """Refuse a size hyper-parameter that is not an integer >= 1, or a list of sizes (layer widths:
+    ``hidden=[200, 200]``) that is empty or holds one that is not: ``ValueError`` naming
+    ``<owner>.<name>``. A policy checks its sizes before building anything (a config's or a
+    checkpoint's values: ``n_joints=-3`` or ``hidden=[2e5, 2e5]`` is refused here, not by torch)."""
+    for name, value in sizes.items():
+        if isinstance(value, (list, tuple)) or (
+            hasattr(value, "__len__") and not isinstance(value, (str, bytes))
+        ):
+            values = list(value)
+            if not values:
+                raise ValueError(f"{owner}.{name} must be a non-empty list of integers >= 1, got []")
+            for i, v in enumerate(values):
+                check_int(v, f"{owner}.{name}[{i}]", minimum=1)
+        else:
+            check_int(value, f"{owner}.{name}", minimum=1)
+
 
 #: The policy registry: kind (``VisuomotorPolicy.kind``, stored in every checkpoint) -> class.
 #: Filled by :meth:`VisuomotorPolicy.__init_subclass__`; read it, do not write it.
@@ -193,6 +213,7 @@ class VisuomotorPolicy(L.LightningModule):
             raise ValueError(
                 f"{type(self).__name__}.scheduler: expected one of {SCHEDULERS}, got {scheduler!r}"
             )
+        check_sizes(type(self).__name__, n_joints=n_joints, image_size=image_size, n_steps=n_steps)
         if n_steps < 2 or not duration > 0:
             raise ValueError(
                 f"{type(self).__name__}: need n_steps >= 2 and duration > 0, got {n_steps}, {duration}"

@@ -24,6 +24,7 @@ from torch.nn import functional as F
 
 from lfd.dmp import DMP, DMPLayer, DMPRunner, DMPState
 from lfd.dmp.transform import substeps
+from lfd.visuomotor.policies.base import check_sizes
 from lfd.visuomotor.policies.control import PlanController
 from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.plots import joint_figure
@@ -100,6 +101,7 @@ class CNNDMPPolicy(KeypointPolicy):
         alpha_z: float = 25.0,
         **common,
     ) -> None:
+        check_sizes("CNNDMPPolicy", n_basis=n_basis)
         super().__init__(**common)
         if loss not in LOSSES:
             raise ValueError(f"CNNDMPPolicy.loss: expected one of {LOSSES}, got {loss!r}")

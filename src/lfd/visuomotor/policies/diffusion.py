@@ -28,6 +28,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from lfd.visuomotor.policies.backbones import ImageBackbone
+from lfd.visuomotor.policies.base import check_sizes
 from lfd.visuomotor.policies.chunking import ChunkPolicy
 from lfd.visuomotor.policies.diffusion_unet import ConditionalUnet1D
 from lfd.visuomotor.policies.noise_schedule import NoiseSchedule
@@ -79,6 +80,17 @@ class DiffusionPolicy(ChunkPolicy):
         prediction: str = "epsilon",
         **common,
     ) -> None:
+        check_sizes(
+            "DiffusionPolicy",
+            horizon=horizon,
+            n_keypoints=n_keypoints,
+            image_feature_dim=image_feature_dim,
+            down_dims=down_dims,
+            step_embed_dim=step_embed_dim,
+            kernel_size=kernel_size,
+            n_groups=n_groups,
+            n_train_steps=n_train_steps,
+        )
         saved = common.pop("chunk_size", horizon)  # a checkpoint's hyper-parameters repeat it
         if saved != horizon:
             raise ValueError(f"DiffusionPolicy.chunk_size: must equal horizon={horizon}, got {saved}")

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import torch
 
-from lfd.training import CheckpointError, checkpoint_kind, read_checkpoint
+from lfd.training import CheckpointError, checkpoint_kind, load_checkpoint_module, read_checkpoint
 from lfd.visuomotor.policies.base import POLICIES, VisuomotorPolicy
 
 __all__ = ["POLICIES", "checkpoint_kind", "get_policy_class", "load_policy"]
@@ -39,13 +39,19 @@ def get_policy_class(kind: str) -> type[VisuomotorPolicy]:
 
 def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> VisuomotorPolicy:
     """Load a policy checkpoint of any registered kind, in eval mode. The file is checked by
-    :func:`lfd.training.read_checkpoint` and loaded with ``weights_only=True``: no code
-    from it runs.
+    :func:`lfd.training.read_checkpoint` (loaded with ``weights_only=True``: no code from it
+    runs) and the policy built by :func:`lfd.training.load_checkpoint_module`: its
+    hyper-parameters, the model's size and the state_dict's keys and shapes are checked before
+    any weight is copied.
 
     Raises:
         FileNotFoundError: no file at ``path``.
         lfd.training.CheckpointError: not a Lightning checkpoint (empty, truncated, foreign,
-            a pickled payload), or its kind is no registered policy (one line naming the file).
+            compressed, a pickled payload), its kind is no registered policy, or its
+            hyper-parameters or state_dict do not fit its kind (an unknown or another kind's
+            hyper-parameter, a refused value, a model over
+            :data:`lfd.training.MAX_CHECKPOINT_MODEL_BYTES`, a missing, extra or reshaped
+            tensor): one line naming the file, its kind and the key, field or shape.
     """
     path = Path(path)
     if not path.exists():
@@ -55,4 +61,4 @@ def load_policy(path: str | Path, map_location: str | torch.device = "cpu") -> V
         raise CheckpointError(
             f"{path}: checkpoint kind {kind!r} is not a policy; expected one of {sorted(POLICIES)}"
         )
-    return POLICIES[kind].load_from_checkpoint(path, map_location=map_location, weights_only=True).eval()
+    return load_checkpoint_module(POLICIES[kind], path, map_location, others=POLICIES)

@@ -12,7 +12,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from lfd.visuomotor.policies.base import VisuomotorPolicy
+from lfd.visuomotor.policies.base import VisuomotorPolicy, check_sizes
 from lfd.visuomotor.policies.vision import COLOUR_ORDERS, KeypointEncoder, all_colour_orders, mlp
 
 #: Auxiliary head outputs with ``aux_weight > 0``: the top-approach logit, the normalised target point (3).
@@ -57,6 +57,7 @@ class KeypointPolicy(VisuomotorPolicy):
         **common,
     ) -> None:
         name = type(self).__name__
+        check_sizes(name, channels=channels, hidden=hidden, bias_dim=bias_dim)
         if not aux_weight >= 0:
             raise ValueError(f"{name}.aux_weight: expected a number >= 0, got {aux_weight}")
         if mode_heads and not aux_weight > 0:
