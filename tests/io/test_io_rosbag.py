@@ -93,3 +93,99 @@ def test_joint_trajectory_bag_reads_back_with_rosbags(tmp_path, fmt):
         write_joint_trajectory(out, t, q, NAMES, format=fmt)
     with pytest.raises(ValueError, match="joint_names"):
         write_joint_trajectory(tmp_path / "x.bag", t, q, NAMES[:3])
+
+
+def _raw_joint_state_bag(path, kind, entries, topic="/joint_states"):
+    """A JointState bag of ``entries`` ``(receive_s, stamp_s, positions or raw bytes)``, written with rosbags'
+    writers in this order (a ROS 1 header's ``seq`` is the entry's number, as a publisher numbers them)."""
+    store = get_typestore(Stores.ROS1_NOETIC if kind == "ros1" else Stores.ROS2_HUMBLE)
+    types = store.types
+    empty = np.zeros(0)
+
+    def message(k, stamp, q):
+        ns = int(round(1e9 * stamp))
+        fields = dict(
+            stamp=types["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), frame_id=""
+        )
+        if kind == "ros1":
+            fields["seq"] = k
+        header = types["std_msgs/msg/Header"](**fields)
+        msg = types["sensor_msgs/msg/JointState"](
+            header=header, name=list(NAMES), position=np.asarray(q, float), velocity=empty, effort=empty
+        )
+        return (
+            store.serialize_ros1(msg, msg.__msgtype__)
+            if kind == "ros1"
+            else store.serialize_cdr(msg, msg.__msgtype__)
+        )
+
+    if kind == "ros1":
+        from rosbags.rosbag1 import Writer
+
+        writer = Writer(path)
+    else:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        writer = Writer(
+            path, version=9, storage_plugin=StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+        )
+    with writer:
+        conn = writer.add_connection(topic, "sensor_msgs/msg/JointState", typestore=store)
+        for k, (receive, stamp, q) in enumerate(entries):
+            raw = q if isinstance(q, bytes) else message(k, stamp, q)
+            writer.write(conn, int(round(1e9 * receive)), raw)
+    return path
+
+
+def _jumping_clock(t, q, jump_at, both):
+    """Entries of a recording whose clock jumps back 1 s at sample ``jump_at``: the header stamps (and the
+    bag's receive times too when ``both``)."""
+    clock = np.where(np.arange(len(t)) >= jump_at, t - 1.0, t) + 100.0
+    return [(c if both else 100.0 + tk, c, qk) for tk, c, qk in zip(t, clock, q)]
+
+
+@pytest.mark.parametrize(
+    ("kind", "both"), [("ros1", False), ("ros1", True), ("ros2", False), ("mcap", False)]
+)
+def test_a_clock_that_jumps_back_is_refused_naming_the_message(tmp_path, kind, both):
+    """A clock that jumps back 1 s mid-recording: the header stamps go back (the bag's receive times too
+    for ``both``: the bag then interleaves two stretches of the motion, which ROS 1 sequence numbers
+    reveal); refused in one line naming the bag, the topic and the message, never a zigzag trajectory."""
+    t = np.linspace(0.0, 4.0, 81)
+    q = np.stack([np.sin(t), np.cos(t), 0.3 * t, -0.2 * t], axis=1)
+    bag = _raw_joint_state_bag(
+        tmp_path / ("arm.bag" if kind == "ros1" else "arm"), kind, _jumping_clock(t, q, 40, both)
+    )
+    with pytest.raises(ValueError) as info:
+        read_joint_states(bag, joint_names=NAMES)
+    message = str(info.value)
+    assert message.startswith(f"{bag}: topic /joint_states: ") and "\n" not in message, message
+    if both:
+        assert "has sequence number" in message and "clock went back" in message, message
+    else:
+        assert (
+            "the header clock goes back 0.950000 s at message 40 (101.000000000 s after 101.950000000 s)"
+            in message
+        ), message
+    good = _raw_joint_state_bag(
+        tmp_path / ("ok.bag" if kind == "ros1" else "ok"), kind, _jumping_clock(t, q, 81, both)
+    )
+    np.testing.assert_allclose(
+        read_joint_states(good, joint_names=NAMES).q, q
+    )  # the same bag without the jump
+
+
+@pytest.mark.parametrize("kind", ["ros1", "ros2", "mcap"])
+def test_random_bytes_as_a_joint_state_message_are_one_line(tmp_path, kind):
+    t = np.linspace(0.0, 1.0, 10)
+    q = np.zeros((10, 4))
+    entries = [(100.0 + tk, 100.0 + tk, qk) for tk, qk in zip(t, q)]
+    entries[5] = (entries[5][0], 0.0, np.random.default_rng(0).bytes(64))
+    bag = _raw_joint_state_bag(tmp_path / ("arm.bag" if kind == "ros1" else "arm"), kind, entries)
+    with pytest.raises(ValueError) as info:
+        read_joint_states(bag, joint_names=NAMES)
+    message = str(info.value)
+    assert message.startswith(
+        f"{bag}: topic /joint_states: message 5 (received at 100.555555556 s) is not a readable"
+    )
+    assert "\n" not in message

@@ -19,6 +19,7 @@ Example::
 
 from __future__ import annotations
 
+import itertools
 import os
 import shutil
 import tempfile
@@ -98,14 +99,16 @@ def read_joint_states(
             message, in its order.
 
     Returns:
-        :class:`JointRecording`; duplicate or out-of-order stamps are dropped (the first message of a
-        stamp is kept).
+        :class:`JointRecording`; duplicate stamps are dropped (the first message of a stamp is kept).
 
     Raises:
         FileNotFoundError: nothing at ``path``.
         ValueError: not a readable bag; ``topic`` absent or not a JointState topic (the message lists the
             topics the bag has); several JointState topics and no ``topic``; none of ``joint_names`` in the
-            messages (the message lists the names found); fewer than 2 messages with every joint.
+            messages (the message lists the names found); fewer than 2 messages with every joint; a message
+            that is no readable JointState (random bytes); a clock that goes back (a header stamp below the
+            one before, or a ROS 1 sequence number below the one before: the bag interleaves two stretches),
+            naming the message's number and time. Each is one line naming the bag and the topic.
     """
     path = Path(path)
     if not path.exists():
@@ -143,19 +146,40 @@ def _read(reader, path: Path, topic: str | None, joint_names: Sequence[str] | No
         raise ValueError(f"{path}: topic {topic!r} is {what}; the bag has: {listing}")
     connections = [c for c in reader.connections if c.topic == topic]
     want = None if joint_names is None else [str(n) for n in joint_names]
-    stamps, receive, rows, seen = [], [], [], set()
-    for connection, timestamp, raw in reader.messages(connections=connections):
-        msg = reader.deserialize(raw, connection.msgtype)
-        names = [str(n) for n in msg.name]
+    stamps, receive, seqs, numbers, rows, seen = [], [], [], [], [], set()
+    messages = reader.messages(connections=connections)
+    for number in itertools.count():
+        try:
+            item = next(messages, None)
+        except Exception as exc:  # rosbags' own errors for a corrupt chunk or index
+            raise ValueError(
+                f"{path}: topic {topic}: unreadable after message {number} ({_why(exc)})"
+            ) from None
+        if item is None:
+            break
+        connection, timestamp, raw = item
+        try:
+            msg = reader.deserialize(raw, connection.msgtype)
+            names = [str(n) for n in msg.name]
+            position = [float(p) for p in msg.position]
+            stamp = int(msg.header.stamp.sec) + 1e-9 * int(msg.header.stamp.nanosec)
+            seq = getattr(msg.header, "seq", None)
+        except Exception as exc:  # bytes that are no JointState message: rosbags' or numpy's error
+            raise ValueError(
+                f"{path}: topic {topic}: message {number} (received at {1e-9 * timestamp:.9f} s) is not a "
+                f"readable sensor_msgs/JointState ({_why(exc)})"
+            ) from None
         seen.update(names)
         if want is None:
             want = names
         index = {n: i for i, n in enumerate(names)}
-        if not all(n in index for n in want) or len(msg.position) < len(names):
+        if not all(n in index for n in want) or len(position) < len(names):
             continue
-        rows.append([float(msg.position[index[n]]) for n in want])
-        stamps.append(int(msg.header.stamp.sec) + 1e-9 * int(msg.header.stamp.nanosec))
+        rows.append([position[index[n]] for n in want])
+        stamps.append(stamp)
         receive.append(1e-9 * timestamp)
+        seqs.append(seq)
+        numbers.append(number)
     if want is not None and not set(want) & seen:
         raise ValueError(
             f"{path}: topic {topic}: joint names {list(want)} match none of the recorded joints {sorted(seen)}; "
@@ -167,12 +191,44 @@ def _read(reader, path: Path, topic: str | None, joint_names: Sequence[str] | No
         raise ValueError(f"{path}: topic {topic}: {detail}; need at least 2 messages holding every joint")
     time_source = "header" if any(stamps) else "receive"
     t = np.asarray(stamps if time_source == "header" else receive, dtype=np.float64)
+    _check_clock(path, topic, t, seqs, numbers, time_source)
     q = np.asarray(rows, dtype=np.float64)
     keep = np.concatenate([[True], np.diff(np.maximum.accumulate(t)) > 0]) & (t >= np.maximum.accumulate(t))
     t, q = t[keep], q[keep]
     if not np.isfinite(q).all():
         raise ValueError(f"{path}: topic {topic}: positions hold NaN or inf")
     return JointRecording(t - t[0], tuple(want), q, topic, str(path), time_source)
+
+
+def _why(exc: BaseException) -> str:
+    """An error of a reader as ``<type>: <first line>``, short and printable."""
+    text = str(exc).strip()
+    line = "".join(c for c in (text.splitlines()[0] if text else "") if c.isprintable())[:200]
+    return f"{type(exc).__name__}: {line}" if line else type(exc).__name__
+
+
+def _check_clock(path: Path, topic: str, t: np.ndarray, seqs: list, numbers: list[int], source: str) -> None:
+    """Refuse a recording whose clock went back (messages in the bag's time order): a header stamp
+    below the one before, or (ROS 1) a header sequence number below the one before, which is what a
+    clock that jumped back leaves when the bag itself is ordered by the jumped receive times (two
+    stretches of the motion interleaved). One line naming the bag, the topic, the message and its time."""
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise ValueError(
+            f"{path}: topic {topic}: the {source} clock goes back {t[i - 1] - t[i]:.6f} s at message {numbers[i]} "
+            f"({t[i]:.9f} s after {t[i - 1]:.9f} s); lfd reads recordings whose stamps never decrease: "
+            "split the bag at the jump"
+        )
+    known = [(k, s) for k, s in enumerate(seqs) if s is not None]
+    if len({s for _, s in known}) > 1:  # ROS 1 headers number the messages as published
+        for (_, a), (k, b) in zip(known, known[1:]):
+            if b < a:
+                raise ValueError(
+                    f"{path}: topic {topic}: message {numbers[k]} (at {t[k]:.9f} s) has sequence number {b} "
+                    f"after {a}: the recording's clock went back and the bag interleaves two stretches of it; "
+                    "split the bag at the jump"
+                )
 
 
 def write_joint_trajectory(
