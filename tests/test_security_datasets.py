@@ -177,27 +177,37 @@ def test_lerobot_nan_state_is_refused_naming_the_episode_and_frame(reference):
     _refused(reference, f"{DATA} episode 2: observation.state is not finite", "at frame 3 (index 48)")
 
 
+#: Generator settings of a 3-episode lfd dataset (32 px, 20 steps): generated in about a second.
+TINY = dict(
+    seed=3,
+    n_train_objects=1,
+    n_train_placements=2,
+    n_test_objects=1,
+    n_test_placements=1,
+    n_val_objects=0,
+    n_val_object_placements=0,
+    image_size=32,
+    n_steps=20,
+    n_basis=8,
+)
+
+
 @pytest.fixture(scope="module")
-def lfd_lerobot(tmp_path_factory) -> Path:
-    """A LeRobot export of a tiny lfd dataset (3 episodes, 32 px, 20 steps: DMP columns)."""
-    from lfd.interop import export_lerobot
+def tiny(tmp_path_factory) -> Path:
+    """The lfd dataset ``<tmp>/data/tiny`` (3 episodes)."""
     from lfd.visuomotor.data import ReachDataModule
 
-    root = tmp_path_factory.mktemp("security_datasets")
-    params = dict(
-        seed=3,
-        n_train_objects=1,
-        n_train_placements=2,
-        n_test_objects=1,
-        n_test_placements=1,
-        n_val_objects=0,
-        n_val_object_placements=0,
-        image_size=32,
-        n_steps=20,
-        n_basis=8,
-    )
-    ReachDataModule(name="tiny", root=root, progress=False, num_gen_workers=1, **params).prepare_data()
-    return export_lerobot(root / "tiny", root / "tiny.lerobot", codec="h264", progress=False)
+    root = tmp_path_factory.mktemp("security_datasets") / "data"
+    ReachDataModule(name="tiny", root=root, progress=False, num_gen_workers=1, **TINY).prepare_data()
+    return root / "tiny"
+
+
+@pytest.fixture(scope="module")
+def lfd_lerobot(tiny) -> Path:
+    """A LeRobot export of :func:`tiny` (with lfd's DMP columns)."""
+    from lfd.interop import export_lerobot
+
+    return export_lerobot(tiny, tiny.parent.parent / "tiny.lerobot", codec="h264", progress=False)
 
 
 @pytest.mark.parametrize(
@@ -215,3 +225,157 @@ def test_lerobot_bad_dmp_columns_are_refused_naming_the_episode(lfd_lerobot, tmp
     _column(ds, EPISODES, column, change)
     dm = LeRobotDataModule(ds, mode="dmp", num_workers=0, batch_size=2)
     _refused(ds, f"{EPISODES} episode 1: {column}: ", load=lambda _: dm.setup("fit"))
+
+
+# ----------------------------------------------------------------------------- exports
+
+
+def _snapshot(folder: Path) -> dict[str, str]:
+    from lfd.io.files import sha256_file
+
+    return {str(p.relative_to(folder)): sha256_file(p) for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _export_overrides(tiny: Path, *extra: str) -> list[str]:
+    data = [f"data.{k}={v}" for k, v in TINY.items() if k != "seed"]
+    return [
+        f"seed={TINY['seed']}",
+        f"paths.data_dir={tiny.parent}",
+        "data.name=tiny",
+        "data.num_gen_workers=1",
+        "progress=false",
+        *data,
+        *extra,
+    ]
+
+
+def test_the_export_command_refuses_an_output_inside_the_source(tiny, tmp_path):
+    from lfd.visuomotor.data import verify_dataset
+
+    before = _snapshot(tiny)
+    cmd = [
+        sys.executable,
+        str(ROOT / "scripts" / "export_dataset.py"),
+        *_export_overrides(
+            tiny, "format=robomimic", f"out={tiny}/episodes/x.npz", f"hydra.run.dir={tmp_path}/run"
+        ),
+    ]
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "OMP_NUM_THREADS": "1"}
+    res = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert res.returncode == 2, res.stderr[-2000:]
+    assert "Traceback" not in res.stderr
+    lines = [line for line in res.stderr.splitlines() if line.startswith("export_dataset:")]
+    assert (
+        len(lines) == 1 and f"refusing to write {tiny}/episodes/x.npz: it lies inside the source" in lines[0]
+    )
+    assert _snapshot(tiny) == before
+    verify_dataset(tiny)  # still a valid dataset: no unlisted episode file
+
+
+def test_exports_refuse_outputs_inside_the_source_through_any_path(tiny, tmp_path):
+    from lfd.interop import export_lerobot, export_robomimic
+    from lfd.io.files import OutputRefused
+
+    before = _snapshot(tiny)
+    link = tmp_path / "link"
+    link.symlink_to(tiny)
+    for out in (tiny / "new" / "x.lerobot", tiny / "episodes" / "x.lerobot", link / "x.lerobot"):
+        with pytest.raises(OutputRefused, match="it lies inside the source"):
+            export_lerobot(tiny, out, codec="h264", progress=False)
+    for out in (tiny / "x.hdf5", link / "episodes" / "y.hdf5"):
+        with pytest.raises(OutputRefused, match="it lies inside the source"):
+            export_robomimic(tiny, out, progress=False, overwrite=True)
+    assert _snapshot(tiny) == before and not (tiny / "new").exists()
+
+
+@pytest.mark.parametrize("limit", [-1, 0, 1.5, True, "2"])
+def test_a_limit_that_is_not_a_positive_integer_is_refused(tiny, tmp_path, limit):
+    from lfd.interop import export_lerobot, export_robomimic
+
+    for export, who in ((export_lerobot, "export_lerobot"), (export_robomimic, "export_robomimic")):
+        with pytest.raises(ValueError, match=f"^{who}: limit: expected null .* or an integer >= 1, got "):
+            export(tiny, tmp_path / "out", limit=limit, progress=False)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_export_command_refuses_limit_minus_one_before_generating(compose, tmp_path):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("export_dataset", ROOT / "scripts" / "export_dataset.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    missing = tmp_path / "data" / "tiny"
+    cfg = compose("export_dataset", *_export_overrides(missing, "format=lerobot", "limit=-1"))
+    with pytest.raises(
+        ValueError, match=r"^limit: expected null \(every episode\) or an integer >= 1, got -1$"
+    ):
+        script.export(cfg)
+    assert not missing.exists()
+
+
+def _race(run, n: int = 2) -> list[BaseException | None]:
+    """Run ``run()`` in ``n`` threads at once; each one's exception (or None)."""
+    import threading
+
+    results: list[BaseException | None] = [None] * n
+
+    def worker(i: int) -> None:
+        try:
+            run()
+        except BaseException as e:  # the test looks at each outcome
+            results[i] = e
+
+    threads = [threading.Thread(target=worker, args=(i,)) for i in range(n)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=300)
+    return results
+
+
+@pytest.mark.parametrize("fmt", ["lerobot", "robomimic"])
+def test_two_exports_racing_to_one_new_output_one_wins_the_other_gets_one_line(
+    tiny, tmp_path, monkeypatch, fmt
+):
+    """Both exports are held until both have written their temporary output (a barrier in the
+    writer), so that they publish at the same moment: exactly one succeeds."""
+    import threading
+
+    from lfd.interop import export_lerobot, export_robomimic
+    from lfd.interop.lerobot.writer import LeRobotWriter
+    from lfd.interop.robomimic import export_kind
+
+    barrier = threading.Barrier(2, timeout=120)
+    out = tmp_path / ("race.lerobot" if fmt == "lerobot" else "race.hdf5")
+    if fmt == "lerobot":
+        finalize = LeRobotWriter.finalize
+
+        def held_finalize(self, *args, **kwargs):
+            barrier.wait()
+            return finalize(self, *args, **kwargs)
+
+        monkeypatch.setattr(LeRobotWriter, "finalize", held_finalize)
+        results = _race(lambda: export_lerobot(tiny, out, codec="h264", limit=1, progress=False))
+    else:
+        import lfd.interop.robomimic as robomimic
+
+        obs, seen = robomimic._obs, threading.local()
+
+        def held_obs(*args, **kwargs):
+            if not getattr(seen, "waited", False):
+                seen.waited = True
+                barrier.wait()
+            return obs(*args, **kwargs)
+
+        monkeypatch.setattr(robomimic, "_obs", held_obs)
+        results = _race(lambda: export_robomimic(tiny, out, limit=1, progress=False))
+    errors = [e for e in results if e is not None]
+    assert len(errors) == 1, results
+    assert isinstance(errors[0], FileExistsError), repr(errors[0])
+    message = str(errors[0])
+    assert "\n" not in message and f"{out} was written by another process meanwhile" in message
+    assert sorted(p.name for p in tmp_path.iterdir()) == [out.name]  # no temporary left behind
+    if fmt == "lerobot":
+        assert LeRobotFolder(out).info["total_episodes"] == 1
+    else:
+        assert export_kind(out) == "robomimic"

@@ -26,8 +26,9 @@ def export(cfg: DictConfig) -> Path:
 
     if cfg.format not in FORMATS:
         raise ValueError(f"format: expected one of {FORMATS}, got {cfg.format!r}")
-    from lfd.interop.export import check_export_target
+    from lfd.interop.export import check_export_target, check_limit
 
+    check_limit(cfg.limit, who="")  # before any data is generated
     datamodule = hydra.utils.instantiate(cfg.data)
     from lfd.visuomotor.metaworld import MetaWorldDataModule
 

@@ -105,19 +105,25 @@ def export_robomimic(
         out: ``.hdf5`` file to write (``overwrite`` replaces an existing one, only a file
             written by this function).
         compression: h5py filter for the image datasets (``"gzip"``, ``"lzf"`` or None).
-        limit: export only the first ``limit`` episodes (index order).
+        limit: export only the first ``limit`` episodes (index order; None: all, else an
+            integer >= 1).
 
     Returns:
         ``out``.
 
     Raises:
         lfd.io.files.DatasetError: ``dataset`` is missing, unfinished or corrupt.
-        FileExistsError: ``out`` exists and ``overwrite`` is not set.
-        lfd.io.files.OutputRefused: ``overwrite`` is set but ``out`` is no lfd robomimic
-            export, or is (or holds) ``dataset``, the current or the home folder.
+        ValueError: ``limit`` is not None or an integer >= 1.
+        FileExistsError: ``out`` exists and ``overwrite`` is not set, or another process wrote
+            it while this export ran (exactly one of two racing exports succeeds).
+        lfd.io.files.OutputRefused: ``out`` lies inside ``dataset``; ``overwrite`` is set but
+            ``out`` is no lfd robomimic export, or is (or holds) ``dataset``, the current or the
+            home folder.
     """
+    from lfd.interop.export import check_limit
     from lfd.visuomotor.data.datasets import command_velocities, load_dataset
 
+    check_limit(limit, "export_robomimic")
     h5py = _h5py()
     data = load_dataset(dataset)
     records = data.episodes[:limit]

@@ -187,6 +187,17 @@ def _clean_leftovers(target: Path, kind: str) -> None:
         shutil.rmtree(folder, ignore_errors=True)
 
 
+def _refuse_inside(target: Path, protect: Iterable[Path], who: str) -> None:
+    """Refuse a ``target`` that lies inside one of ``protect`` (an output never goes inside an input)."""
+    resolved = target.resolve()
+    for p in protect:
+        source = Path(p).resolve()
+        if resolved != source and resolved.is_relative_to(source):
+            raise OutputRefused(
+                f"{who}: refusing to write {target}: it lies inside the source {p} (choose an output outside it)"
+            )
+
+
 def check_output(
     target: Path,
     kind: str,
@@ -207,10 +218,12 @@ def check_output(
 
     Raises:
         FileExistsError: ``target`` exists and ``overwrite`` is not set.
-        OutputRefused: ``target`` is a symbolic link, is or holds one of ``protect`` (the
-            source), the current folder or the home folder, or carries no marker of ``kind``.
+        OutputRefused: ``target`` lies inside one of ``protect`` (the sources; whether or not it
+            exists), or it exists and is a symbolic link, is or holds one of ``protect``, the
+            current folder or the home folder, or carries no marker of ``kind``.
     """
     target = Path(os.path.abspath(target))
+    _refuse_inside(target, protect, who)
     if not (target.exists() or target.is_symlink()):
         return False
     if not overwrite:
@@ -259,12 +272,16 @@ def publish_output(
     ``target`` with :func:`os.replace` (the file must record ``kind`` itself, read back by
     ``kind_of``). On an exception the temporary folder is removed and ``target`` is left as
     it was. Leftovers of an interrupted earlier run for the same ``target`` and ``kind`` are
-    removed first (see :func:`check_output` for what may be replaced).
+    removed first (see :func:`check_output` for what may be replaced). Of two runs racing to
+    publish the same new ``target``, exactly one succeeds; the other removes its temporary
+    folder and raises :class:`FileExistsError` (nothing of the winner's is replaced).
 
     Raises:
-        FileExistsError, OutputRefused: from :func:`check_output`, before anything is written.
+        FileExistsError, OutputRefused: from :func:`check_output`, before anything is written;
+            FileExistsError also when another process published ``target`` first.
     """
     target = Path(os.path.abspath(target))
+    _refuse_inside(target, protect, who)  # before any folder is made
     target.parent.mkdir(parents=True, exist_ok=True)
     _clean_leftovers(target, kind)
     replace = check_output(target, kind, overwrite=overwrite, protect=protect, kind_of=kind_of, who=who)
@@ -275,17 +292,32 @@ def publish_output(
         write_json_atomic(container / EXPORT_MARKER, {**export_marker(kind), "partial": True})
         payload = container / target.name
         yield payload
+        lost = FileExistsError(
+            f"{who}: {target} was written by another process meanwhile; it is kept as it is"
+        )
         if kind_of is not None:
-            os.replace(payload, target)
+            if replace:
+                os.replace(payload, target)
+                return
+            try:  # a hard link fails if the name exists: no other run's file is replaced
+                os.link(payload, target)
+            except FileExistsError:
+                raise lost from None
+            except OSError:  # a file system without hard links: check, then rename
+                if target.exists() or target.is_symlink():
+                    raise lost from None
+                os.replace(payload, target)
             return
         write_json_atomic(payload / EXPORT_MARKER, export_marker(kind))
         if replace:
             os.rename(target, container / _REPLACED)
         try:
-            os.rename(payload, target)
-        except BaseException:
+            os.rename(payload, target)  # fails if another run published a folder there meanwhile
+        except BaseException as e:
             if replace:
                 os.rename(container / _REPLACED, target)
+            if isinstance(e, OSError) and not replace and (target.exists() or target.is_symlink()):
+                raise lost from None
             raise
     finally:
         shutil.rmtree(container, ignore_errors=True)

@@ -135,17 +135,21 @@ def export_lerobot(
         out: new LeRobot dataset folder (``overwrite`` replaces an existing one, only an
             lfd LeRobot export).
         codec: ``"av1"`` (default, as lerobot) or ``"h264"``.
-        limit: export only the first ``limit`` episodes of that order (for quick looks).
+        limit: export only the first ``limit`` episodes of that order (for quick looks; None:
+            all, else an integer >= 1).
 
     Returns:
         ``out``.
 
     Raises:
         lfd.io.files.DatasetError: ``dataset`` is missing, unfinished or corrupt.
-        FileExistsError: ``out`` exists and ``overwrite`` is not set.
-        lfd.io.files.OutputRefused: ``overwrite`` is set but ``out`` is no lfd LeRobot export,
-            or is (or holds) ``dataset``, the current or the home folder.
-        ValueError: an unknown ``codec`` or bad rollover limits (:class:`LeRobotWriter`).
+        FileExistsError: ``out`` exists and ``overwrite`` is not set, or another process wrote
+            it while this export ran (exactly one of two racing exports succeeds).
+        lfd.io.files.OutputRefused: ``out`` lies inside ``dataset``; ``overwrite`` is set but
+            ``out`` is no lfd LeRobot export, or is (or holds) ``dataset``, the current or the
+            home folder.
+        ValueError: an unknown ``codec``, bad rollover limits (:class:`LeRobotWriter`), a
+            ``limit`` that is not None or an integer >= 1.
 
     A Meta-World demonstration dataset (:mod:`lfd.visuomotor.metaworld.demos`, told by its
     manifest's format) is exported by :func:`export_metaworld` with the same options.
@@ -154,6 +158,9 @@ def export_lerobot(
 
         export_lerobot("data/quick_s42", "data/quick_s42.lerobot")
     """
+    from lfd.interop.export import check_limit
+
+    check_limit(limit, "export_lerobot")
     if is_metaworld_dataset(dataset):
         return export_metaworld(
             dataset,
@@ -295,8 +302,10 @@ def export_metaworld(
 
         export_metaworld("data/metaworld_reach-v3_n50_s42", "data/metaworld_reach-v3_n50_s42.lerobot")
     """
+    from lfd.interop.export import check_limit
     from lfd.visuomotor.metaworld.demos import STORED_SPLITS, load_demonstrations
 
+    check_limit(limit, "export_lerobot")
     data = load_demonstrations(dataset)
     cfg = data.config
     order = [e for split in STORED_SPLITS for e in data.split(split)][:limit]
