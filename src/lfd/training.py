@@ -241,8 +241,9 @@ def _names(keys: Sequence[str], at_most: int = 5) -> str:
 
 def init_arguments(cls: type) -> set[str]:
     """The keyword arguments the constructor of a LightningModule class ``cls`` takes by name,
-    along its class hierarchy (a subclass passing ``**common`` to its base takes the base's too)."""
-    names: set[str] = set()
+    along its class hierarchy (a subclass passing ``**common`` to its base takes the base's too),
+    and the names in its ``RETIRED_HYPERPARAMETERS`` (earlier releases' settings it still accepts)."""
+    names: set[str] = set(getattr(cls, "RETIRED_HYPERPARAMETERS", ()))
     for klass in cls.__mro__:
         if klass is L.LightningModule or not issubclass(klass, L.LightningModule):
             break

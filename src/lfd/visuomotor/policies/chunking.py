@@ -56,6 +56,9 @@ class ChunkPolicy(VisuomotorPolicy):
     """
 
     item_mode = "velocity"
+    #: Hyper-parameters of earlier releases' checkpoints that the constructor accepts by ``**common``
+    #: (:data:`RETIRED`; :func:`lfd.training.init_arguments` counts them as taken).
+    RETIRED_HYPERPARAMETERS = tuple(RETIRED)
 
     def __init__(
         self,
