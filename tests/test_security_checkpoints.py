@@ -498,3 +498,18 @@ def test_train_refuses_to_resume_from_a_checkpoint_of_another_model(
     assert line.startswith(f"train: ckpt_path={path}: {path}: a "), line
     assert fragment in line, line
     assert not (tmp_path / "data").exists()
+
+
+def test_evaluate_sawyer_checkpoint_with_an_extra_tensor_is_one_line(tmp_path, compose, capsys):
+    """``evaluate.py eval=sawyer eval.checkpoint=...`` of a Sawyer models checkpoint with a tensor its
+    models lack: one line naming the file and the key, exit status 2."""
+    from lfd.model_reaching import SawyerModels
+
+    models = SawyerModels(forward={"width": 8, "n_blocks": 1}, inverse={"hidden": [8]})
+    path = tmp_path / "sawyer.ckpt"
+    state = {**models.state_dict(), "planted.weight": torch.zeros(2)}
+    torch.save({"state_dict": state, "hyper_parameters": dict(models.hparams)}, path)
+    cfg = compose("evaluate", "eval=sawyer", f"eval.checkpoint={path}", f"paths.root_dir={tmp_path}")
+    line = entry_point_error(evaluate.main, cfg, capsys)
+    assert line.startswith(f"evaluate: {path}: a 'sawyer_models' checkpoint whose state_dict has key(s)")
+    assert "['planted.weight']" in line
