@@ -418,12 +418,17 @@ def test_sawyer_checkpoint_with_a_reshaped_tensor_is_one_line(tmp_path):
     state = models.state_dict()
     key = next(k for k, v in state.items() if v.ndim == 2)
     path = tmp_path / "sawyer.ckpt"
-    torch.save(
-        {"state_dict": {**state, key: torch.zeros(1, 1)}, "hyper_parameters": dict(models.hparams)}, path
-    )
+    torch.save({"state_dict": {**state, key: torch.zeros(1, 1)}, **lightning_keys(models)}, path)
     with pytest.raises(CheckpointError) as info:
         load_sawyer_models(path)
     assert str(info.value).startswith(f"{path}: a 'sawyer_models' checkpoint whose state_dict[{key!r}]")
+
+
+def lightning_keys(module) -> dict:
+    """The keys besides ``state_dict`` that Lightning writes (and its own loader needs)."""
+    import lightning
+
+    return {"hyper_parameters": dict(module.hparams), "pytorch-lightning_version": lightning.__version__}
 
 
 def deflated(source: Path, path: Path) -> Path:
@@ -508,7 +513,7 @@ def test_evaluate_sawyer_checkpoint_with_an_extra_tensor_is_one_line(tmp_path, c
     models = SawyerModels(forward={"width": 8, "n_blocks": 1}, inverse={"hidden": [8]})
     path = tmp_path / "sawyer.ckpt"
     state = {**models.state_dict(), "planted.weight": torch.zeros(2)}
-    torch.save({"state_dict": state, "hyper_parameters": dict(models.hparams)}, path)
+    torch.save({"state_dict": state, **lightning_keys(models)}, path)
     cfg = compose("evaluate", "eval=sawyer", f"eval.checkpoint={path}", f"paths.root_dir={tmp_path}")
     line = entry_point_error(evaluate.main, cfg, capsys)
     assert line.startswith(f"evaluate: {path}: a 'sawyer_models' checkpoint whose state_dict has key(s)")
