@@ -19,9 +19,11 @@ Example::
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import shutil
+import sqlite3
 import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -107,8 +109,10 @@ def read_joint_states(
             topics the bag has); several JointState topics and no ``topic``; none of ``joint_names`` in the
             messages (the message lists the names found); fewer than 2 messages with every joint; a message
             that is no readable JointState (random bytes); a clock that goes back (a header stamp below the
-            one before, or a ROS 1 sequence number below the one before: the bag interleaves two stretches),
-            naming the message's number and time. Each is one line naming the bag and the topic.
+            one before; or, where the bag interleaves two stretches because the recorder's clock jumped too,
+            a ROS 1 sequence number below the one before, or a ROS 2 sqlite3 bag whose stored order has a
+            receive time going back), naming the message's number and time. Each is one line naming the bag
+            and the topic.
     """
     path = Path(path)
     if not path.exists():
@@ -192,6 +196,7 @@ def _read(reader, path: Path, topic: str | None, joint_names: Sequence[str] | No
     time_source = "header" if any(stamps) else "receive"
     t = np.asarray(stamps if time_source == "header" else receive, dtype=np.float64)
     _check_clock(path, topic, t, seqs, numbers, time_source)
+    _check_stored_order(path, topic)
     q = np.asarray(rows, dtype=np.float64)
     keep = np.concatenate([[True], np.diff(np.maximum.accumulate(t)) > 0]) & (t >= np.maximum.accumulate(t))
     t, q = t[keep], q[keep]
@@ -229,6 +234,32 @@ def _check_clock(path: Path, topic: str, t: np.ndarray, seqs: list, numbers: lis
                     f"after {a}: the recording's clock went back and the bag interleaves two stretches of it; "
                     "split the bag at the jump"
                 )
+
+
+def _check_stored_order(path: Path, topic: str) -> None:
+    """Refuse a ROS 2 sqlite3 bag whose ``topic`` messages, in the order they were stored, have receive
+    times that go back: the recorder's clock jumped back, and a reader (which orders by time) would
+    interleave two stretches of the motion. One line naming the bag, the topic and the stored message."""
+    for db in sorted(path.glob("*.db3")) if path.is_dir() else ():
+        try:
+            with contextlib.closing(sqlite3.connect(f"{db.resolve().as_uri()}?mode=ro", uri=True)) as conn:
+                rows = conn.execute(
+                    "SELECT messages.timestamp FROM messages JOIN topics ON messages.topic_id = topics.id "
+                    "WHERE topics.name = ? ORDER BY messages.id",
+                    (topic,),
+                )
+                previous = None
+                for number, (stamp,) in enumerate(rows):
+                    if previous is not None and stamp < previous:
+                        raise ValueError(
+                            f"{path}: topic {topic}: stored message {number} of {db.name} was received at "
+                            f"{1e-9 * stamp:.9f} s, {1e-9 * (previous - stamp):.6f} s before the one stored before "
+                            "it: the recording's clock went back and the bag interleaves two stretches of it; "
+                            "split the bag at the jump"
+                        )
+                    previous = stamp
+        except sqlite3.Error as exc:
+            raise ValueError(f"{path}: {db.name}: not a readable ROS 2 sqlite3 bag ({_why(exc)})") from None
 
 
 def write_joint_trajectory(
