@@ -51,3 +51,14 @@ def test_a_dmp_file_past_the_size_limit_is_refused_unread(tmp_path, monkeypatch)
     assert str(info.value).startswith(f"{path} is not a DMP file (more than the ")
     monkeypatch.setattr(_io, "MAX_FILE_BYTES", path.stat().st_size)
     assert DMP.load(path).is_fitted
+
+
+def test_a_parameter_the_dmp_refuses_is_one_line_naming_the_file(tmp_path):
+    """A saved DMP whose ``n_basis`` became NaN: the constructor's refusal, prefixed with the file."""
+    path = _saved(tmp_path / "skill.dmp.json")
+    payload = json.loads(path.read_text())
+    payload["params"]["n_basis"] = float("nan")
+    path.write_text(json.dumps(payload))
+    with pytest.raises(ValueError) as info:
+        DMP.load(path)
+    assert str(info.value) == f"{path}: bad DMP parameters: n_basis must be an integer >= 1, got nan"

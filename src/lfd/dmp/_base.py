@@ -136,12 +136,12 @@ class Primitive(DMPBase):
         params = {**cls._MISSING_PARAMS, **params}
         try:
             primitive = cls(**params)
-        except TypeError as exc:
-            raise ValueError(f"{path}: bad {cls.__name__} parameters {params}") from exc
+        except (TypeError, ValueError) as exc:  # the constructor's own checks: one line naming the file
+            raise ValueError(f"{path}: bad {cls.__name__} parameters: {exc}") from None
         if fitted is not None:
             try:
                 primitive._restore(fitted)
-            except (KeyError, ValueError) as exc:
+            except (KeyError, TypeError, ValueError) as exc:
                 raise ValueError(f"{path}: bad fitted state: {exc}") from exc
         return primitive
 
