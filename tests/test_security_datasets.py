@@ -293,7 +293,7 @@ def test_a_limit_that_is_not_a_positive_integer_is_refused(tiny, tmp_path, limit
     from lfd.interop import export_lerobot, export_robomimic
 
     for export, who in ((export_lerobot, "export_lerobot"), (export_robomimic, "export_robomimic")):
-        with pytest.raises(ValueError, match=f"^{who}: limit: expected null .* or an integer >= 1, got "):
+        with pytest.raises(ValueError, match=rf"^{who}: limit must be an integer >= 1 \(or None\), got "):
             export(tiny, tmp_path / "out", limit=limit, progress=False)
     assert list(tmp_path.iterdir()) == []
 
@@ -306,9 +306,7 @@ def test_the_export_command_refuses_limit_minus_one_before_generating(compose, t
     spec.loader.exec_module(script)
     missing = tmp_path / "data" / "tiny"
     cfg = compose("export_dataset", *_export_overrides(missing, "format=lerobot", "limit=-1"))
-    with pytest.raises(
-        ValueError, match=r"^limit: expected null \(every episode\) or an integer >= 1, got -1$"
-    ):
+    with pytest.raises(ValueError, match=r"^limit must be an integer >= 1 \(or None\), got -1$"):
         script.export(cfg)
     assert not missing.exists()
 
@@ -379,3 +377,117 @@ def test_two_exports_racing_to_one_new_output_one_wins_the_other_gets_one_line(
         assert LeRobotFolder(out).info["total_episodes"] == 1
     else:
         assert export_kind(out) == "robomimic"
+
+
+# ----------------------------------------------------------------------------- entry points
+
+
+def _command(script: str, *args: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "OMP_NUM_THREADS": "1"}
+    cmd = [sys.executable, str(ROOT / script), *args, f"hydra.run.dir={cwd}/run"]
+    return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300, cwd=cwd)
+
+
+def _one_line(res: subprocess.CompletedProcess, prefix: str) -> str:
+    assert res.returncode == 2, res.stderr[-2000:]
+    assert "Traceback" not in res.stderr, res.stderr[-2000:]
+    lines = [line for line in res.stderr.splitlines() if line.startswith(f"{prefix}: ")]
+    assert len(lines) == 1, res.stderr[-2000:]
+    return lines[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["data.image_size=-1"], "train: data.image_size: expected an int >= 8, got -1"),
+        (["data.batch_size=0"], "train: data.batch_size: expected an int >= 1, got 0"),
+        (["data=lerobot"], "train: data.root: no value given (set data.root=...)"),
+        (
+            ["data=lerobot", "data.root=missing.lerobot"],
+            "train: LeRobot dataset folder missing.lerobot not found",
+        ),
+    ],
+    ids=["image-size", "batch-size", "no-root", "missing-root"],
+)
+def test_train_names_a_bad_data_setting_in_one_line(tmp_path, args, expected):
+    res = _command("train.py", *args, f"paths.data_dir={tmp_path}/data", "trainer=cpu", cwd=tmp_path)
+    assert _one_line(res, "train") == expected
+    assert not (tmp_path / "data").exists()  # nothing generated
+
+
+def test_train_names_a_dataset_with_one_flipped_byte_in_one_line(tiny, tmp_path):
+    data = tmp_path / "data"
+    shutil.copytree(tiny, data / "tiny")
+    episode = data / "tiny" / "episodes" / "ep-00001.npz"
+    raw = bytearray(episode.read_bytes())
+    raw[len(raw) // 2] ^= 0x01
+    episode.write_bytes(bytes(raw))
+    res = _command(
+        "train.py",
+        *[a for a in _export_overrides(data / "tiny") if a != "progress=false"],
+        "data.progress=false",
+        "trainer=cpu",
+        "+trainer.fast_dev_run=true",
+        cwd=tmp_path,
+    )
+    line = _one_line(res, "train")
+    assert f"corrupt dataset {data / 'tiny'}: checksum mismatch for {episode}" in line, line
+
+
+def test_train_names_a_broken_lerobot_folder_in_one_line(reference, tmp_path):
+    _info(reference, total_episodes=10**9)
+    res = _command("train.py", "data=lerobot", f"data.root={reference}", "trainer=cpu", cwd=tmp_path)
+    line = _one_line(res, "train")
+    assert line.startswith(
+        f"train: {reference}/meta/info.json total_episodes: expected an integer in [0, "
+    ), line
+
+
+# ----------------------------------------------------------------------------- merge_shards
+
+
+@pytest.fixture(scope="module")
+def shards(tiny) -> list[Path]:
+    """Shards 0 and 1 of 2 of :func:`tiny`'s dataset, beside it."""
+    from lfd.visuomotor.data import ReachDataModule, dataset_dir
+
+    for i in range(2):
+        ReachDataModule(
+            name="tiny", root=tiny.parent, progress=False, num_gen_workers=1, shard=i, num_shards=2, **TINY
+        ).prepare_data()
+    return [dataset_dir(tiny.parent, "tiny", i, 2) for i in range(2)]
+
+
+def test_merge_shards_never_writes_into_an_existing_dataset(tiny, shards, tmp_path):
+    from lfd.io.files import DatasetError
+    from lfd.visuomotor.data import merge_shards, verify_dataset
+
+    before = _snapshot(tiny)
+    with pytest.raises(DatasetError, match=f"refusing to merge into {tiny}: it holds a complete dataset"):
+        merge_shards(shards, tiny)
+    partial = tmp_path / "partial"
+    (partial / "episodes").mkdir(parents=True)
+    (partial / "episodes" / "ep-00000.npz").write_bytes(b"an unfinished generation's episode")
+    with pytest.raises(DatasetError, match="it exists and is not empty"):
+        merge_shards(shards, partial)
+    with pytest.raises(DatasetError, match="lies inside or holds the shard"):
+        merge_shards(shards, shards[0] / "merged")
+    assert _snapshot(tiny) == before
+    verify_dataset(tiny)
+    assert (partial / "episodes" / "ep-00000.npz").read_bytes() == b"an unfinished generation's episode"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    merged = merge_shards(shards, empty)  # a new (or empty) folder: merged, byte-identical to the whole
+    assert _snapshot(merged) == before
+
+
+def test_the_merge_command_refuses_an_existing_complete_dataset_in_one_line(tiny, shards, tmp_path):
+    before = _snapshot(tiny)
+    overrides = [a for a in _export_overrides(tiny) if a != "progress=false"]
+    res = _command("scripts/generate_data.py", *overrides, "+merge_shards=2", cwd=tmp_path)
+    line = _one_line(res, "generate_data")
+    assert line.startswith(
+        f"generate_data: merge_shards: refusing to merge into {tiny}: it holds a complete"
+    ), line
+    assert "merged" not in res.stdout
+    assert _snapshot(tiny) == before

@@ -6,14 +6,14 @@ this module.
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from lfd.cli import configs_dir, run_app
+from lfd.cli import configs_dir, run_app, user_errors
+from lfd.cli.config import instantiate_node
 
 #: The configs composed (the checkout's configs/, else the packaged copy: :func:`lfd.cli.configs_dir`).
 CONFIGS = configs_dir()
@@ -26,10 +26,11 @@ def export(cfg: DictConfig) -> Path:
 
     if cfg.format not in FORMATS:
         raise ValueError(f"format: expected one of {FORMATS}, got {cfg.format!r}")
-    from lfd.interop.export import check_export_target, check_limit
+    from lfd.checks import check_int
+    from lfd.interop.export import check_export_target
 
-    check_limit(cfg.limit, who="")  # before any data is generated
-    datamodule = hydra.utils.instantiate(cfg.data)
+    check_int(cfg.limit, "limit", minimum=1, optional=True)  # before any data is generated
+    datamodule = instantiate_node("data", cfg.data)
     from lfd.visuomotor.metaworld import MetaWorldDataModule
 
     if cfg.format != "lerobot" and isinstance(datamodule, MetaWorldDataModule):
@@ -56,11 +57,8 @@ def export(cfg: DictConfig) -> Path:
 
 @hydra.main(version_base="1.3", config_path=str(CONFIGS), config_name="export_dataset")
 def main(cfg: DictConfig) -> str:
-    try:
+    with user_errors("export_dataset", (ValueError, FileExistsError, FileNotFoundError)):
         return str(export(cfg))
-    except (ValueError, FileExistsError, FileNotFoundError) as e:
-        print(f"export_dataset: {e}", file=sys.stderr)
-        raise SystemExit(2) from None
 
 
 USAGE = """

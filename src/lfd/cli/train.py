@@ -19,6 +19,7 @@ from hydra.errors import InstantiationException
 from omegaconf import DictConfig, OmegaConf
 
 from lfd.cli import configs_dir, quiet, run_app, user_errors
+from lfd.cli.config import instantiate_node
 from lfd.io.files import write_json_atomic
 from lfd.training import Adaptable, AdaptationSource, CheckpointError, check_state_dict, read_checkpoint
 
@@ -101,7 +102,7 @@ def instantiate_data_and_model(cfg: DictConfig) -> tuple[Any, Any]:
 
     cls = policy_class(cfg)
     if cls is None:
-        return hydra.utils.instantiate(cfg.data), hydra.utils.instantiate(cfg.model)
+        return instantiate_node("data", cfg.data), hydra.utils.instantiate(cfg.model)
     data = OmegaConf.to_container(cfg.data, resolve=True)
     twice = sorted(set(cls.DATA_ARGUMENTS) & set(cfg.model))
     try:
@@ -111,7 +112,7 @@ def instantiate_data_and_model(cfg: DictConfig) -> tuple[Any, Any]:
     except ValueError as e:
         print(f"train: model={cls.kind}: {e}", file=sys.stderr)
         raise SystemExit(2) from None
-    datamodule = hydra.utils.instantiate(cfg.data, mode=cls.item_mode)
+    datamodule = instantiate_node("data", cfg.data, mode=cls.item_mode)  # a bad data.* setting: one line
     try:
         model = hydra.utils.instantiate(cfg.model, **arguments)
     except InstantiationException as e:  # a misspelt or out-of-range model setting: its one line

@@ -18,21 +18,6 @@ from pathlib import Path
 FORMATS = ("lerobot", "robomimic")
 
 
-def check_limit(limit: object, who: str = "export") -> int | None:
-    """``limit`` (how many episodes to export) checked: None (all of them) or an integer >= 1
-    (``who`` opens the error message when given).
-
-    Raises:
-        ValueError: anything else (``0``, ``-1``, ``2.5``, ``true``): one line naming ``limit``.
-    """
-    if limit is not None and (isinstance(limit, bool) or not isinstance(limit, int) or limit < 1):
-        prefix = f"{who}: " if who else ""
-        raise ValueError(
-            f"{prefix}limit: expected null (every episode) or an integer >= 1, got {limit!r:.40}"
-        )
-    return limit
-
-
 def check_export_target(src: str | Path, out: str | Path, format: str, overwrite: bool = False) -> bool:
     """Check, before any data is read or generated, that ``out`` may receive a ``format`` export of
     ``src`` (the same rules the exporter applies when it publishes: :func:`lfd.io.files.check_output`).

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.checks import check_int
 from lfd.io.files import export_marker, publish_output
 from lfd.robots.spatial import matrix_to_quaternion
 
@@ -120,10 +121,9 @@ def export_robomimic(
             ``out`` is no lfd robomimic export, or is (or holds) ``dataset``, the current or the
             home folder.
     """
-    from lfd.interop.export import check_limit
     from lfd.visuomotor.data.datasets import command_velocities, load_dataset
 
-    check_limit(limit, "export_robomimic")
+    check_int(limit, "export_robomimic: limit", minimum=1, optional=True)
     h5py = _h5py()
     data = load_dataset(dataset)
     records = data.episodes[:limit]

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from lfd.checks import check_int
 from lfd.interop.lerobot.paths import (
     DEFAULT_CHUNK_SIZE,
     DEFAULT_DATA_FILE_SIZE_IN_MB,
@@ -158,9 +159,7 @@ def export_lerobot(
 
         export_lerobot("data/quick_s42", "data/quick_s42.lerobot")
     """
-    from lfd.interop.export import check_limit
-
-    check_limit(limit, "export_lerobot")
+    check_int(limit, "export_lerobot: limit", minimum=1, optional=True)
     if is_metaworld_dataset(dataset):
         return export_metaworld(
             dataset,
@@ -302,10 +301,9 @@ def export_metaworld(
 
         export_metaworld("data/metaworld_reach-v3_n50_s42", "data/metaworld_reach-v3_n50_s42.lerobot")
     """
-    from lfd.interop.export import check_limit
     from lfd.visuomotor.metaworld.demos import STORED_SPLITS, load_demonstrations
 
-    check_limit(limit, "export_lerobot")
+    check_int(limit, "export_lerobot: limit", minimum=1, optional=True)
     data = load_demonstrations(dataset)
     cfg = data.config
     order = [e for split in STORED_SPLITS for e in data.split(split)][:limit]

@@ -346,13 +346,30 @@ def merge_shards(shard_dirs: Sequence[str | Path], out_dir: str | Path) -> Path:
     """Join complete shards (from :func:`generate_dataset` with ``shard=i``) into one
     dataset at ``out_dir``, byte-identical to an unsharded run.
 
-    Every shard is verified first (checksums, same config and code version, shard count,
-    each shard index present once).
+    ``out_dir`` must be new (or an empty folder): an existing dataset, complete or not, or
+    any other file or folder there is never written into. Every shard is verified first
+    (checksums, same config and code version, shard count, each shard index present once);
+    the manifest is written last, so a merge cut short leaves a folder that is visibly
+    unfinished (no ``manifest.json``), to be deleted before merging again.
 
     Raises:
-        DatasetError: naming the shard and what is wrong with it.
+        DatasetError: ``out_dir`` exists and is not empty, is a symbolic link, or is or lies
+            inside a shard (or holds one); or naming the shard and what is wrong with it.
     """
     out_dir = Path(out_dir)
+    refuse = f"merge_shards: refusing to merge into {out_dir}"
+    if out_dir.is_symlink() or (out_dir.exists() and not out_dir.is_dir()):
+        raise DatasetError(f"{refuse}: it is a symbolic link or a file; merge into a new folder")
+    if out_dir.is_dir() and any(out_dir.iterdir()):
+        what = (
+            "it holds a complete dataset (manifest.json)"
+            if (out_dir / MANIFEST).is_file()
+            else "it exists and is not empty"
+        )
+        raise DatasetError(f"{refuse}: {what}; merge into a new folder, or delete it first yourself")
+    for d in map(Path, shard_dirs):
+        if out_dir.resolve().is_relative_to(d.resolve()) or d.resolve().is_relative_to(out_dir.resolve()):
+            raise DatasetError(f"{refuse}: it is, lies inside or holds the shard {d}")
     manifests = []
     for d in map(Path, shard_dirs):
         verify_dataset(d, shard="any")
