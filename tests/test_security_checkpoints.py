@@ -203,7 +203,12 @@ def test_train_refuses_a_bad_resume_checkpoint_before_any_data(tmp_path, compose
     evil = evil_checkpoint(tmp_path / "evil.ckpt", marker)
     empty = tmp_path / "empty.ckpt"
     empty.write_bytes(b"")
-    for path, why in ((evil, "nothing in it was run"), (empty, "empty file")):
+    rezipped = deflated(policy_checkpoint(tmp_path / "good.ckpt"), tmp_path / "deflated.ckpt")
+    for path, why in (
+        (evil, "nothing in it was run"),
+        (empty, "empty file"),
+        (rezipped, "compressed zip member(s)"),
+    ):
         cfg = compose("train", f"ckpt_path={path}", f"paths.root_dir={tmp_path}")
         line = entry_point_error(train.main, cfg, capsys)
         assert line.startswith(f"train: ckpt_path={path}: {path}: not a PyTorch Lightning") and why in line
