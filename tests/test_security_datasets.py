@@ -108,6 +108,17 @@ def test_lerobot_declared_counts_are_capped_before_anything_is_allocated(referen
     assert len(lines) == 1 and lines[0].startswith("refused: ") and f"info.json {name}: " in lines[0], lines
 
 
+def test_lerobot_info_json_is_read_within_a_size_and_depth_bound(reference):
+    from lfd.interop.lerobot.io import MAX_JSON_BYTES
+
+    info = reference / "meta" / "info.json"
+    text = info.read_text()
+    info.write_text(text + " " * (MAX_JSON_BYTES + 1 - len(text.encode())))
+    _refused(reference, f"{info}: {MAX_JSON_BYTES + 1} bytes, more than lfd reads")
+    info.write_text("[" * 100_000 + "]" * 100_000)  # 200 kB, nested deeper than the parser's recursion limit
+    _refused(reference, f"{info}: corrupt JSON")
+
+
 @pytest.mark.parametrize(
     ("changes", "fragment"),
     [
