@@ -222,7 +222,7 @@ def check_output(
             exists), or it exists and is a symbolic link, is or holds one of ``protect``, the
             current folder or the home folder, or carries no marker of ``kind``.
     """
-    target = Path(os.path.abspath(target))
+    target, protect = Path(os.path.abspath(target)), list(protect)
     _refuse_inside(target, protect, who)
     if not (target.exists() or target.is_symlink()):
         return False
@@ -280,7 +280,7 @@ def publish_output(
         FileExistsError, OutputRefused: from :func:`check_output`, before anything is written;
             FileExistsError also when another process published ``target`` first.
     """
-    target = Path(os.path.abspath(target))
+    target, protect = Path(os.path.abspath(target)), list(protect)
     _refuse_inside(target, protect, who)  # before any folder is made
     target.parent.mkdir(parents=True, exist_ok=True)
     _clean_leftovers(target, kind)
