@@ -122,13 +122,42 @@ def test_lerobot_info_json_is_read_within_a_size_and_depth_bound(reference):
 @pytest.mark.parametrize(
     ("changes", "fragment"),
     [
-        ({"total_episodes": 4}, "meta/episodes holds 3 episodes, "),
-        ({"total_frames": 76}, "75 frames in data/, "),
+        ({"total_episodes": 4}, "meta/episodes holds 3 rows, "),
+        ({"total_frames": 76}, "data/ holds 75 rows, "),
     ],
 )
 def test_lerobot_declared_counts_must_match_the_files(reference, changes, fragment):
     _info(reference, **changes)
     _refused(reference, fragment, f"total_{next(iter(changes)).split('_')[1]} says")
+
+
+@pytest.mark.parametrize(
+    ("cap", "fragment"),
+    [
+        ("MAX_FRAME_VALUES", "data/ declares 1950 values"),
+        ("MAX_EPISODE_VALUES", "meta/episodes declares 846 values"),
+    ],
+)
+def test_lerobot_parquet_values_are_capped_by_their_footers_before_reading(
+    reference, monkeypatch, cap, fragment
+):
+    """What reading a parquet file allocates is bounded by its footer's value count, checked before any
+    table is read (here with the cap lowered to just below the reference's own counts)."""
+    import lfd.interop.lerobot.reader as reader
+
+    monkeypatch.setattr(reader, cap, {"MAX_FRAME_VALUES": 1949, "MAX_EPISODE_VALUES": 845}[cap])
+    read = reader.read_table
+
+    def no_table_before_the_check(path):
+        if cap == "MAX_EPISODE_VALUES" or "/data/" in str(path):
+            raise AssertionError(f"{path} read before its footer was checked")
+        return read(path)
+
+    monkeypatch.setattr(reader, "read_table", no_table_before_the_check)
+    monkeypatch.setattr(
+        reader, "read_parquet_columns", lambda paths: pytest.fail("data read before the check")
+    )
+    _refused(reference, fragment, f"more than lfd reads ({getattr(reader, cap)})")
 
 
 @pytest.mark.parametrize("fps", [0, -10, "10", None, 1e300])

@@ -123,8 +123,10 @@ def read_table(path: Path):
         raise LeRobotDatasetError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
 
 
-def parquet_rows(path: Path) -> int:
-    """The number of rows the footer of parquet file ``path`` declares (nothing else is read).
+def parquet_footer(path: Path) -> tuple[int, int]:
+    """``(rows, values)`` that the footer of parquet file ``path`` declares: its row count and
+    the number of values of all its columns (list entries counted one by one), which bound
+    what reading it allocates. Nothing but the footer is read.
 
     Raises:
         LeRobotFileMissing, LeRobotDatasetError: as :func:`read_table`.
@@ -133,7 +135,13 @@ def parquet_rows(path: Path) -> int:
     if not Path(path).is_file():
         raise LeRobotFileMissing(f"{path} not found")
     try:
-        return int(pq.read_metadata(path).num_rows)
+        md = pq.read_metadata(path)
+        values = sum(
+            md.row_group(i).column(j).num_values
+            for i in range(md.num_row_groups)
+            for j in range(md.num_columns)
+        )
+        return int(md.num_rows), int(values)
     except (pa.ArrowException, OSError) as e:
         raise LeRobotDatasetError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
 

@@ -10,10 +10,11 @@ line naming the field or file.
 
 A folder is not trusted: every count and size ``info.json`` declares is checked against
 lfd's caps (:data:`MAX_EPISODES`, :data:`MAX_FRAMES`, :data:`MAX_FEATURE_VALUES`,
-:data:`MAX_FPS`, :data:`MAX_IMAGE_SIDE`) and against the row counts in the parquet footers
-before anything is allocated; each episode's index range must hold exactly its own frames
-(no overlap, ``from < to``), the video columns of every camera must be there, and
-``observation.state`` / ``action`` must be finite. Every refusal is a
+:data:`MAX_FPS`, :data:`MAX_IMAGE_SIDE`) and against the row and value counts in the parquet
+footers (:data:`MAX_FRAME_VALUES`, :data:`MAX_EPISODE_VALUES`) before anything is allocated;
+each episode's index range must hold exactly its own frames (no overlap, ``from < to``), the
+video columns of every camera must be there, and ``observation.state`` / ``action`` must be
+finite. Every refusal is a
 :class:`~lfd.interop.lerobot.io.LeRobotDatasetError` (a ``ValueError``; a missing file or
 folder a :class:`~lfd.interop.lerobot.io.LeRobotFileMissing`, also a ``FileNotFoundError``)
 with one line naming the file, the field and the episode.
@@ -32,7 +33,7 @@ import numpy as np
 from lfd.interop.lerobot.io import (
     LeRobotDatasetError,
     LeRobotFileMissing,
-    parquet_rows,
+    parquet_footer,
     read_json,
     read_parquet_columns,
     read_table,
@@ -63,6 +64,11 @@ REQUIRED_FEATURES = (
 MAX_EPISODES = 1_000_000
 #: Most frames a folder may declare (``total_frames``): the frame table is held in memory.
 MAX_FRAMES = 50_000_000
+#: Most values (list entries counted one by one) the data parquet files may hold together, as their
+#: footers declare: the frame table in memory stays within about 2 GB.
+MAX_FRAME_VALUES = 250_000_000
+#: Most values the ``meta/episodes`` parquet files may hold together (read as Python objects).
+MAX_EPISODE_VALUES = 20_000_000
 #: Most values of one frame feature (the product of its ``shape``; video features excepted).
 MAX_FEATURE_VALUES = 65_536
 #: Highest frame rate (``fps``, Hz) accepted.
@@ -80,6 +86,22 @@ def _count(path: Path, name: str, value: object, cap: int) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= cap:
         raise LeRobotDatasetError(f"{path} {name}: expected an integer in [0, {cap}], got {value!r}")
     return value
+
+
+def _check_footers(root: Path, what: str, files: list[Path], rows: int, field: str, cap: int) -> None:
+    """The parquet ``files`` (``what`` of the folder ``root``), by their footers alone, hold the
+    ``rows`` rows ``info.json``'s ``field`` declares and at most ``cap`` values together."""
+    footers = [parquet_footer(f) for f in files]
+    declared = sum(r for r, _ in footers)
+    if declared != rows:
+        raise LeRobotDatasetError(
+            f"{root}: {what} holds {declared} rows, {root / 'meta' / 'info.json'} {field} says {rows}"
+        )
+    values = sum(v for _, v in footers)
+    if values > cap:
+        raise LeRobotDatasetError(
+            f"{root}: {what} declares {values} values in its parquet footers, more than lfd reads ({cap})"
+        )
 
 
 def _check_features(path: Path, features: dict) -> None:
@@ -218,7 +240,6 @@ class LeRobotFolder:
     def __init__(self, root: str | Path, tolerance_s: float = 1e-4) -> None:
         self.root = Path(root)
         self.info = read_info(self.root)
-        info_path = self.root / "meta" / "info.json"
         self.fps = float(self.info["fps"])
         self.tolerance_s = tolerance_s
         self.features = self.info["features"]
@@ -228,11 +249,7 @@ class LeRobotFolder:
             raise LeRobotFileMissing(f"{self.root}: no meta/episodes/chunk-*/file-*.parquet")
         ep_files = [dataset_file(self.root, "file", f.relative_to(self.root)) for f in ep_files]
         n_episodes = self.info["total_episodes"]
-        declared = sum(parquet_rows(f) for f in ep_files)  # footers only: nothing allocated yet
-        if declared != n_episodes:
-            raise LeRobotDatasetError(
-                f"{self.root}: meta/episodes holds {declared} episodes, {info_path} total_episodes says {n_episodes}"
-            )
+        _check_footers(self.root, "meta/episodes", ep_files, n_episodes, "total_episodes", MAX_EPISODE_VALUES)
         rows, self.episode_files = [], []
         for f in ep_files:
             table = read_table(f)
@@ -273,11 +290,7 @@ class LeRobotFolder:
             if not f.is_file():
                 raise LeRobotFileMissing(f"{self.root}: data file {f} (listed in meta/episodes) not found")
         n_frames = self.info["total_frames"]
-        declared = sum(parquet_rows(f) for f in data_files)
-        if declared != n_frames:
-            raise LeRobotDatasetError(
-                f"{self.root}: {declared} frames in data/, {info_path} total_frames says {n_frames}"
-            )
+        _check_footers(self.root, "data/", data_files, n_frames, "total_frames", MAX_FRAME_VALUES)
         self.data = read_parquet_columns(data_files)
         missing = [k for k in REQUIRED_FEATURES if k not in self.data]
         if missing:
