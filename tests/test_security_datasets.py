@@ -531,3 +531,20 @@ def test_the_merge_command_refuses_an_existing_complete_dataset_in_one_line(tiny
     ), line
     assert "merged" not in res.stdout
     assert _snapshot(tiny) == before
+
+
+def test_lerobot_datamodule_bounds_the_decoded_frames_before_decoding(reference, monkeypatch):
+    """``mode="velocity"`` holds every frame in memory: 75 frames of 64 x 64 px are 921,600 bytes,
+    refused under a cap lowered just below that, before any video is opened."""
+    import lfd.interop.lerobot.datamodule as datamodule
+
+    monkeypatch.setattr(datamodule, "MAX_IMAGE_BYTES", 75 * 64 * 64 * 3 - 1)
+    monkeypatch.setattr(
+        LeRobotFolder, "frames", lambda *a, **k: pytest.fail("a video decoded before the check")
+    )
+    dm = LeRobotDataModule(reference, mode="velocity")
+    _refused(
+        reference,
+        "mode='velocity' holds 75 images of observation.images.front (64x64)",
+        load=lambda _: dm.setup("fit"),
+    )

@@ -36,6 +36,10 @@ import numpy as np
 from lfd.interop.lerobot.io import LeRobotDatasetError
 from lfd.interop.lerobot.reader import LeRobotFolder, parse_splits, read_info
 
+#: Most bytes of decoded RGB frames the datamodule holds in memory (every frame in ``mode="velocity"``,
+#: each episode's first frame in ``mode="dmp"``), checked from ``info.json``'s shapes before decoding.
+MAX_IMAGE_BYTES = 16 * 2**30
+
 
 @dataclass
 class LeRobotDataConfig:
@@ -233,6 +237,12 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
         h, w = folder.features[key]["shape"][:2]
         if h != w:
             raise ValueError(f"{self.root}: lfd's policies take square images, {key} is {h}x{w}")
+        n_images = len(folder) if self.mode == "dmp" else len(folder.data["index"])
+        if n_images * h * w * 3 > MAX_IMAGE_BYTES:
+            raise LeRobotDatasetError(
+                f"{self.root}: mode={self.mode!r} holds {n_images} images of {key} ({h}x{w}) in memory, "
+                f"{n_images * h * w * 3 / 2**30:.1f} GiB, more than lfd loads ({MAX_IMAGE_BYTES / 2**30:.0f} GiB)"
+            )
         state, action = folder.data["observation.state"], folder.data["action"]
         n = self.n_joints or action.shape[1]
         if state.shape[1] < n:

@@ -67,7 +67,8 @@ MAX_FRAMES = 50_000_000
 #: Most values (list entries counted one by one) the data parquet files may hold together, as their
 #: footers declare: the frame table in memory stays within about 2 GB.
 MAX_FRAME_VALUES = 250_000_000
-#: Most values the ``meta/episodes`` parquet files may hold together (read as Python objects).
+#: Most values the ``meta/episodes`` parquet files may hold together (read as Python objects), and
+#: ``meta/tasks.parquet`` on its own.
 MAX_EPISODE_VALUES = 20_000_000
 #: Most values of one frame feature (the product of its ``shape``; video features excepted).
 MAX_FEATURE_VALUES = 65_536
@@ -280,7 +281,13 @@ class LeRobotFolder:
         tasks_path = self.root / "meta" / "tasks.parquet"
         if not tasks_path.is_file():
             raise LeRobotFileMissing(f"{self.root}: meta/tasks.parquet not found")
-        self.tasks = read_tasks(dataset_file(self.root, "file", "meta/tasks.parquet"))
+        tasks_file = dataset_file(self.root, "file", "meta/tasks.parquet")
+        _, values = parquet_footer(tasks_file)
+        if values > MAX_EPISODE_VALUES:
+            raise LeRobotDatasetError(
+                f"{tasks_file}: declares {values} values in its footer, more than lfd reads ({MAX_EPISODE_VALUES})"
+            )
+        self.tasks = read_tasks(tasks_file)
         self.data_files = [
             self._file("data_path", chunk_index=r["data/chunk_index"], file_index=r["data/file_index"])
             for r in rows
