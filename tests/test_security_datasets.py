@@ -548,3 +548,51 @@ def test_lerobot_datamodule_bounds_the_decoded_frames_before_decoding(reference,
         "mode='velocity' holds 75 images of observation.images.front (64x64)",
         load=lambda _: dm.setup("fit"),
     )
+
+
+# ----------------------------------------------------------------------------- lfd's own datasets
+
+
+def _rewrite_episode(tiny: Path, tmp_path: Path, index: int, change) -> Path:
+    """A copy of :func:`tiny` whose episode ``index`` is rewritten as ``change(arrays)`` and whose
+    manifest lists the new checksum (a dataset forged consistently, not damaged by accident)."""
+    from lfd.io.files import sha256_file, write_npz_atomic
+
+    ds = tmp_path / "tiny"
+    shutil.copytree(tiny, ds)
+    episode = ds / "episodes" / f"ep-{index:05d}.npz"
+    with np.load(episode, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    write_npz_atomic(episode, change(arrays))
+    manifest = json.loads((ds / "manifest.json").read_text())
+    manifest["files"][f"episodes/ep-{index:05d}.npz"] = sha256_file(episode)
+    (ds / "manifest.json").write_text(json.dumps(manifest))
+    return episode
+
+
+def _nan_at(a: dict, key: str, flat: int) -> dict:
+    value = a[key].copy()
+    value.reshape(-1)[flat] = np.nan
+    return {**a, key: value}
+
+
+@pytest.mark.parametrize(
+    ("change", "fragment"),
+    [
+        (lambda a: _nan_at(a, "joints", 9), "joints is not finite"),
+        (lambda a: {**a, "dmp_weights": a["dmp_weights"] * np.inf}, "dmp_weights is not finite"),
+        (lambda a: {k: v for k, v in a.items() if k != "t"}, "no ['t']"),
+        (lambda a: {**a, "index": np.array(0)}, "holds episode 0, not 1"),
+    ],
+    ids=["nan-joints", "inf-weights", "no-t", "another-episode"],
+)
+def test_lfd_dataset_with_consistent_checksums_but_bad_episodes_is_refused(tiny, tmp_path, change, fragment):
+    from lfd.io.files import DatasetError
+    from lfd.visuomotor.data import load_dataset
+
+    episode = _rewrite_episode(tiny, tmp_path, 1, change)
+    with pytest.raises(DatasetError) as e:
+        load_dataset(tmp_path / "tiny")
+    assert str(episode) in str(e.value) and fragment in str(e.value) and "\n" not in str(e.value), str(
+        e.value
+    )

@@ -120,6 +120,9 @@ def load_dataset(path: str | Path, cfg: GeneratorConfig | None = None) -> ReachD
         )
     config = GeneratorConfig.from_dict(manifest["config"])
     episodes = [EpisodeRecord.load(path / episode_path(i)) for i in range(config.n_episodes)]
+    for i, record in enumerate(episodes):
+        if record.index != i:  # e.g. one episode's file copied over another's
+            raise DatasetError(f"corrupt dataset {path}: {record.path} holds episode {record.index}, not {i}")
     stats = {
         name: {k: torch.tensor(v, dtype=torch.float32) for k, v in entry.items() if k in ("mean", "std")}
         for name, entry in read_json(path / STATS).items()

@@ -31,6 +31,31 @@ SPLITS = ("train", "val", "test")
 #: Image arrays of an episode file, read only on demand (:meth:`EpisodeRecord.frames`).
 IMAGE_KEYS = ("frames", "wrist_frames", "depth")
 EPISODE_DIR = "episodes"
+#: Arrays every episode file holds (besides its images) and :meth:`EpisodeRecord.load` checks for
+#: (a generated episode also holds ``object_poses``; a teach export's episode does not).
+EPISODE_KEYS = (
+    "index",
+    "split",
+    "object_index",
+    "object_group",
+    "object_name",
+    "object_shape",
+    "object_dims",
+    "object_rgba",
+    "object_mass",
+    "placement",
+    "approach_mode",
+    "target_point",
+    "t",
+    "joints",
+    "velocities",
+    "ee_poses",
+    "dmp_y0",
+    "dmp_goal",
+    "dmp_weights",
+    "dmp_tau",
+    "discarded",
+)
 # Independent random streams derived from the seed (0, 1: retired streams of format 1).
 SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM = 2, 3, 4
 #: Stream key of each object group (see the module docstring).
@@ -146,14 +171,25 @@ class EpisodeRecord:
 
     @classmethod
     def load(cls, path: Path) -> EpisodeRecord:
-        """Read an episode file (without decompressing its frames)."""
+        """Read an episode file (without decompressing its frames).
+
+        Raises:
+            DatasetError: the file is missing or damaged, lacks one of :data:`EPISODE_KEYS`, or
+                holds a number that is not finite (one line naming the file and the array).
+        """
         try:
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files if k not in IMAGE_KEYS}
         except FileNotFoundError as e:
             raise DatasetError(f"missing episode file {path}") from e
         except Exception as e:  # zipfile/numpy raise several types for damaged archives
-            raise DatasetError(f"corrupt episode file {path}: {e}") from e
+            raise DatasetError(f"corrupt episode file {path}: {' '.join(str(e).split())}") from e
+        missing = [k for k in EPISODE_KEYS if k not in arrays]
+        if missing:
+            raise DatasetError(f"corrupt episode file {path}: no {missing}")
+        for key, value in arrays.items():
+            if value.dtype.kind in "fc" and not np.isfinite(value).all():
+                raise DatasetError(f"corrupt episode file {path}: {key} is not finite (NaN or inf)")
         obj = ObjectSpec(
             shape=str(arrays["object_shape"]),
             dims=tuple(arrays["object_dims"].tolist()),
