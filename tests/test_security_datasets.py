@@ -596,3 +596,38 @@ def test_lfd_dataset_with_consistent_checksums_but_bad_episodes_is_refused(tiny,
     assert str(episode) in str(e.value) and fragment in str(e.value) and "\n" not in str(e.value), str(
         e.value
     )
+
+
+def test_lfd_episode_whose_arrays_inflate_past_the_cap_is_refused_before_reading(tiny, tmp_path):
+    """A 256 MiB + 8 byte array of zeros deflates to about 250 kB: the zip directory's declared size
+    refuses it before numpy allocates anything."""
+    import zipfile
+
+    from lfd.io.files import DatasetError, sha256_file
+    from lfd.visuomotor.data import load_dataset
+    from lfd.visuomotor.data.episodes import MAX_EPISODE_ARRAY_BYTES
+
+    n = MAX_EPISODE_ARRAY_BYTES // 8 + 1
+
+    def bomb(arrays):
+        return {k: v for k, v in arrays.items() if k != "velocities"}  # written below, streamed
+
+    episode = _rewrite_episode(tiny, tmp_path, 1, bomb)
+    with (
+        zipfile.ZipFile(episode, "a", compression=zipfile.ZIP_DEFLATED) as zf,
+        zf.open("velocities.npy", "w", force_zip64=True) as f,
+    ):
+        np.lib.format.write_array_header_2_0(f, {"descr": "<f8", "fortran_order": False, "shape": (n,)})
+        chunk = bytes(1 << 20)
+        for _ in range(n * 8 // len(chunk)):
+            f.write(chunk)
+        f.write(bytes(n * 8 % len(chunk)))
+    assert episode.stat().st_size < 2 * 2**20
+    manifest = json.loads((tmp_path / "tiny" / "manifest.json").read_text())
+    manifest["files"]["episodes/ep-00001.npz"] = sha256_file(episode)
+    (tmp_path / "tiny" / "manifest.json").write_text(json.dumps(manifest))
+    cap = rf"more than lfd reads \({MAX_EPISODE_ARRAY_BYTES}\)"
+    with pytest.raises(
+        DatasetError, match=rf"corrupt episode file {episode}: its arrays declare \d+ bytes, {cap}"
+    ):
+        load_dataset(tmp_path / "tiny")

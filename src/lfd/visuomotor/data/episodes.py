@@ -17,6 +17,7 @@ one experiment's test object or placement is never another's training item.
 
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -60,6 +61,32 @@ EPISODE_KEYS = (
 SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM = 2, 3, 4
 #: Stream key of each object group (see the module docstring).
 GROUP_KEYS = {"train": 0, "val": 1, "test": 2}
+
+
+#: Most bytes the arrays of one episode file may declare once decompressed (its zip directory's
+#: sizes, checked before anything is read): images (:data:`IMAGE_KEYS`) and the other arrays.
+MAX_EPISODE_IMAGE_BYTES = 4 * 2**30
+MAX_EPISODE_ARRAY_BYTES = 256 * 2**20
+
+
+def _check_sizes(path: Path, *, images: bool) -> None:
+    """Refuse an episode file whose image arrays (``images``) or other arrays declare more
+    decompressed bytes than :data:`MAX_EPISODE_IMAGE_BYTES` / :data:`MAX_EPISODE_ARRAY_BYTES`
+    (the zip directory only is read; reading stops at the declared sizes)."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            members = zf.infolist()
+    except FileNotFoundError as e:
+        raise DatasetError(f"missing episode file {path}") from e
+    except (zipfile.BadZipFile, OSError) as e:
+        raise DatasetError(f"corrupt episode file {path}: {' '.join(str(e).split())}") from e
+    cap = MAX_EPISODE_IMAGE_BYTES if images else MAX_EPISODE_ARRAY_BYTES
+    size = sum(m.file_size for m in members if (m.filename.removesuffix(".npy") in IMAGE_KEYS) == images)
+    if size > cap:
+        kind = "image arrays" if images else "arrays"
+        raise DatasetError(
+            f"corrupt episode file {path}: its {kind} declare {size} bytes, more than lfd reads ({cap})"
+        )
 
 
 def episode_path(index: int) -> str:
@@ -164,6 +191,7 @@ class EpisodeRecord:
     def frames(self, key: str = "frames") -> np.ndarray:
         """``(T, H, W, 3)`` uint8 frames (``key="wrist_frames"`` for the wrist camera,
         ``key="depth"`` for the fixed camera's ``(T, H, W)`` uint16 depth in mm)."""
+        _check_sizes(self.path, images=True)
         with np.load(self.path, allow_pickle=False) as z:
             if key not in z.files:
                 raise DatasetError(f"{self.path}: no '{key}' in the episode file")
@@ -178,8 +206,11 @@ class EpisodeRecord:
                 holds a number that is not finite (one line naming the file and the array).
         """
         try:
+            _check_sizes(path, images=False)
             with np.load(path, allow_pickle=False) as z:
                 arrays = {k: z[k] for k in z.files if k not in IMAGE_KEYS}
+        except DatasetError:
+            raise
         except FileNotFoundError as e:
             raise DatasetError(f"missing episode file {path}") from e
         except Exception as e:  # zipfile/numpy raise several types for damaged archives
