@@ -631,3 +631,29 @@ def test_lfd_episode_whose_arrays_inflate_past_the_cap_is_refused_before_reading
         DatasetError, match=rf"corrupt episode file {episode}: its arrays declare \d+ bytes, {cap}"
     ):
         load_dataset(tmp_path / "tiny")
+
+
+@pytest.mark.parametrize(
+    ("change", "fragment"),
+    [
+        (
+            lambda m: {**m, "files": {**m["files"], "../../outside.txt": "0" * 64}},
+            "files lists ['../../outside.txt']",
+        ),
+        (lambda m: {**m, "files": ["episodes/ep-00000.npz"]}, "files expected an object"),
+        (lambda m: {**m, "shard": {"index": 3, "count": 2}}, "shard expected null or"),
+        (lambda m: {k: v for k, v in m.items() if k != "config"}, "config expected an object"),
+    ],
+    ids=["outside", "files-list", "shard", "no-config"],
+)
+def test_lfd_manifest_is_checked_before_it_is_used(tiny, tmp_path, change, fragment):
+    from lfd.io.files import DatasetError
+    from lfd.visuomotor.data import load_dataset
+
+    ds = tmp_path / "tiny"
+    shutil.copytree(tiny, ds)
+    manifest = ds / "manifest.json"
+    manifest.write_text(json.dumps(change(json.loads(manifest.read_text()))))
+    with pytest.raises(DatasetError) as e:
+        load_dataset(ds)
+    assert str(e.value).startswith(f"{manifest}: ") and fragment in str(e.value) and "\n" not in str(e.value)

@@ -7,6 +7,7 @@ of every other file. :func:`verify_dataset` refuses anything that does not match
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -77,7 +78,29 @@ def read_manifest(path: Path) -> dict[str, Any]:
         raise DatasetError(f"{file} is not an lfd reaching-dataset manifest")
     if manifest.get("format_version") != FORMAT_VERSION:
         raise DatasetError(
-            f"{file}: format version {manifest.get('format_version')}, this code reads {FORMAT_VERSION}; regenerate"
+            f"{file}: format version {manifest.get('format_version')!r:.40}, this code reads {FORMAT_VERSION}; "
+            "regenerate"
+        )
+    shard, files = manifest.get("shard"), manifest.get("files")
+    if not isinstance(manifest.get("config"), dict):
+        raise DatasetError(f"{file}: config expected an object, got {manifest.get('config')!r:.60}")
+    if shard is not None and not (
+        isinstance(shard, dict)
+        and all(
+            isinstance(shard.get(k), int) and not isinstance(shard.get(k), bool) for k in ("index", "count")
+        )
+        and 0 <= shard["index"] < shard["count"]
+    ):
+        raise DatasetError(
+            f"{file}: shard expected null or {{index, count}}, 0 <= index < count, got {shard!r:.60}"
+        )
+    if not isinstance(files, dict) or not all(isinstance(v, str) for v in files.values()):
+        raise DatasetError(f"{file}: files expected an object of file -> SHA-256, got {files!r:.60}")
+    allowed = re.compile(rf"{EPISODE_DIR}/ep-\d{{5,}}\.npz|{re.escape(STATS)}")
+    outside = [rel for rel in files if not allowed.fullmatch(rel)]
+    if outside:
+        raise DatasetError(
+            f"{file}: files lists {outside[:3]!r:.120}, not episode files or {STATS} of this folder"
         )
     return manifest
 
