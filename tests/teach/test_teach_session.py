@@ -239,3 +239,56 @@ def test_scripted_users_complete_a_seeded_task():
     assert slider.actions["slider_moves"] >= 3
     assert all(r.path_length > 0.5 for r in runs)  # over the wall and down, at least ~0.7 m
     assert klm_seconds(drag) < klm_seconds(xyz)  # fewer, cheaper gestures (a model, not a measurement)
+
+
+def _quat_angle(a, b) -> float:
+    """Angle (rad) between two unit quaternions (either order, the same for both)."""
+    return 2.0 * np.arccos(min(1.0, abs(float(np.dot(a, b)))))
+
+
+def _rotate_xyzw(quat, axis, angle):
+    """``quat`` (x, y, z, w) turned by ``angle`` rad about the base-frame ``axis``."""
+    from lfd.robots.spatial import matrix_to_quaternion
+    from lfd.teach.drag_ik import as_rotation
+
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    r = np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+    return matrix_to_quaternion(r @ as_rotation(quat, order="xyzw"), order="xyzw")
+
+
+def test_sawyer_orientation_drag_reaches_the_commanded_orientation():
+    s = TeachSession(robot="sawyer", scene=None, clock=FakeClock())
+    p0, q0 = s.tool_pose()
+    assert p0.shape == (3,) and q0.shape == (4,) and q0[3] >= 0
+    np.testing.assert_allclose(p0, s.tool_position)
+    goal_p, goal_q = p0 + [0.0, 0.05, 0.03], _rotate_xyzw(q0, [1.0, 0.5, 0.0], np.radians(40))
+    # the rotation handle dragged over 20 updates, with a small translation
+    for a in np.linspace(0, 1, 21)[1:]:
+        r = s.drag(p0 + a * (goal_p - p0), _rotate_xyzw(q0, [1.0, 0.5, 0.0], a * np.radians(40)))
+        assert r.accepted, r.reason
+    p, q = s.tool_pose()
+    assert np.degrees(_quat_angle(q, goal_q)) < 2.0
+    assert np.linalg.norm(p - goal_p) < 2e-3
+    s.close()
+
+
+def test_orientation_weight_zero_is_position_only():
+    s = TeachSession(robot="sawyer", scene=None, clock=FakeClock(), orientation_weight=0.0)
+    p0, q0 = s.tool_pose()
+    target = _rotate_xyzw(q0, [0.0, 0.0, 1.0], np.radians(20))
+    for a in np.linspace(0, 1, 11)[1:]:
+        assert s.drag(p0 + [0.0, 0.0, 0.03 * a], target).accepted
+    assert np.degrees(_quat_angle(s.tool_pose()[1], target)) > 5.0  # the orientation was not followed
+    s.close()
+
+
+def test_orientation_must_be_a_quaternion_or_rotation():
+    s = TeachSession(robot="sawyer", scene=None, clock=FakeClock())
+    with pytest.raises(ValueError, match="quaternion"):
+        s.drag(s.tool_position, [0.0, 0.0, 1.0])
+    with pytest.raises(ValueError, match="quaternion"):
+        s.drag(s.tool_position, [0.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="rotation matrix"):
+        s.drag(s.tool_position, -np.eye(3))
+    s.close()

@@ -43,12 +43,14 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from lfd.checks import check_float
 from lfd.robots import ChainKinematics, Robot, wam4_ik_closed_form
 from lfd.robots.catalogue import catalogue_entry
+from lfd.robots.spatial import QUATERNION_ORDERS
 
 from .settings import WAM_Q3_MODES
 
-__all__ = ["DragIK", "IKStep", "as_rotation"]
+__all__ = ["DragIK", "IKStep", "as_rotation", "rotation_angle"]
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,7 @@ class IKStep:
         iterations: LM iterations used (0 for the closed form).
         timed_out: the time budget ran out before convergence.
         method: ``"closed_form"`` or ``"lm"``.
+        rot_error: remaining tool orientation error, rad (0 when no orientation was asked for).
     """
 
     q: np.ndarray
@@ -72,19 +75,30 @@ class IKStep:
     iterations: int
     timed_out: bool
     method: str
+    rot_error: float = 0.0
 
 
-def as_rotation(orientation) -> np.ndarray:
-    """(3, 3) rotation from a (3, 3) matrix or a (4,) unit quaternion ``(w, x, y, z)``."""
+def as_rotation(orientation, order: str = "wxyz") -> np.ndarray:
+    """(3, 3) rotation from a (3, 3) matrix or a (4,) quaternion in ``order`` (``"wxyz"``: viser's,
+    scalar first; ``"xyzw"``: the teach session's, scalar last), normalised.
+
+    Raises:
+        ValueError: not a finite rotation matrix, not a finite non-zero (4,) quaternion, unknown order.
+    """
+    if order not in QUATERNION_ORDERS:
+        raise ValueError(f"order must be one of {QUATERNION_ORDERS}, got {order!r}")
     o = np.asarray(orientation, dtype=float)
     if o.shape == (3, 3):
-        if not np.all(np.isfinite(o)) or not np.allclose(o @ o.T, np.eye(3), atol=1e-6):
+        if not np.all(np.isfinite(o)) or not np.allclose(o @ o.T, np.eye(3), atol=1e-6) or np.linalg.det(o) < 0:
             raise ValueError("orientation (3, 3) must be a finite rotation matrix")
         return o
     if o.shape != (4,) or not np.all(np.isfinite(o)) or np.linalg.norm(o) < 1e-9:
         raise ValueError(
-            f"orientation must be a (3, 3) rotation or a (4,) quaternion (w, x, y, z), got shape {o.shape}"
+            f"orientation must be a (3, 3) rotation or a finite non-zero (4,) quaternion "
+            f"({', '.join(order)}), got shape {o.shape}"
         )
+    if order == "xyzw":
+        o = o[[3, 0, 1, 2]]
     w, x, y, z = o / np.linalg.norm(o)
     return np.array(
         [
@@ -111,6 +125,11 @@ def _rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     return axis / s * angle
 
 
+def rotation_angle(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle (rad, in [0, pi]) of the rotation between two (3, 3) rotations ``a`` and ``b``."""
+    return float(np.linalg.norm(_rotation_error(a, b)))
+
+
 class DragIK:
     """Warm-started IK for interactive dragging (see module docstring).
 
@@ -122,6 +141,9 @@ class DragIK:
             joint); ignored for robots without a closed form.
         max_iters: LM iteration cap (the time budget usually binds first).
         max_iter_step: largest joint change of one LM iteration, rad.
+        orientation_weight: m per rad (>= 0): the orientation rows of the LM residual are the rotation
+            error times this weight, so 1 rad of orientation error costs as much as this many metres of
+            position error; 0 ignores an orientation (position only). Default 0.1.
     """
 
     def __init__(
@@ -133,6 +155,7 @@ class DragIK:
         wam_q3: str = "fixed",
         max_iters: int = 100,
         max_iter_step: float = 0.2,
+        orientation_weight: float = 0.1,
     ) -> None:
         if wam_q3 not in WAM_Q3_MODES:
             raise ValueError(f"wam_q3 must be one of {WAM_Q3_MODES}, got {wam_q3!r}")
@@ -147,6 +170,7 @@ class DragIK:
         self.wam_q3 = wam_q3
         self.max_iters = int(max_iters)
         self.max_iter_step = float(max_iter_step)
+        self.orientation_weight = check_float(orientation_weight, "ik.orientation_weight", low=0.0)
         self.lower = np.asarray(robot.spec.lower, dtype=float)
         self.upper = np.asarray(robot.spec.upper, dtype=float)
         self.continuous = np.asarray(robot.spec.continuous, dtype=bool)
@@ -168,8 +192,9 @@ class DragIK:
     def solve(self, q_current, position, orientation=None) -> IKStep:
         """Configuration near ``q_current`` (n,) rad putting the tool at ``position`` (3,) m.
 
-        ``orientation`` ((3, 3) or quaternion wxyz) adds the tool orientation for robots with
-        at least 6 joints; the 4-DoF WAM controls the position only.
+        ``orientation`` ((3, 3) rotation or quaternion ``(w, x, y, z)``, see :func:`as_rotation`) adds the
+        tool orientation for robots with at least 6 joints, weighted by ``orientation_weight`` (0: ignored);
+        the 4-DoF WAM controls the position only (an orientation is a ``ValueError``).
         """
         start = time.perf_counter()
         q0 = np.asarray(q_current, dtype=float)
@@ -181,7 +206,7 @@ class DragIK:
                     f"{self.robot.name} has {self.robot.n_dof} joints: it cannot follow an orientation; "
                     "pass orientation=None"
                 )
-            rot = as_rotation(orientation)
+            rot = as_rotation(orientation) if self.orientation_weight > 0 else None
         if self.closed_form and rot is None:
             step = self._closed_form(q0, target)
             if step is not None:
@@ -212,8 +237,10 @@ class DragIK:
             f = self.kin.frames(q)
             e = target - f[-1, :3, 3]
             if rot is not None:
-                e = np.concatenate([e, _rotation_error(rot, f[-1, :3, :3])])
+                e = np.concatenate([e, weight * _rotation_error(rot, f[-1, :3, :3])])
             return e, f
+
+        weight = self.orientation_weight
 
         q = self.clamp(q0.copy())
         err, frames = residual(q)
@@ -223,7 +250,7 @@ class DragIK:
         rows = 3 if rot is None else 6
         while it < self.max_iters:
             pos_err = np.linalg.norm(err[:3])
-            rot_ok = rot is None or np.linalg.norm(err[3:]) <= self.tol_rot
+            rot_ok = rot is None or np.linalg.norm(err[3:]) <= self.tol_rot * weight
             if pos_err <= self.tol and rot_ok:
                 break
             if time.perf_counter() > deadline:
@@ -231,6 +258,8 @@ class DragIK:
                 break
             it += 1
             jac = self.kin.jacobian(q, frames)[:rows][:, free]
+            if rot is not None:
+                jac[3:] *= weight
             jjt = jac @ jac.T
             dq_free = jac.T @ np.linalg.solve(jjt + lam * np.eye(rows), err)
             big = np.max(np.abs(dq_free))
@@ -251,5 +280,6 @@ class DragIK:
                 if lam >= 1e3:  # no further progress possible (boundary / limits)
                     break
         pos_err = float(np.linalg.norm(err[:3]))
-        reached = pos_err <= self.tol and (rot is None or float(np.linalg.norm(err[3:])) <= self.tol_rot)
-        return IKStep(q, reached, pos_err, self.jump(q0, q), it, timed_out, "lm")
+        rot_err = 0.0 if rot is None else float(np.linalg.norm(err[3:])) / weight
+        reached = pos_err <= self.tol and rot_err <= self.tol_rot
+        return IKStep(q, reached, pos_err, self.jump(q0, q), it, timed_out, "lm", rot_err)

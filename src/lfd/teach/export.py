@@ -99,7 +99,7 @@ def export_session(session, out_dir) -> dict:
         FileExistsError: ``out_dir`` already holds one of the four files (nothing is overwritten;
             :func:`export_new_folder` makes a new folder per export).
     """
-    rec = session.recorded
+    rec, raw = session.recorded, session.recorded_raw
     dmp = fit_recording_dmp(rec)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -136,6 +136,7 @@ def export_session(session, out_dir) -> dict:
                 "drag_updates": session.counters["drag_updates"],
             },
             "recording": {"t": rec.t.tolist(), "q": rec.q.tolist(), "tool": rec.tool.tolist()},
+            "recording_raw": {"t": raw.t.tolist(), "q": raw.q.tolist()},
             "path_length_m": rec.path_length,
             "waypoints": session.waypoints.tolist(),
             "dmp": {"file": paths["dmp"].name, "n_basis": dmp.n_basis, **dmp_options()},

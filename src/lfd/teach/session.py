@@ -54,16 +54,18 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 
 import numpy as np
 
 from lfd.robots import ChainKinematics, load_robot
+from lfd.robots.spatial import matrix_to_quaternion
 from lfd.sim.collision import CollisionWorld
 
 from .checks import check_vector, validate_scene
-from .drag_ik import DragIK, IKStep
+from .drag_ik import DragIK, IKStep, as_rotation, rotation_angle
 from .guard import MoveGuard
 from .latency import latency_summary
 from .obstacles import add_box
@@ -94,6 +96,10 @@ class TeachSession:
         validate: check the scene against the robot (see :meth:`TeachScene` checks).
         sweep_resolution: every move is collision-checked along its joint-space
             segment at this spacing (rad of the largest joint change), not only at its end.
+        orientation_weight: m per rad weighting a drag's orientation against its position (0: position
+            only); see :class:`~lfd.teach.settings.IKSettings`.
+        trim_idle: :attr:`recorded` leaves out the time the arm stood still (:attr:`recorded_raw` keeps it).
+        idle_speed: rad/s below which the arm counts as standing still (:func:`lfd.teach.recording.trim_idle`).
 
     The arguments are checked as a :class:`~lfd.teach.settings.TeachSettings`
     (:meth:`from_settings` takes one directly).
@@ -118,21 +124,36 @@ class TeachSession:
         clock: Callable[[], float] | None = None,
         validate: bool = True,
         sweep_resolution: float = 0.01,
+        orientation_weight: float = 0.1,
+        trim_idle: bool = True,
+        idle_speed: float = 0.02,
     ) -> None:
         settings = TeachSettings(
             robot=robot,
             mode=mode,
-            ik=IKSettings(time_budget=ik_time_budget, max_joint_step=max_joint_step, wam_q3=wam_q3),
+            ik=IKSettings(
+                time_budget=ik_time_budget,
+                max_joint_step=max_joint_step,
+                wam_q3=wam_q3,
+                orientation_weight=orientation_weight,
+            ),
             margin=margin,
             panel_speed=panel_speed,
             sweep_resolution=sweep_resolution,
+            trim_idle=trim_idle,
+            idle_speed=idle_speed,
         )
         self.settings = settings
         self.robot_name = settings.robot
         self.robot = load_robot(settings.robot)
         self.scene: TeachScene = load_scene(scene)
         self.kin = ChainKinematics(self.robot.spec)
-        self.ik = DragIK(self.robot, time_budget=settings.ik.time_budget, wam_q3=settings.ik.wam_q3)
+        self.ik = DragIK(
+            self.robot,
+            time_budget=settings.ik.time_budget,
+            wam_q3=settings.ik.wam_q3,
+            orientation_weight=settings.ik.orientation_weight,
+        )
         self.panel = Panel(self.robot, self.ik)
         self.max_joint_step = settings.ik.max_joint_step
         self.panel_speed = settings.panel_speed
@@ -150,7 +171,9 @@ class TeachSession:
         if validate:
             validate_scene(self.robot, settings.robot, self.scene, self.start, self.checker)
         self.guard = MoveGuard(self.checker, settings.sweep_resolution)
-        self.recorder = Recorder(self.kin, n, settings.panel_speed, self.clock)
+        self.recorder = Recorder(
+            self.kin, n, settings.panel_speed, self.clock, settings.trim_idle, settings.idle_speed
+        )
         self.q = self.start.copy()
         self.last_send = None
 
@@ -177,6 +200,9 @@ class TeachSession:
             clock=clock,
             validate=validate,
             sweep_resolution=settings.sweep_resolution,
+            orientation_weight=settings.ik.orientation_weight,
+            trim_idle=settings.trim_idle,
+            idle_speed=settings.idle_speed,
         )
 
     # ------------------------------------------------------------------ state
@@ -201,6 +227,12 @@ class TeachSession:
     def tool_position(self) -> np.ndarray:
         """(3,) current tool position, m."""
         return self.kin.tool_position(self.q)
+
+    def tool_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """The tool's pose at the current configuration: ``(position (3,) m, quaternion (4,) x, y, z, w)``,
+        base frame, ``w >= 0`` (the order :meth:`drag` takes)."""
+        frame = self.kin.frames(self.q)[-1]
+        return frame[:3, 3].copy(), matrix_to_quaternion(frame[:3, :3], order="xyzw")
 
     @property
     def in_goal(self) -> bool:
@@ -233,8 +265,15 @@ class TeachSession:
 
     @property
     def recorded(self) -> Recording:
-        """The demonstration so far: drag samples (3-D) or the waypoint path (2-D)."""
+        """The demonstration so far: drag samples (3-D) without the time the arm stood still (unless
+        ``settings.trim_idle`` is off; :func:`lfd.teach.recording.trim_idle`), or the waypoint path (2-D).
+        This is what Export, Send and :meth:`motion` use."""
         return self.recorder.recorded
+
+    @property
+    def recorded_raw(self) -> Recording:
+        """The drag samples at the times the clock stamped them, idle time included (2-D: :attr:`recorded`)."""
+        return self.recorder.recorded_raw
 
     @property
     def waypoints(self) -> np.ndarray:
@@ -307,19 +346,30 @@ class TeachSession:
     def drag(self, position, orientation=None) -> DragResult:
         """One gizmo update: move the tool towards ``position`` (3,) m (base frame).
 
-        ``orientation`` ((3, 3) rotation or quaternion wxyz) is followed by 6+ DoF arms.
-        See the module docstring for when an update is refused. Raises ``ValueError``
-        in 2-D mode or for a malformed position.
+        ``orientation``: None (position only), a (3, 3) rotation or a quaternion ``(x, y, z, w)`` (the order
+        :meth:`tool_pose` returns; viser's gizmo gives ``(w, x, y, z)``: reorder it) of the tool in the base
+        frame, followed by arms with 6 or more joints, weighted by ``settings.ik.orientation_weight``
+        (0: ignored). See the module docstring for when an update is refused; "unreachable" compares the
+        weighted pose error (position m, orientation rad times the weight) before and after the step.
+
+        Raises:
+            ValueError: 2-D mode; a malformed position; a malformed orientation or one given to a
+                4-DoF arm.
         """
         if self._mode != "3d":
             raise ValueError(
                 "drag() is the 3-D mode's action; this session is in mode '2d' (use set_joints/move_to)"
             )
         target = check_vector(position, 3, "position")
+        rot = None if orientation is None else as_rotation(orientation, order="xyzw")
         tic = time.perf_counter()
         self.guard.count("drag_updates")
-        step = self.ik.solve(self.q, target, orientation)
+        step = self.ik.solve(self.q, target, rot)
         current_error = float(np.linalg.norm(self.tool_position - target))
+        if rot is not None and self.ik.orientation_weight > 0:
+            w = self.ik.orientation_weight
+            current_error = float(np.hypot(current_error, w * rotation_angle(rot, self.kin.frames(self.q)[-1, :3, :3])))
+            step = dataclasses.replace(step, error=float(np.hypot(step.error, w * step.rot_error)))
         if step.jump > self.max_joint_step:
             return self._refuse(
                 "joint_jump", target, step, time.perf_counter() - tic, f"joint change {step.jump:.2f} rad"
@@ -352,9 +402,11 @@ class TeachSession:
 
     def move_to(self, position, orientation=None) -> DragResult:
         """The x/y/z entry: IK (from the current configuration, with restarts if that
-        fails) to ``position`` (3,) m, then the same rule as :meth:`set_joints`;
-        refused (``"unreachable"``) when no configuration reaches it within 1 mm."""
+        fails) to ``position`` (3,) m (and ``orientation``, as in :meth:`drag`: (3, 3) or quaternion
+        ``(x, y, z, w)``), then the same rule as :meth:`set_joints`; refused (``"unreachable"``) when no
+        configuration reaches it within 1 mm."""
         target = check_vector(position, 3, "position")
+        orientation = None if orientation is None else as_rotation(orientation, order="xyzw")
         tic = time.perf_counter()
         step = self.panel.solve(self.q, target, orientation)
         if not step.reached:

@@ -48,16 +48,23 @@ class IKSettings:
         time_budget: s per drag update (> 0). max_joint_step: rad (> 0), a drag update changing a joint
             more than this is refused. wam_q3: ``"fixed"`` (the closed form with the held joint kept, for
             robots whose catalogue entry has one) or ``"free"`` (LM on every joint).
+        orientation_weight: m per rad (>= 0) weighting the tool orientation against the position in a
+            drag given an orientation (1 rad of orientation error costs as much as this many metres);
+            0: position only, an orientation is ignored.
     """
 
     time_budget: float = 0.02
     max_joint_step: float = 0.5
     wam_q3: str = "fixed"
+    orientation_weight: float = 0.1
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "time_budget", positive_float(self.time_budget, "ik.time_budget"))
         object.__setattr__(self, "max_joint_step", positive_float(self.max_joint_step, "ik.max_joint_step"))
         check_choice(self.wam_q3, "ik.wam_q3", WAM_Q3_MODES)
+        object.__setattr__(
+            self, "orientation_weight", check_float(self.orientation_weight, "ik.orientation_weight", low=0.0)
+        )
 
 
 @dataclass(frozen=True)
@@ -74,6 +81,10 @@ class TeachSettings:
         mode: ``"3d"`` or ``"2d"``. ik: :class:`IKSettings`. margin: m (>= 0) of collision clearance.
         panel_speed: rad/s (> 0) timing the 2-D waypoint segments.
         sweep_resolution: rad (> 0), spacing of the collision checks along a move.
+        trim_idle: the recording (Export, Send, the fitted motion) leaves out the time the arm stood still
+            (:func:`lfd.teach.recording.trim_idle`); the untrimmed samples are kept as ``recorded_raw``.
+        idle_speed: rad/s (> 0): a stretch between two samples whose largest joint speed is below this
+            is idle and is shortened to last as if the arm moved at this speed.
     """
 
     robot: str = "wam4"
@@ -88,6 +99,8 @@ class TeachSettings:
     margin: float = 0.0
     panel_speed: float = 0.6
     sweep_resolution: float = 0.01
+    trim_idle: bool = True
+    idle_speed: float = 0.02
 
     def __post_init__(self) -> None:
         robots = teach_robots()
@@ -119,6 +132,9 @@ class TeachSettings:
         object.__setattr__(
             self, "sweep_resolution", positive_float(self.sweep_resolution, "sweep_resolution")
         )
+        if not isinstance(self.trim_idle, bool):
+            raise ValueError(f"trim_idle must be true or false, got {self.trim_idle!r}")
+        object.__setattr__(self, "idle_speed", positive_float(self.idle_speed, "idle_speed"))
 
     @property
     def token_policy(self) -> bool | None:
