@@ -213,7 +213,11 @@ def test_bad_sources_are_one_line(tmp_path, write_joint_state_bag):
 @pytest.mark.parametrize(
     ("recording", "names", "expected"),
     [
-        ({"t": float("nan"), "q": [[0.0] * 4] * 5}, None, r"need at least 4 samples .* got times of shape \(\)"),
+        (
+            {"t": float("nan"), "q": [[0.0] * 4] * 5},
+            None,
+            r"need at least 4 samples .* got times of shape \(\)",
+        ),
         ({"t": [0, 1, 2, 3, 4], "q": [[0.0] * 4, []] * 2 + [[0.0] * 4]}, None, "a table of numbers"),
         ({"t": [0, 1, 2, 3, 4], "q": [[0.0] * 3] * 5}, None, "3 columns for 4 joint_names"),
         ("not a mapping", None, "a 'recording' mapping"),

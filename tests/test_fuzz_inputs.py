@@ -1,5 +1,5 @@
 """Fuzzing every input format: mutated valid samples end in success or one clear line, in bounded time
-and memory (harness in ``fuzz_targets.py``).
+and memory (harness in ``tests/fuzz_targets.py``).
 
 For each format a valid sample (from :func:`lfd.samples.write_samples`, the LeRobot reference fixture,
 a tiny policy checkpoint) is mutated by hypothesis: byte edits (flip, truncate, insert, duplicate,
