@@ -37,7 +37,7 @@ HOSTILE = (
     "null", "true", '"x"', "999999999999999999999", "0.0000001", "*a", "[1e9, 1e9]",
 )  # fmt: skip
 NUMBER = re.compile(rb"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
-REFERENCE_LEROBOT = Path(__file__).resolve().parents[1] / "fixtures" / "lerobot_v3_reference"
+REFERENCE_LEROBOT = Path(__file__).resolve().parent / "fixtures" / "lerobot_v3_reference"
 
 
 # ---------------------------------------------------------------------------- samples
