@@ -82,8 +82,12 @@ def test_episode_loads_as_a_dataset_record(mirror):
     s, paths = mirror
     ep = EpisodeRecord.load(paths["episode"])
     assert ep.obj.shape == "sphere" and ep.split == "train"
-    np.testing.assert_allclose(ep.target_point, s.scene.goal.center)
-    np.testing.assert_allclose(ep.arrays["ee_poses"][-1, :3, 3], s.recorded.tool[-1], atol=1e-9)
+    # the episode is the exported motion; its target point is where the demonstration ended
+    np.testing.assert_allclose(ep.target_point, s.recorded.tool[-1], atol=1e-12)
+    end = ep.arrays["ee_poses"][-1, :3, 3]
+    assert float(ep.arrays["final_error"]) == pytest.approx(np.linalg.norm(end - ep.target_point), abs=1e-12)
+    assert float(ep.arrays["final_error"]) < 0.01
+    np.testing.assert_allclose(ep.arrays["joints"], DMP.load(paths["dmp"]).rollout())
     assert ep.arrays["joints"].shape[1] == 4
 
 

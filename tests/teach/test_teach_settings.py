@@ -45,7 +45,10 @@ def test_the_config_defaults_are_the_settings_defaults():
         ("ik.wam_q3=loose", "ik.wam_q3 must be one of fixed, free"),
         ("margin=-0.1", "margin must be a finite number >= 0, got -0.1"),
         ("duration_s=-1", r"duration_s must be a finite number >= 0 \(or None\), got -1"),
-        ("+ik.speed=1", "ik must have keys among max_joint_step, orientation_weight, time_budget, wam_q3, got unknown speed"),
+        (
+            "+ik.speed=1",
+            "ik must have keys among max_joint_step, orientation_weight, time_budget, wam_q3, got unknown speed",
+        ),
         ("+ik.orientation_weight=-1", "ik.orientation_weight must be a finite number >= 0, got -1"),
         ("+idle_speed=0", "idle_speed must be a finite number > 0, got 0"),
         ("+trim_idle=maybe", "trim_idle must be true or false"),

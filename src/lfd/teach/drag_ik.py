@@ -89,7 +89,11 @@ def as_rotation(orientation, order: str = "wxyz") -> np.ndarray:
         raise ValueError(f"order must be one of {QUATERNION_ORDERS}, got {order!r}")
     o = np.asarray(orientation, dtype=float)
     if o.shape == (3, 3):
-        if not np.all(np.isfinite(o)) or not np.allclose(o @ o.T, np.eye(3), atol=1e-6) or np.linalg.det(o) < 0:
+        if (
+            not np.all(np.isfinite(o))
+            or not np.allclose(o @ o.T, np.eye(3), atol=1e-6)
+            or np.linalg.det(o) < 0
+        ):
             raise ValueError("orientation (3, 3) must be a finite rotation matrix")
         return o
     if o.shape != (4,) or not np.all(np.isfinite(o)) or np.linalg.norm(o) < 1e-9:

@@ -2,19 +2,34 @@
 
 Files written by :func:`export_session` (atomically, temp file + rename):
 
-* ``demo.csv``: header ``time,j0,...,j{n-1}``, seconds and radians, one row per recorded
-  sample: the ``t, q0..qn`` columns under the names the Sawyer / PoWER tools
+* ``demo.csv``: header ``time,j0,...,j{n-1}``, seconds and radians, one row per sample of the
+  idle-trimmed recording (with nothing recorded: of the motion through the keyframes): the
+  ``t, q0..qn`` columns under the names the Sawyer / PoWER tools
   read (:func:`lfd.model_reaching.demonstrations.load_demo_csv` with ``n_joints=n``).
 * ``demo.json``: robot, scene, mode, collisions, counters, timings (drag latency
-  median / p95, recording duration), the recording (``t``, ``q``, ``tool``), the 2-D
-  waypoints and, after a Send, its errors.
-* ``demo.dmp.json``: an :class:`lfd.dmp.DMP` fitted to the recording resampled on a
-  uniform grid (``DMP.load`` reads it).
-* ``episode.npz``: the recording as a dataset episode
+  median / p95, recording duration), the recording (``t``, ``q``, ``tool``; idle-trimmed),
+  ``recording_raw`` (``t``, ``q`` as the clock stamped them), the 2-D waypoints, the keyframes
+  (``q``, ``anchor``: raw sample index or null, ``t``: s of the motion), the gripper events
+  (``t`` s of the motion, ``closed``), ``speed``, ``target_point`` and, after a Send, its errors.
+  :meth:`lfd.teach.session.TeachSession.reopen` reads it back.
+* ``demo.dmp.json``: the skill: the :class:`lfd.dmp.DMP` of :func:`lfd.teach.motion.plan_skill`
+  (fitted to the trimmed recording, conditioned through the keyframes, ``tau_`` = duration / speed;
+  ``DMP.load`` reads it, ``rollout()`` passes every keyframe at one of its samples).
+* ``episode.npz``: the motion as a dataset episode
   (:meth:`lfd.visuomotor.data.episodes.EpisodeRecord.load` reads it): ``t``, ``joints``,
-  ``velocities``, ``ee_poses``, the DMP (``dmp_y0``, ``dmp_goal``, ``dmp_weights``,
-  ``dmp_tau``), the goal centre as ``target_point`` and the goal region as a sphere
-  "object" (``object_shape="sphere"``, ``object_dims=(radius,)``, ``placement=(x, y, 0)``).
+  ``velocities``, ``ee_poses`` of the DMP's rollout, the DMP (``dmp_y0``, ``dmp_goal``,
+  ``dmp_weights``, ``dmp_tau``), ``target_point``, ``final_error``, the gripper (``gripper`` (T,)
+  0 open / 1 closed, ``gripper_event_t``, ``gripper_event_closed``), ``speed``, ``keyframes``
+  (K, n) and ``keyframe_t`` (K,) s, and the goal region (or, without one, a 1 cm sphere at the
+  target point) as a sphere "object" (``object_shape="sphere"``, ``object_dims=(radius,)``,
+  ``placement=(x, y, 0)``).
+
+**Final error, one meaning.** ``target_point`` is the tool position of the skill's goal
+configuration (``dmp.goal_``: the last sample of the trimmed recording, or the last keyframe when
+it ends the motion). ``final_error`` (m) is the distance from the tool's final position to it:
+in ``episode.npz`` of the planned motion (the DMP rollout, as the dataset's expert episodes
+measure their final tool pose), in Send (:class:`SendResult`, ``demo.json``'s ``send``) of the
+arm simulated in PyBullet after settling.
 
 **DMP formulation.** A path over an obstacle lifts joints and puts them back, so a
 joint can end where it started. The classic forcing term scales with ``g - y0`` and
@@ -39,11 +54,14 @@ import numpy as np
 from lfd.dmp import DMP
 from lfd.io.files import publish_output, write_bytes_atomic, write_npz_atomic
 
+from .gripper import gripper_state
+
 if TYPE_CHECKING:
     from lfd.sim.tracking import TrackedPath
 
 
 __all__ = [
+    "MAX_DEMO_JSON_BYTES",
     "RETURNING_FORMULATION",
     "SendResult",
     "dmp_options",
@@ -55,6 +73,10 @@ __all__ = [
 
 #: DMP formulation used for exported demonstrations, when lfd.dmp.DMP supports one.
 RETURNING_FORMULATION = "pastor"
+#: The largest ``demo.json`` :func:`read_export` reads (bytes): 64 MiB, hours of dragging at 30 Hz.
+MAX_DEMO_JSON_BYTES = 64 << 20
+#: ``format`` of a teach ``demo.json``.
+DEMO_FORMAT = "lfd-teach-demonstration"
 
 
 def dmp_options() -> dict:
@@ -95,12 +117,16 @@ def export_session(session, out_dir) -> dict:
         ``{"csv": Path, "json": Path, "dmp": Path, "episode": Path}``.
 
     Raises:
-        ValueError: fewer than 3 recorded samples.
+        ValueError: nothing to export (fewer than 3 recorded samples and fewer than 2 keyframes).
         FileExistsError: ``out_dir`` already holds one of the four files (nothing is overwritten;
             :func:`export_new_folder` makes a new folder per export).
     """
     rec, raw = session.recorded, session.recorded_raw
-    dmp = fit_recording_dmp(rec)
+    skill = session.skill()
+    dmp = skill.dmp
+    if len(rec) < 3:  # keyframes alone: the motion is the demonstration
+        motion = session.motion(int(dmp.n_steps_))
+        rec = type(rec)(motion.t, motion.q, motion.tool)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     paths = {
@@ -123,7 +149,7 @@ def export_session(session, out_dir) -> dict:
     info = session.summary()
     info.update(
         {
-            "format": "lfd-teach-demonstration",
+            "format": DEMO_FORMAT,
             "format_version": 1,
             "units": {"t": "s", "q": "rad", "tool": "m"},
             "joint_names": list(session.robot.spec.joint_names),
@@ -139,6 +165,15 @@ def export_session(session, out_dir) -> dict:
             "recording_raw": {"t": raw.t.tolist(), "q": raw.q.tolist()},
             "path_length_m": rec.path_length,
             "waypoints": session.waypoints.tolist(),
+            "keyframes": {
+                "q": session.keyframes.tolist(),
+                "anchor": [kf.anchor for kf in session._keyframes],
+                "t": skill.via_t.tolist(),
+            },
+            "gripper_events": [{"t": e.t, "closed": e.closed} for e in session.gripper_events],
+            "speed": session.speed,
+            "target_point": target_point(session, dmp).tolist(),
+            "motion": {"source": skill.source, "duration_s": float(dmp.tau_)},
             "dmp": {"file": paths["dmp"].name, "n_basis": dmp.n_basis, **dmp_options()},
             "files": {k: p.name for k, p in paths.items()},
         }
@@ -146,8 +181,44 @@ def export_session(session, out_dir) -> dict:
     if session.last_send is not None:
         info["send"] = session.last_send.to_dict()
     write_bytes_atomic(paths["json"], json.dumps(info, indent=1).encode())
-    write_npz_atomic(paths["episode"], _episode_arrays(session, rec, dmp))
+    write_npz_atomic(paths["episode"], _episode_arrays(session, skill))
     return paths
+
+
+def target_point(session, dmp: DMP) -> np.ndarray:
+    """(3,) m: the tool position of the skill's goal configuration ``dmp.goal_`` (module docstring)."""
+    return session.kin.tool_position(np.asarray(dmp.goal_, dtype=float))
+
+
+def read_export(export_dir) -> dict:
+    """The ``demo.json`` of a teach export folder, checked to be one lfd wrote.
+
+    Raises:
+        FileNotFoundError: no ``demo.json`` in ``export_dir``.
+        ValueError: larger than :data:`MAX_DEMO_JSON_BYTES`, not UTF-8 JSON, nested too deep, or not a
+            teach demonstration of a known format version (one line naming the file).
+    """
+    path = Path(export_dir) / "demo.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"teach reopen: no demo.json in {export_dir} (choose a folder Export wrote)")
+    with path.open("rb") as file:
+        data = file.read(MAX_DEMO_JSON_BYTES + 1)
+    if len(data) > MAX_DEMO_JSON_BYTES:
+        raise ValueError(f"{path}: more than the {MAX_DEMO_JSON_BYTES >> 20} MiB a teach demo.json may have")
+    try:
+        info = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a teach demo.json (not valid UTF-8 JSON: {exc})") from None
+    except RecursionError:
+        raise ValueError(f"{path}: not a teach demo.json (nested too deep)") from None
+    if not isinstance(info, dict) or info.get("format") != DEMO_FORMAT:
+        found = info.get("format") if isinstance(info, dict) else type(info).__name__
+        raise ValueError(
+            f"{path}: not a teach demonstration lfd wrote (format {found!r}, expected {DEMO_FORMAT!r})"
+        )
+    if info.get("format_version") != 1:
+        raise ValueError(f"{path}: unsupported format_version {info.get('format_version')!r}, expected 1")
+    return info
 
 
 #: Kind recorded in the export marker of a teach export folder (:func:`lfd.io.files.publish_output`).
@@ -165,10 +236,11 @@ def export_new_folder(session, export_dir, now: float | None = None) -> dict:
         the paths of :func:`export_session`, in the new folder.
 
     Raises:
-        ValueError: fewer than 3 recorded samples (nothing is created).
+        ValueError: nothing to export (fewer than 3 recorded samples and fewer than 2 keyframes; nothing
+            is created).
         OSError: ``export_dir`` cannot be created or written (e.g. it is a file).
     """
-    fit_recording_dmp(session.recorded)  # refuse a too-short recording before creating anything
+    session.skill()  # refuse when there is nothing to export before creating anything
     root = Path(export_dir)
     if root.exists() and not root.is_dir():
         raise NotADirectoryError(f"teach export: export_dir {root} is a file, not a folder")
@@ -187,12 +259,16 @@ def export_new_folder(session, export_dir, now: float | None = None) -> dict:
     raise FileExistsError(f"teach export: no free folder name for {root / stamp}")
 
 
-def _episode_arrays(session, rec, dmp: DMP) -> dict:
-    t, q = _uniform(rec, max(len(rec), 3))
+def _episode_arrays(session, skill) -> dict:
+    dmp = skill.dmp
+    t = np.linspace(0.0, float(dmp.tau_), int(dmp.n_steps_))
+    q = np.asarray(dmp.rollout(), dtype=float)
     frames = np.array([session.kin.frames(x)[-1] for x in q])
+    target = target_point(session, dmp)
     goal = session.scene.goal
-    target = goal.center if goal is not None else rec.tool[-1]
+    marker = goal.center if goal is not None else target
     radius = goal.radius if goal is not None else 0.01
+    events = session.gripper_events
     return {
         "index": np.array(0),
         "object_index": np.array(0),
@@ -204,7 +280,7 @@ def _episode_arrays(session, rec, dmp: DMP) -> dict:
         "object_dims": np.array([radius]),
         "object_rgba": np.array([0.2, 0.8, 0.2, 0.4]),
         "object_mass": np.array(0.1),  # nominal: the goal region is a marker, not a body
-        "placement": np.array([target[0], target[1], 0.0]),
+        "placement": np.array([marker[0], marker[1], 0.0]),
         "approach_mode": np.array("teach"),
         "target_point": np.asarray(target, dtype=float),
         "t": t,
@@ -220,6 +296,12 @@ def _episode_arrays(session, rec, dmp: DMP) -> dict:
         "discard_reasons": np.array(["ik_failed", "table_collision", "object_collision", "tracking_error"]),
         "robot": np.array(session.robot_name),
         "collisions": np.array(session.collisions),
+        "gripper": gripper_state(events, t),
+        "gripper_event_t": np.array([e.t for e in events], dtype=float),
+        "gripper_event_closed": np.array([e.closed for e in events], dtype=bool),
+        "speed": np.array(float(session.speed)),
+        "keyframes": session.keyframes,
+        "keyframe_t": skill.via_t,
     }
 
 
@@ -243,10 +325,12 @@ class SendResult:
         plan_t, plan_q: (T,) s and (T, n) rad, the DMP rollout that was commanded.
         executed: the :class:`~lfd.sim.tracking.TrackedPath` from PyBullet
             (:func:`lfd.sim.tracking.execute_joint_trajectory`).
-        demo_tool: (N, 3) m, the recorded tool path.
-        final_error: m, executed final tool position (after settling) to the recorded end.
+        demo_tool: (N, 3) m, the recorded tool path (trimmed; the motion's when nothing was recorded).
+        final_error: m, executed final tool position (after settling) to the target point (the tool
+            position of the skill's goal configuration; the same meaning as ``episode.npz``'s
+            ``final_error``, module docstring).
         max_path_deviation: m, largest distance of the executed tool path from the
-            recorded one (nearest point on the polyline).
+            planned one (the motion's tool path, nearest point on the polyline).
     """
 
     plan_t: np.ndarray
@@ -266,16 +350,19 @@ class SendResult:
 
 
 def send_session(session) -> SendResult:
-    """Fit the DMP to the recording and run its rollout on the simulated arm."""
+    """Run the session's motion (:meth:`~lfd.teach.session.TeachSession.skill`'s DMP rollout, at its speed)
+    on the simulated arm. Raises ``ValueError`` when there is nothing to plan."""
     from lfd.sim.tracking import execute_joint_trajectory
 
-    rec = session.recorded
-    dmp = fit_recording_dmp(rec)
+    dmp = session.skill().dmp
     plan_t = np.linspace(0.0, float(dmp.tau_), dmp.n_steps_)
     plan_q = np.asarray(dmp.rollout(), dtype=float)
+    plan_tool = np.array([session.kin.tool_position(q) for q in plan_q])
+    rec = session.recorded
+    demo_tool = rec.tool if len(rec) >= 3 else plan_tool
     run = execute_joint_trajectory(session.robot, plan_t, plan_q)
-    final = float(np.linalg.norm(run.tool_final - rec.tool[-1]))
-    deviation = float(_path_deviation(np.vstack([run.tool, run.tool_final[None]]), rec.tool).max())
+    final = float(np.linalg.norm(run.tool_final - target_point(session, dmp)))
+    deviation = float(_path_deviation(np.vstack([run.tool, run.tool_final[None]]), plan_tool).max())
     if not math.isfinite(final):
         raise ValueError("the simulated execution produced a non-finite tool position")
-    return SendResult(plan_t, plan_q, run, rec.tool, final, deviation)
+    return SendResult(plan_t, plan_q, run, demo_tool, final, deviation)

@@ -195,8 +195,12 @@ class Recorder:
         q = np.asarray(q, dtype=float).reshape(-1, self.n_dof) if np.size(q) else np.zeros((0, self.n_dof))
         w = np.asarray(waypoints, dtype=float)
         w = w.reshape(-1, self.n_dof) if w.size else np.zeros((0, self.n_dof))
-        if len(t) != len(q) or not (np.all(np.isfinite(q)) and np.all(np.isfinite(t)) and np.all(np.isfinite(w))):
-            raise ValueError(f"recording: t ({len(t)},) and q ({len(q)}, {self.n_dof}) must be finite and match")
+        if len(t) != len(q) or not (
+            np.all(np.isfinite(q)) and np.all(np.isfinite(t)) and np.all(np.isfinite(w))
+        ):
+            raise ValueError(
+                f"recording: t ({len(t)},) and q ({len(q)}, {self.n_dof}) must be finite and match"
+            )
         if len(t) and (t[0] != 0.0 or np.any(np.diff(t) <= 0)):
             raise ValueError("recording: t must start at 0 and increase strictly")
         if mode == "idle" or (mode == "3d" and len(t) == 0) or (mode == "2d" and len(w) == 0):

@@ -60,14 +60,18 @@ from collections.abc import Callable
 
 import numpy as np
 
+from lfd.checks import check_float
 from lfd.robots import ChainKinematics, load_robot
 from lfd.robots.spatial import matrix_to_quaternion
 from lfd.sim.collision import CollisionWorld
 
 from .checks import check_vector, validate_scene
 from .drag_ik import DragIK, IKStep, as_rotation, rotation_angle
+from .gripper import GripperEvent, gripper_state
 from .guard import MoveGuard
+from .keyframes import Keyframe, check_index, keyframe_times, nearest_sample, reordered
 from .latency import latency_summary
+from .motion import Motion, Skill, plan_skill
 from .obstacles import add_box
 from .panel import Panel
 from .recording import Recorder
@@ -75,7 +79,10 @@ from .results import DragResult, Recording
 from .scene import Box, TeachScene, load_scene
 from .settings import MODES, IKSettings, TeachSettings, teach_robots
 
-__all__ = ["DragResult", "Recording", "TeachSession", "teach_robots"]
+__all__ = ["DragResult", "GripperEvent", "Motion", "Recording", "TeachSession", "teach_robots"]
+
+#: The speeds a session may run its motion at (a factor on the taught timing).
+SPEED_RANGE = (0.1, 4.0)
 
 
 class TeachSession:
@@ -176,6 +183,11 @@ class TeachSession:
         )
         self.q = self.start.copy()
         self.last_send = None
+        self._keyframes: list[Keyframe] = []
+        self._gripper: list[GripperEvent] = []  # times at speed 1
+        self._speed = 1.0
+        self._edits = 0  # bumped by every edit of the keyframes, the speed or the recording
+        self._skill: tuple[tuple, Skill] | None = None
 
     @classmethod
     def from_settings(
@@ -204,6 +216,71 @@ class TeachSession:
             trim_idle=settings.trim_idle,
             idle_speed=settings.idle_speed,
         )
+
+    @classmethod
+    def reopen(cls, export_dir, **settings_overrides) -> TeachSession:
+        """A session continuing an export folder lfd wrote (``demo.json``, :func:`lfd.teach.export.read_export`):
+        the robot, scene (start included), mode, recording (its raw samples, finished), keyframes (with their
+        anchors), gripper events and speed come back; ``settings_overrides`` are this constructor's keyword
+        arguments (e.g. ``clock``, ``margin``). Counters start at zero.
+
+        Raises:
+            FileNotFoundError: no ``demo.json`` in ``export_dir``.
+            ValueError: not a teach export lfd wrote, or a field that does not fit (one line naming
+                ``demo.json`` and the field).
+        """
+        from .export import read_export
+
+        info = read_export(export_dir)
+        where = f"{export_dir}/demo.json"
+
+        def field(name, kind):
+            value = info.get(name)
+            if not isinstance(value, kind):
+                raise ValueError(
+                    f"{where}: field '{name}' is missing or not a {getattr(kind, '__name__', kind)}"
+                )
+            return value
+
+        options = {"mode": field("mode", str), **settings_overrides}
+        session = cls(field("robot", str), field("scene", dict), **options)
+        try:
+            if "recording_raw" in info:
+                rec = field("recording_raw", dict)
+            else:
+                rec = field("recording", dict)
+            waypoints = info.get("waypoints", [])
+            session.recorder.restore(
+                info["mode"] if rec.get("t") or waypoints else "idle",
+                rec.get("t", []),
+                rec.get("q", []),
+                waypoints,
+                info.get("end_reason"),
+            )
+            keys = field("keyframes", dict)
+            kq, anchors = keys.get("q", []), keys.get("anchor", [])
+            if not isinstance(kq, list) or not isinstance(anchors, list) or len(anchors) != len(kq):
+                raise ValueError("field 'keyframes': q and anchor must be lists of one length")
+            raw = session.recorder.samples if session.recorder.mode == "3d" else 0
+            for q, a in zip(kq, anchors, strict=True):
+                q = check_vector(q, session.n_dof, "keyframes.q")
+                if a is not None and (isinstance(a, bool) or not isinstance(a, int) or not 0 <= a < raw):
+                    raise ValueError(
+                        f"field 'keyframes.anchor': {a!r} is not a recording sample index (0..{raw - 1})"
+                    )
+                session._keyframes.append(Keyframe(q, a))
+            session.speed = field("speed", (int, float))
+            for e in field("gripper_events", list):
+                if not isinstance(e, dict) or not isinstance(e.get("closed"), bool):
+                    raise ValueError("field 'gripper_events': each must be {t: seconds, closed: true|false}")
+                t = check_float(e.get("t"), "gripper_events.t", low=0.0)
+                session._gripper.append(GripperEvent(t * session.speed, e["closed"]))
+            session._gripper.sort(key=lambda e: e.t)
+        except (ValueError, TypeError) as exc:
+            session.close()
+            raise ValueError(f"{where}: {exc}") from None
+        session._edits += 1
+        return session
 
     # ------------------------------------------------------------------ state
     @property
@@ -294,26 +371,31 @@ class TeachSession:
         self.recorder.stop()
 
     def clear(self) -> None:
-        """Forget the recording (and the last Send) and put the arm back at the start
-        (counters kept: they count the whole session)."""
+        """Forget the recording, the keyframes, the gripper events (and the last Send) and put the arm back
+        at the start: afterwards :attr:`q` is the start pose and :meth:`tool_pose` its tool pose (counters and
+        speed kept: they belong to the whole session)."""
         self.recorder.reset()
         self.last_send = None
         self.q = self.start.copy()
         self.guard.settle()
+        self._keyframes, self._gripper = [], []
+        self._edits += 1
 
     # ------------------------------------------------------------------ the rule of every move
     def _refuse(
-        self, reason: str, target, step: IKStep | None, latency: float, detail: str = ""
+        self, reason: str, target, step: IKStep | None, latency: float, detail: str = "", q=None
     ) -> DragResult:
         self.guard.refused(reason)
+        q = self.q if q is None else q
+        tool = self.kin.tool_position(q)
         return DragResult(
             False,
-            self.q.copy(),
+            q.copy(),
             reason == "collision",
-            self.in_goal,
+            self.scene.goal is not None and self.scene.goal.contains(tool),
             reachable=bool(step.reached) if step is not None else True,
             reason=reason,
-            tool=self.tool_position,
+            tool=tool,
             target=np.asarray(target, dtype=float),
             latency=latency,
             detail=detail,
@@ -364,12 +446,7 @@ class TeachSession:
         rot = None if orientation is None else as_rotation(orientation, order="xyzw")
         tic = time.perf_counter()
         self.guard.count("drag_updates")
-        step = self.ik.solve(self.q, target, rot)
-        current_error = float(np.linalg.norm(self.tool_position - target))
-        if rot is not None and self.ik.orientation_weight > 0:
-            w = self.ik.orientation_weight
-            current_error = float(np.hypot(current_error, w * rotation_angle(rot, self.kin.frames(self.q)[-1, :3, :3])))
-            step = dataclasses.replace(step, error=float(np.hypot(step.error, w * step.rot_error)))
+        step, current_error = self._ik_step(self.q, target, rot)
         if step.jump > self.max_joint_step:
             return self._refuse(
                 "joint_jump", target, step, time.perf_counter() - tic, f"joint change {step.jump:.2f} rad"
@@ -382,6 +459,224 @@ class TeachSession:
         if report.in_collision:
             return self._refuse("collision", target, step, latency, report.kind or "")
         return self._accept(step.q, target, step.reached, latency)
+
+    # ------------------------------------------------------------------ keyframes
+    @property
+    def keyframes(self) -> np.ndarray:
+        """(K, n) rad: the keyframes in the order the motion visits them."""
+        return np.array([kf.q for kf in self._keyframes], dtype=float).reshape(-1, self.n_dof)
+
+    def keyframe_poses(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The tool pose of each keyframe: ``[(position (3,) m, quaternion (4,) x, y, z, w), ...]``."""
+        out = []
+        for kf in self._keyframes:
+            frame = self.kin.frames(kf.q)[-1]
+            out.append((frame[:3, 3].copy(), matrix_to_quaternion(frame[:3, :3], order="xyzw")))
+        return out
+
+    def _raw_q(self) -> np.ndarray | None:
+        """(N, n) rad of the raw 3-D recording the keyframes are anchored in, None without one."""
+        if self.recorder.mode != "3d" or self.recorder.samples == 0:
+            return None
+        return self.recorder.recorded_raw.q
+
+    def _anchor(self, q: np.ndarray) -> int | None:
+        raw = self._raw_q()
+        return None if raw is None else nearest_sample(q, raw)
+
+    def add_keyframe(self, index: int | None = None) -> int:
+        """Add the current configuration as a keyframe, inserted before ``index`` (``0..K``; None: at the
+        end). With a 3-D recording the keyframe is timed by the recorded sample nearest it (in joint
+        space); the motion (:meth:`motion`) passes through it. Returns its index.
+
+        Raises:
+            ValueError: ``index`` not an integer in ``0..K``.
+        """
+        k = len(self._keyframes)
+        i = k if index is None else check_index(index, k, insert=True)
+        self._keyframes.insert(i, Keyframe(self.q.copy(), self._anchor(self.q)))
+        self._edits += 1
+        return i
+
+    def delete_keyframe(self, i: int) -> None:
+        """Remove keyframe ``i``. Raises ``ValueError`` for an index outside ``0..K-1``."""
+        del self._keyframes[check_index(i, len(self._keyframes))]
+        self._edits += 1
+
+    def reorder_keyframes(self, order) -> None:
+        """Visit the keyframes in ``order`` (a permutation of ``0..K-1``: new position ``j`` holds old
+        keyframe ``order[j]``). With a recording the times stay where they were and the keyframes are
+        handed out to them in the new order. Raises ``ValueError`` if ``order`` is not a permutation."""
+        self._keyframes = reordered(self._keyframes, order, self._raw_q())
+        self._edits += 1
+
+    def move_keyframe(self, i: int, position, orientation=None) -> DragResult:
+        """Drag keyframe ``i``'s tool to ``position`` (3,) m (and ``orientation`` as in :meth:`drag`): IK from
+        that keyframe's configuration, refused like a drag (``"joint_jump"``, ``"unreachable"``,
+        ``"collision"`` along the joint-space segment from the keyframe's old configuration; counted like
+        one). The arm itself does not move; the keyframe keeps its time. ``DragResult.q`` is the keyframe's
+        configuration afterwards.
+
+        Raises:
+            ValueError: an index outside ``0..K-1``; a malformed position or orientation.
+        """
+        i = check_index(i, len(self._keyframes))
+        target = check_vector(position, 3, "position")
+        rot = None if orientation is None else as_rotation(orientation, order="xyzw")
+        kf = self._keyframes[i]
+        tic = time.perf_counter()
+        step, current_error = self._ik_step(kf.q, target, rot)
+        if step.jump > self.max_joint_step:
+            return self._refuse(
+                "joint_jump",
+                target,
+                step,
+                time.perf_counter() - tic,
+                f"joint change {step.jump:.2f} rad",
+                kf.q,
+            )
+        if not step.reached and step.error >= current_error - 1e-6:
+            return self._refuse(
+                "unreachable", target, step, time.perf_counter() - tic, "target out of reach", kf.q
+            )
+        report = self.guard.sweep(kf.q, step.q)
+        latency = time.perf_counter() - tic
+        if report.in_collision:
+            return self._refuse("collision", target, step, latency, report.kind or "", kf.q)
+        self.guard.settle()
+        anchor = kf.anchor if kf.anchor is not None else self._anchor(kf.q)
+        self._keyframes[i] = Keyframe(step.q.copy(), anchor)
+        self._edits += 1
+        tool = self.kin.tool_position(step.q)
+        return DragResult(
+            True,
+            step.q.copy(),
+            False,
+            self.scene.goal is not None and self.scene.goal.contains(tool),
+            reachable=step.reached,
+            reason="ok" if step.reached else "best_effort",
+            tool=tool,
+            target=target,
+            latency=latency,
+        )
+
+    # ------------------------------------------------------------------ the motion, speed, gripper, timeline
+    @property
+    def speed(self) -> float:
+        """Speed factor of the motion (0.1..4, default 1): the taught timing divided by it."""
+        return self._speed
+
+    @speed.setter
+    def speed(self, value: float) -> None:
+        self._speed = check_float(value, "speed", low=SPEED_RANGE[0], high=SPEED_RANGE[1])
+        self._edits += 1
+
+    def skill(self) -> Skill:
+        """The planned motion (:func:`lfd.teach.motion.plan_skill`): the DMP fitted to :attr:`recorded`
+        (or, with fewer than 3 recorded samples, to the keyframe path), conditioned to pass every keyframe,
+        at :attr:`speed`. Cached until the next edit.
+
+        Raises:
+            ValueError: nothing to plan (fewer than 3 recorded samples and fewer than 2 keyframes).
+        """
+        key = (self._edits, self.recorder.samples, self.recorder.mode)
+        if self._skill is not None and self._skill[0] == key:
+            return self._skill[1]
+        rec = self.recorded
+        kq = self.keyframes
+        times = None
+        raw = self._raw_q()
+        if raw is not None and len(rec) >= 3:
+            times = keyframe_times(self._keyframes, raw, self.recorder.raw_times())
+        elif len(rec) >= 3 and len(kq):  # 2-D: the waypoint path's nearest samples
+            times = keyframe_times([Keyframe(q) for q in kq], rec.q, rec.t)
+        skill = plan_skill(rec, kq, times, self._speed, self.panel_speed)
+        self._skill = (key, skill)
+        return skill
+
+    def motion(self, n: int = 200) -> Motion:
+        """The motion Export and Send run, sampled at ``n`` (>= 2) uniform times: ``Motion(t (n,) s, q (n, n_dof)
+        rad, tool (n, 3) m, gripper (n,) 0 open / 1 closed)``. It is :meth:`skill`'s DMP rolled out: fitted to
+        the idle-trimmed recording, through every keyframe (within rounding at its time), over the
+        recording's duration divided by :attr:`speed`; without a recording, through the keyframes alone.
+
+        Raises:
+            ValueError: ``n`` < 2; nothing to plan (fewer than 3 recorded samples and fewer than 2 keyframes).
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2:
+            raise ValueError(f"n must be an integer >= 2, got {n!r}")
+        dmp = self.skill().dmp
+        t = np.linspace(0.0, float(dmp.tau_), int(n))
+        q = np.asarray(dmp.rollout(t=t), dtype=float)
+        tool = np.array([self.kin.tool_position(x) for x in q])
+        return Motion(t, q, tool, gripper_state(self.gripper_events, t))
+
+    @property
+    def motion_duration(self) -> float:
+        """Duration of :meth:`motion`, s (at :attr:`speed`); 0.0 while there is nothing to plan."""
+        try:
+            return float(self.skill().dmp.tau_)
+        except ValueError:
+            return 0.0
+
+    def at(self, t: float) -> dict:
+        """The timeline at ``t`` s of the motion (clipped to ``0..motion_duration``): ``{"q_recorded": (n,) rad
+        or None, "q_motion": (n,) rad}``: the recording at the same point (its time ``t * speed``, linear
+        between samples; None with fewer than 2 recorded samples) and the motion.
+
+        Raises:
+            ValueError: ``t`` not a finite number; nothing to plan.
+        """
+        t = check_float(t, "t")
+        dmp = self.skill().dmp
+        t = min(max(t, 0.0), float(dmp.tau_))
+        grid = np.array([0.0, t]) if t > 0 else np.array([0.0])
+        q_motion = np.asarray(dmp.rollout(t=grid), dtype=float)[-1]
+        rec = self.recorded
+        q_rec = None
+        if len(rec) >= 2:
+            tr = t * self._speed
+            q_rec = np.array([np.interp(tr, rec.t, rec.q[:, j]) for j in range(self.n_dof)])
+        return {"q_recorded": q_rec, "q_motion": q_motion}
+
+    @property
+    def gripper_events(self) -> list[GripperEvent]:
+        """The gripper events, sorted by time, ``t`` in s of the motion at the current :attr:`speed` (a change
+        of speed moves them with the motion)."""
+        return [GripperEvent(e.t / self._speed, e.closed) for e in self._gripper]
+
+    def add_gripper_event(self, t: float, closed: bool) -> int:
+        """Close (``closed=True``) or open the gripper from ``t`` s of the motion on (at the current speed).
+        Returns the event's index in :attr:`gripper_events` (sorted by time).
+
+        Raises:
+            ValueError: ``t`` not a finite number in ``0..motion_duration`` (any ``t >= 0`` while nothing is
+                planned); ``closed`` not a bool.
+        """
+        duration = self.motion_duration
+        t = check_float(t, "gripper event t", low=0.0, high=duration if duration > 0 else None)
+        if not isinstance(closed, (bool, np.bool_)):
+            raise ValueError(f"gripper event closed must be true or false, got {closed!r}")
+        event = GripperEvent(t * self._speed, bool(closed))
+        i = sum(1 for e in self._gripper if e.t <= event.t)
+        self._gripper.insert(i, event)
+        return i
+
+    def remove_gripper_event(self, i: int) -> None:
+        """Remove gripper event ``i`` (of :attr:`gripper_events`). Raises ``ValueError`` for a bad index."""
+        del self._gripper[check_index(i, len(self._gripper), "gripper event")]
+
+    def _ik_step(self, q_from: np.ndarray, target: np.ndarray, rot) -> tuple[IKStep, float]:
+        """The drag IK from ``q_from`` and the pose error before it; with an orientation both errors are the
+        weighted pose error ``hypot(position m, orientation_weight * angle rad)``."""
+        step = self.ik.solve(q_from, target, rot)
+        frame = self.kin.frames(q_from)[-1]
+        current_error = float(np.linalg.norm(frame[:3, 3] - target))
+        if rot is not None and self.ik.orientation_weight > 0:
+            w = self.ik.orientation_weight
+            current_error = float(np.hypot(current_error, w * rotation_angle(rot, frame[:3, :3])))
+            step = dataclasses.replace(step, error=float(np.hypot(step.error, w * step.rot_error)))
+        return step, current_error
 
     # ------------------------------------------------------------------ 2-D panel
     def set_joints(self, q) -> DragResult:
