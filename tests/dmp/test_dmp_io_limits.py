@@ -62,3 +62,15 @@ def test_a_parameter_the_dmp_refuses_is_one_line_naming_the_file(tmp_path):
     with pytest.raises(ValueError) as info:
         DMP.load(path)
     assert str(info.value) == f"{path}: bad DMP parameters: n_basis must be an integer >= 1, got nan"
+
+
+def test_a_null_formulation_is_refused_naming_the_file(tmp_path):
+    """``"formulation": null`` built a DMP without a formulation, which failed later with an
+    AttributeError in its rollout (found by the fuzz harness)."""
+    path = _saved(tmp_path / "skill.dmp.json")
+    payload = json.loads(path.read_text())
+    payload["params"]["formulation"] = None
+    path.write_text(json.dumps(payload))
+    with pytest.raises(ValueError, match=rf"^{path}: bad DMP parameters: formulation") as info:
+        DMP.load(path)
+    assert "\n" not in str(info.value)

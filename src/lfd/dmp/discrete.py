@@ -18,7 +18,7 @@ from .fitting import (
     forcing_target,
     lwr_weights,
 )
-from .formulation import DEFAULT_FORMULATION, unscale_weights
+from .formulation import DEFAULT_FORMULATION, check_formulation, unscale_weights
 from .functional import cached_trajectory_fit, grid_key, rollout_with_gains
 from .stepping import advance, coupled_rollout
 
@@ -87,7 +87,7 @@ class DMP(Primitive):
         ridge: float = DEFAULT_RIDGE,
     ):
         gains = {"alpha_z": alpha_z, "beta_z": beta_z, "alpha_s": alpha_s, "overlap": overlap}
-        self._set_params(n_basis, gains, formulation, ridge)
+        self._set_params(n_basis, gains, check_formulation(formulation), ridge)
 
     def fit(self, t, y, method: str = "trajectory", yd0=None) -> DMP:
         """Learn the forcing weights from one demonstration or a batch sharing ``t``.
