@@ -102,3 +102,17 @@ def test_check_keys_names_the_unknown_keys_and_the_allowed_ones():
 
 def test_entry_point_keys_are_hydras_and_the_shared_configs():
     assert set(ENTRY_POINT_KEYS) == {"hydra", "paths", "task_name"}
+
+
+def test_one_line_folds_and_cuts_another_librarys_message():
+    from lfd.checks import one_line
+
+    assert one_line(KeyError("k")) == "KeyError: 'k'"
+    assert (
+        one_line(ValueError("could not parse:\n  float-1[] x\n"))
+        == "ValueError: could not parse: float-1[] x"
+    )
+    assert one_line(RuntimeError()) == "RuntimeError"
+    long = one_line("x" * 1000, limit=50)
+    assert len(long) == 50 and long.endswith("...")
+    assert one_line("a\x00b\x1bc") == "a b c"

@@ -14,7 +14,8 @@ Arrays: :func:`finite_array` (any numeric array-like, torch tensors included: th
 and moved to the CPU), :func:`check_vector` (a ``(length,)`` vector a user typed), :func:`time_grid`
 (sample times in seconds). Scalars: :func:`check_int`, :func:`positive_int`, :func:`check_float`,
 :func:`positive_float`, :func:`unit_interval`, :func:`check_flag`. Names: :func:`check_choice`,
-:func:`check_text`. Settings mappings: :func:`check_keys`, :data:`ENTRY_POINT_KEYS`.
+:func:`check_text`. Settings mappings: :func:`check_keys`, :data:`ENTRY_POINT_KEYS`. A third-party error quoted in a
+message: :func:`one_line`.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ __all__ = [
     "check_text",
     "check_vector",
     "finite_array",
+    "one_line",
     "positive_float",
     "positive_int",
     "time_grid",
@@ -49,6 +51,15 @@ __all__ = [
 #: it builds (Hydra's own node, the shared ``configs/paths`` and the run's ``task_name``): settings
 #: readers drop them before :func:`check_keys`.
 ENTRY_POINT_KEYS = ("hydra", "paths", "task_name")
+
+
+def one_line(error: BaseException | str, limit: int = 300) -> str:
+    """``error`` (an exception, shown as ``<type>: <message>``, or a text) as one printable line:
+    whitespace runs, newlines included, folded to one space, cut to ``limit`` characters with "...".
+    For quoting another library's multi-line message inside lfd's one-line errors."""
+    text = error if isinstance(error, str) else f"{type(error).__name__}: {error}".rstrip(": ")
+    text = " ".join("".join(c if c.isprintable() else " " for c in text).split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _or_none(optional: bool) -> str:

@@ -193,3 +193,17 @@ def test_random_bytes_as_a_joint_state_message_are_one_line(tmp_path, kind):
         f"{bag}: topic /joint_states: message 5 (received at 100.555555556 s) is not a readable"
     )
     assert "\n" not in message
+
+
+def test_a_bag_with_a_broken_message_definition_is_one_line(tmp_path):
+    """rosbags' parse error quotes the definition over several lines: lfd folds it into its one line
+    (found by the fuzz harness: one byte of 'float64[]' changed)."""
+    path = write_joint_states(tmp_path / "arm.bag", np.arange(5) * 0.1, np.zeros((5, 2)), ["a", "b"])
+    data = path.read_bytes()
+    assert b"float64[] position" in data
+    path.write_bytes(data.replace(b"float64[] position", b"float-1[] position"))
+    with pytest.raises(ValueError) as info:
+        read_joint_states(path, joint_names=["a", "b"])
+    message = str(info.value)
+    assert message.startswith(f"{path}: not a readable ROS bag (AnyReaderError: ") and "\n" not in message
+    assert len(message) < len(str(path)) + 340

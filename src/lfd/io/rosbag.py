@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.checks import one_line
+
 __all__ = [
     "BAG_FORMATS",
     "JointRecording",
@@ -122,7 +124,7 @@ def read_joint_states(
         reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except Exception as exc:  # rosbags raises its own error types for every malformed file
-        raise ValueError(f"{path}: not a readable ROS bag ({type(exc).__name__}: {exc})") from None
+        raise ValueError(f"{path}: not a readable ROS bag ({one_line(exc)})") from None
     try:
         return _read(reader, path, topic, joint_names)
     finally:
