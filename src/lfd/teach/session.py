@@ -243,7 +243,10 @@ class TeachSession:
             return value
 
         options = {"mode": field("mode", str), **settings_overrides}
-        session = cls(field("robot", str), field("scene", dict), **options)
+        try:
+            session = cls(field("robot", str), field("scene", dict), **options)
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
         try:
             if "recording_raw" in info:
                 rec = field("recording_raw", dict)
