@@ -171,3 +171,26 @@ def test_export_into_a_folder_that_holds_a_demo_overwrites_nothing(mirror, tmp_p
     with pytest.raises(FileExistsError, match="demo.json"):
         s.export(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["demo.json"]
+
+
+def test_send_and_episode_final_error_mean_the_same(boxes_session, tmp_path):
+    """Both are the distance of the final tool position to target_point, the tool position of the skill's
+    goal: with the last keyframe moved 2 cm that is the moved keyframe, not the recorded end."""
+    s = boxes_session
+    p0, goal = s.tool_position, s.scene.goal.center
+    up, over = np.array([p0[0], p0[1], LIFT]), np.array([goal[0], goal[1], LIFT])
+    for a, b in ((p0, up), (up, over), (over, goal)):
+        drag_line(s, a, b, n=20)
+    s.add_keyframe()
+    end = s.keyframe_poses()[0][0] + [0.0, 0.02, 0.0]
+    assert s.move_keyframe(0, end).accepted
+    res = s.send()
+    paths = s.export(tmp_path)
+    info = json.loads(paths["json"].read_text())
+    ep = EpisodeRecord.load(paths["episode"])
+    np.testing.assert_allclose(ep.target_point, info["target_point"])
+    np.testing.assert_allclose(ep.target_point, end, atol=1e-3)
+    assert res.final_error == pytest.approx(np.linalg.norm(res.executed.tool_final - ep.target_point))
+    assert info["send"]["final_error_m"] == res.final_error < 0.01
+    ep_final = np.linalg.norm(ep.arrays["ee_poses"][-1, :3, 3] - ep.target_point)
+    assert float(ep.arrays["final_error"]) == pytest.approx(ep_final) and ep_final < 0.01
