@@ -33,6 +33,15 @@ a move is accepted (arm moved, recorded) or refused (arm kept, counted). Its set
 :class:`~lfd.teach.settings.TeachSettings` (``settings``), checked when built; the robots offered
 are the catalogue's entries marked ``teach``.
 
+**Recording, keyframes, motion**: :attr:`recorded` is the recording without the time the arm stood
+still (:func:`lfd.teach.recording.trim_idle`; :attr:`recorded_raw` keeps the clock's times). Keyframes
+(:meth:`add_keyframe`, :meth:`delete_keyframe`, :meth:`move_keyframe`, :meth:`reorder_keyframes`) are
+configurations the motion must pass, timed by the recorded sample nearest them. :meth:`motion` is what
+Export and Send run: the DMP fitted to the recording and conditioned through the keyframes
+(:mod:`lfd.teach.motion`; the keyframes alone when nothing was recorded), its duration divided by
+:attr:`speed`, with the gripper events (:meth:`add_gripper_event`) along it; :meth:`at` reads the
+recording and the motion at one time of the timeline. :meth:`reopen` continues an export.
+
 **Collisions** counts collision *events*: runs of consecutive refused updates count as
 one (the user pushing into an obstacle for 20 updates made one collision);
 ``counters["refused_collision"]`` counts every refused update.
@@ -747,17 +756,18 @@ class TeachSession:
 
     # ------------------------------------------------------------------ playback, export, send
     def fit_dmp(self, n_samples: int = 200, n_basis: int = 30):
-        """Fit a DMP to the recording resampled on a uniform grid (see :mod:`lfd.teach.export`)."""
+        """A DMP fitted to the recording alone, resampled on a uniform grid (:mod:`lfd.teach.export`;
+        no keyframes, speed 1). Export and Send run :meth:`skill`'s DMP instead."""
         from .export import fit_recording_dmp
 
         return fit_recording_dmp(self.recorded, n_samples=n_samples, n_basis=n_basis)
 
     def export(self, out_dir) -> dict:
-        """Write ``demo.csv``, ``demo.json``, ``demo.dmp.json`` and ``episode.npz`` to
-        ``out_dir``; returns ``{"csv", "json", "dmp", "episode"}`` paths.
+        """Write ``demo.csv``, ``demo.json``, ``demo.dmp.json`` (the :meth:`skill`) and ``episode.npz`` to
+        ``out_dir`` (:func:`lfd.teach.export.export_session`); returns ``{"csv", "json", "dmp", "episode"}`` paths.
 
         Raises:
-            ValueError: fewer than 3 recorded samples.
+            ValueError: nothing to export (fewer than 3 recorded samples and fewer than 2 keyframes).
             FileExistsError: one of the four files already exists there (nothing is overwritten).
         """
         from .export import export_session
@@ -765,7 +775,7 @@ class TeachSession:
         return export_session(self, out_dir)
 
     def send(self):
-        """Fit the DMP, run it on the simulated arm in PyBullet; returns a
+        """Run :meth:`motion` (the :meth:`skill`'s DMP) on the simulated arm in PyBullet; returns a
         :class:`~lfd.teach.export.SendResult` (also kept as ``last_send``)."""
         from .export import send_session
 
@@ -780,6 +790,8 @@ class TeachSession:
             "recording": self.recording_state,
             "end_reason": self.end_reason,
             "samples": self.samples,
+            "keyframes": len(self._keyframes),
+            "speed": self._speed,
             "collisions": self.collisions,
             "counters": dict(self.counters),
             **latency_summary(self.latencies),
