@@ -146,6 +146,8 @@ def test_reopen_names_the_field_that_does_not_fit(tmp_path):
         ("keyframes", {"q": info["keyframes"]["q"], "anchor": [999]}, "keyframes.anchor"),
         ("gripper_events", [{"t": -1.0, "closed": True}], "gripper_events.t"),
         ("speed", 9.0, "speed must be"),
+        ("end_reason", "rm -rf", "'end_reason' must be"),
+        ("recording_raw", {"t": [0.0, float("nan")], "q": [[0.0] * 4] * 2}, "recording: t"),
         ("robot", "ur5", "unknown robot"),
     ):
         bad = dict(info, **{key: value})

@@ -262,6 +262,10 @@ class TeachSession:
             else:
                 rec = field("recording", dict)
             waypoints = info.get("waypoints", [])
+            if info.get("end_reason") not in (None, "goal", "stop"):
+                raise ValueError(
+                    f"field 'end_reason' must be goal, stop or null, got {info.get('end_reason')!r}"
+                )
             session.recorder.restore(
                 info["mode"] if rec.get("t") or waypoints else "idle",
                 rec.get("t", []),
