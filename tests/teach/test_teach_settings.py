@@ -49,9 +49,9 @@ def test_the_config_defaults_are_the_settings_defaults():
             "+ik.speed=1",
             "ik must have keys among max_joint_step, orientation_weight, time_budget, wam_q3, got unknown speed",
         ),
-        ("+ik.orientation_weight=-1", "ik.orientation_weight must be a finite number >= 0, got -1"),
-        ("+idle_speed=0", "idle_speed must be a finite number > 0, got 0"),
-        ("+trim_idle=maybe", "trim_idle must be true or false"),
+        ("ik.orientation_weight=-1", "ik.orientation_weight must be a finite number >= 0, got -1"),
+        ("idle_speed=0", "idle_speed must be a finite number > 0, got 0"),
+        ("trim_idle=maybe", "trim_idle must be true or false"),
     ],
 )
 def test_a_bad_value_is_one_line_naming_the_field(override, message):
