@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import json
 import re
+import signal
 import subprocess
 import sys
+from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 from types import SimpleNamespace
@@ -130,6 +132,111 @@ def test_binary_user_files_get_one_line_naming_them(tmp_path, name):
     path = tmp_path / name
     path.write_bytes(bytes(range(256)) * 4)
     reader = {"calibration": read_calibration, "scene": load_scene, "recording": read_skeleton}[path.stem]
-    with pytest.raises(ValueError, match="not UTF-8 text") as info:
+    with pytest.raises(ValueError, match="not UTF-8") as info:
         reader(path)
     assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+# --- YAML: one safe loader for every user YAML file (scenario, teach scene, Hydra overrides) -------------
+
+
+@contextmanager
+def _deadline(seconds: float):
+    """Fail (TimeoutError) instead of hanging when the protection under test is switched off."""
+
+    def _raise(*_):
+        raise TimeoutError(f"still running after {seconds} s")
+
+    old = signal.signal(signal.SIGALRM, _raise)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def _alias_bomb(depth: int = 9, width: int = 10) -> str:
+    """``depth`` levels of ``width`` aliases each: a few hundred bytes standing for width**depth values."""
+    lines = ["a0: &a0 [1.0]"]
+    for i in range(1, depth + 1):
+        lines.append(f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * width) + "]")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("a: &x 1\nb: *x\n", r"line 2, column 4: alias \*x refused"),
+        ("objects: [1]\nplacements: [2]\nobjects: [3]\n", r"line 3, column 1: duplicate key 'objects'"),
+        ("a:\n  b: 1\n  c: 2\n  b: 3\n", r"line 4, column 3: duplicate key 'b'"),
+        ("[" * 100_000, r"nested more than \d+ deep"),
+        ("x: !!python/object/apply:os.system ['true']\n", r"could not determine a constructor"),
+    ],
+    ids=["alias", "duplicate-top-level", "duplicate-nested", "deep", "python-tag"],
+)
+def test_yaml_loader_refuses_aliases_duplicate_keys_and_deep_nesting(tmp_path, text, expected):
+    from lfd.io.files import YamlError, read_yaml
+
+    path = tmp_path / "user.yaml"
+    path.write_text(text)
+    with _deadline(10), pytest.raises(YamlError, match=expected) as info:
+        read_yaml(path)
+    assert str(info.value).startswith(f"{path}: ") and "\n" not in str(info.value)
+
+
+def test_yaml_alias_bomb_is_refused_at_once_and_plain_yaml_still_loads(tmp_path):
+    from lfd.io.files import YamlError, read_yaml
+
+    bomb = tmp_path / "bomb.yaml"
+    bomb.write_text(_alias_bomb() + "mass: *a9\n")
+    assert bomb.stat().st_size < 600
+    with _deadline(10), pytest.raises(YamlError, match=r"alias \*a0 refused") as info:
+        data = read_yaml(bomb)
+        str(data)  # with aliases allowed: 10**9 values, unbounded work
+    assert len(str(info.value)) < 300
+    plain = tmp_path / "plain.yaml"
+    plain.write_text("a: [1, 2]\nb: {c: 3, d: [x, y]}\n'1': one\n1: int one\n")
+    assert read_yaml(plain) == {"a": [1, 2], "b": {"c": 3, "d": ["x", "y"]}, "1": "one", 1: "int one"}
+    big = tmp_path / "big.yaml"
+    big.write_bytes(b"#" * 2048)
+    with pytest.raises(YamlError, match="2048 bytes; a YAML file has at most 1024"):
+        read_yaml(big, max_bytes=1024)
+
+
+def test_show_does_bounded_work_on_huge_values():
+    from lfd.io.files import show
+
+    calls = []
+
+    class Counted:
+        def __repr__(self):
+            calls.append(1)
+            return "c"
+
+    shared = [Counted()] * 10
+    huge = [[[[shared] * 10] * 10] * 10] * 10  # 10**5 leaves, like an expanded alias
+    text = show(huge)
+    assert len(text) <= 80 and len(calls) < 100
+    assert show(10**5000) == "<int>" and "..." in show("x" * 10**6) and len(show("x" * 10**6)) <= 80
+
+
+def test_teach_scene_and_grid_overrides_use_the_safe_loader(tmp_path):
+    from lfd.io.files import YamlError
+    from lfd.teach.scene import load_scene
+    from lfd.visuomotor.eval.grid import collect
+
+    scene = tmp_path / "scene.yaml"
+    scene.write_text(
+        "goal: {center: [0.5, 0, 0.2], radius: 0.05}\ngoal: {center: [0.4, 0, 0.2], radius: 0.05}\n"
+    )
+    with pytest.raises(YamlError, match=f"{re.escape(str(scene))}: .*duplicate key 'goal'"):
+        load_scene(scene)
+    scene.write_text(_alias_bomb() + "obstacles: *a9\n")
+    with _deadline(10), pytest.raises(YamlError, match="alias"):
+        load_scene(scene)
+    job = tmp_path / "sweep" / "0" / ".hydra"
+    job.mkdir(parents=True)
+    (job / "overrides.yaml").write_text("- &s seed=1\n- *s\n")
+    with pytest.raises(YamlError, match="overrides.yaml: .*alias"):
+        collect(tmp_path / "sweep")

@@ -84,6 +84,157 @@ def read_text(path: Path) -> str:
         ) from None
 
 
+#: Largest YAML file :func:`read_yaml` reads (bytes).
+MAX_YAML_BYTES = 1 << 20
+#: Deepest nesting of lists and mappings :func:`load_yaml` accepts.
+MAX_YAML_DEPTH = 64
+
+
+class YamlError(ValueError):
+    """A user's YAML file that lfd will not use: unreadable, not YAML, or using a feature
+    refused for safety (aliases, duplicate keys, deep nesting); the message names the file."""
+
+
+def show(value: Any, limit: int = 80) -> str:
+    """A ``repr`` of ``value`` for a message, at most ``limit`` characters; the work is bounded
+    too (a huge list or number is not rendered in full first)."""
+    import reprlib
+
+    r = reprlib.Repr()
+    r.maxlevel, r.maxstring, r.maxother, r.maxlong = 3, limit, limit, 4000
+    r.maxlist = r.maxtuple = r.maxdict = r.maxset = r.maxfrozenset = r.maxdeque = r.maxarray = 8
+    try:
+        text = r.repr(value)
+    except Exception:
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _yaml_problem(e: Exception) -> str:
+    """One line saying where and why PyYAML gave up."""
+    import yaml
+
+    if isinstance(e, yaml.reader.ReaderError):
+        char = ""
+        if isinstance(e.character, int):
+            char = f"#x{e.character:04x}, "
+        elif isinstance(e.character, str):
+            char = f"#x{ord(e.character):04x}, "
+        return f"not UTF-8 or UTF-16 text (position {e.position}: {char}{e.reason}); save it as UTF-8 YAML"
+    mark = getattr(e, "problem_mark", None)
+    problem = getattr(e, "problem", None) or getattr(e, "context", None) or type(e).__name__
+    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+    return f"not valid YAML{where}: {' '.join(str(problem).split())[:200]}"
+
+
+def _safe_loader_class():
+    """``yaml.SafeLoader`` that also refuses aliases, duplicate keys and deep nesting."""
+    import yaml
+    from yaml.nodes import MappingNode, ScalarNode
+
+    class _Refused(yaml.YAMLError):
+        def __init__(self, problem: str, mark) -> None:
+            super().__init__(problem)
+            self.problem, self.problem_mark = problem, mark
+
+    class SafeLoader(yaml.SafeLoader):
+        _depth = 0
+
+        def compose_node(self, parent, index):
+            if self.check_event(yaml.AliasEvent):
+                event = self.peek_event()
+                raise _Refused(
+                    f"alias *{event.anchor} refused (YAML anchors and aliases are not accepted: "
+                    "write each value out)",
+                    event.start_mark,
+                )
+            self._depth += 1
+            try:
+                if self._depth > MAX_YAML_DEPTH:
+                    raise _Refused(
+                        f"lists and mappings nested more than {MAX_YAML_DEPTH} deep",
+                        self.peek_event().start_mark,
+                    )
+                return super().compose_node(parent, index)
+            finally:
+                self._depth -= 1
+
+        def construct_mapping(self, node, deep=False):
+            if isinstance(node, MappingNode):
+                seen: set = set()
+                for key_node, _ in node.value:
+                    if not isinstance(key_node, ScalarNode) or key_node.tag == "tag:yaml.org,2002:merge":
+                        continue
+                    key = self.construct_object(key_node)
+                    try:
+                        duplicate = key in seen
+                    except TypeError:
+                        continue  # unhashable: the base class says so
+                    if duplicate:
+                        raise _Refused(
+                            f"duplicate key {show(key)} (each key may appear once in a mapping)",
+                            key_node.start_mark,
+                        )
+                    seen.add(key)
+            return super().construct_mapping(node, deep)
+
+    return SafeLoader
+
+
+def load_yaml(data: str | bytes, source: str | os.PathLike) -> Any:
+    """Parse a user's YAML text (``bytes``: UTF-8, or UTF-16 with a byte-order mark) safely.
+
+    Like ``yaml.safe_load`` (no Python object is built from a tag), and also refused:
+    aliases (``*name``; their expansion is unbounded work: a few hundred bytes can stand for
+    billions of values), a key repeated in one mapping (YAML would silently keep the last),
+    lists and mappings nested more than :data:`MAX_YAML_DEPTH` deep. The work is thus bounded
+    by the size of ``data``.
+
+    Raises:
+        YamlError: one line ``"<source>: <why>"`` (with line and column where known).
+    """
+    import yaml
+
+    loader = None
+    try:
+        loader = _safe_loader_class()(data)  # the reader checks the encoding here
+        return loader.get_single_data()
+    except yaml.YAMLError as e:
+        raise YamlError(f"{source}: {_yaml_problem(e)}") from None
+    except (ValueError, RecursionError) as e:
+        raise YamlError(f"{source}: not valid YAML: {type(e).__name__}") from None
+    finally:
+        if loader is not None:
+            loader.dispose()
+
+
+def read_yaml(path: str | os.PathLike, *, max_bytes: int = MAX_YAML_BYTES, what: str = "a YAML file") -> Any:
+    """The parsed content of the user's YAML file ``path`` (:func:`load_yaml`), at most
+    ``max_bytes`` long (default :data:`MAX_YAML_BYTES`); ``what`` names the file's kind in messages.
+
+    Raises:
+        FileNotFoundError: nothing at ``path``.
+        YamlError: one line naming the file: not a regular file, over ``max_bytes``,
+            unreadable, or refused by :func:`load_yaml`.
+    """
+    path = Path(path)
+    if not (path.exists() or path.is_symlink()):
+        raise FileNotFoundError(f"no file at {path}")
+    if not path.is_file():
+        raise YamlError(f"{path}: not a regular file; expected {what}")
+    try:
+        size = path.stat().st_size
+        if size > max_bytes:
+            raise YamlError(f"{path}: {size} bytes; {what} has at most {max_bytes}")
+        with open(path, "rb") as f:
+            raw = f.read(max_bytes + 1)
+    except OSError as e:
+        raise YamlError(f"{path}: cannot be read ({e.strerror or e})") from None
+    if len(raw) > max_bytes:
+        raise YamlError(f"{path}: more than {max_bytes} bytes; {what} has at most {max_bytes}")
+    return load_yaml(raw, path)
+
+
 def read_json(path: Path) -> Any:
     """Parse a JSON file; a missing or unparsable file raises :class:`DatasetError`
     naming it."""

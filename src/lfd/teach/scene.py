@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from lfd.io.files import read_text
+from lfd.io.files import read_yaml
 
 __all__ = ["Box", "Goal", "TeachScene", "load_scene"]
 
@@ -147,12 +147,7 @@ def load_scene(scene: str | os.PathLike | Mapping | TeachScene | None) -> TeachS
         path = Path(scene)
         if not path.is_file():
             raise FileNotFoundError(f"scene file not found: {path}")
-        import yaml  # PyYAML comes with hydra-core
-
-        try:
-            loaded = yaml.safe_load(read_text(path))
-        except yaml.YAMLError as e:
-            raise ValueError(f"scene file {path} is not valid YAML: {e}") from None
+        loaded = read_yaml(path, what="a scene YAML file")  # one line naming the file (YamlError)
         source = str(path)
         scene = {} if loaded is None else loaded
         if "name" not in scene and isinstance(scene, Mapping):

@@ -149,3 +149,82 @@ def test_utf16_with_a_byte_order_mark_loads_and_odd_paths_are_refused(tmp_path):
     big.write_bytes(b"#" * (2 << 20))
     with pytest.raises(ScenarioError, match="a scenario YAML file has at most"):
         load_scenario(big)
+
+
+# --- hostile scenario files: bounded work, one short line ------------------------------------------------
+
+
+def _until(seconds: float):
+    """Fail with TimeoutError instead of hanging when the protection is switched off."""
+    import signal
+
+    def _raise(*_):
+        raise TimeoutError(f"still running after {seconds} s")
+
+    signal.signal(signal.SIGALRM, _raise)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+
+
+@pytest.fixture
+def deadline():
+    import signal
+
+    old = signal.getsignal(signal.SIGALRM)
+    yield _until
+    signal.setitimer(signal.ITIMER_REAL, 0)
+    signal.signal(signal.SIGALRM, old)
+
+
+def test_alias_bomb_in_mass_is_one_short_line_at_once(tmp_path, deadline):
+    # 9 levels of 10 aliases: a 10**9-value list as the mass, in a file of a few hundred bytes
+    obj = "{name: %s, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1, 0.5, 0, 1], mass: %s}"
+    lines = ["objects:", "  - " + obj % ("c0", "&m0 [0.3]")]
+    lines += [
+        "  - " + obj % (f"c{i}", f"&m{i} [" + ", ".join([f"*m{i - 1}"] * 10) + "]") for i in range(1, 10)
+    ]
+    bomb = "\n".join([*lines, "placements:", "  - [0.55, 0.05, 0.3]"]) + "\n"
+    path = write(tmp_path, bomb)
+    assert path.stat().st_size < 1500
+    deadline(10)
+    with pytest.raises(ScenarioError, match=r"line 3, column \d+: alias \*m0 refused") as info:
+        load_scenario(path)
+    assert str(info.value).startswith(f"{path}: ") and len(str(info.value)) < 300
+
+
+def test_many_alias_placements_are_refused(tmp_path, deadline):
+    # 100 objects x 100k aliased placements: a 700 KB file standing for 10**7 cases
+    objects = [f"  - {{name: o{i}, shape: sphere, radius: 0.03, rgba: [1, 0, 0, 1]}}" for i in range(100)]
+    text = (
+        "objects:\n" + "\n".join(objects) + "\nplacements:\n  - &p [0.55, 0.0, 0.0]\n" + "  - *p\n" * 100_000
+    )
+    path = write(tmp_path, text)
+    assert path.stat().st_size < 1 << 20
+    deadline(20)
+    with pytest.raises(ScenarioError, match=r"alias \*p refused"):
+        load_scenario(path)
+
+
+def test_case_count_is_capped_with_a_clear_line(tmp_path, deadline):
+    from lfd.visuomotor.eval.scenario import MAX_SCENARIO_CASES
+
+    n_objects = 101
+    n_placements = MAX_SCENARIO_CASES // 100
+    objects = [
+        f"  - {{name: o{i}, shape: sphere, radius: 0.03, rgba: [1, 0, 0, 1]}}" for i in range(n_objects)
+    ]
+    text = "objects:\n" + "\n".join(objects) + "\nplacements:\n" + "  - [0.55, 0.0, 0.0]\n" * n_placements
+    path = write(tmp_path, text)
+    deadline(60)
+    with pytest.raises(
+        ScenarioError,
+        match=rf"101 objects x {n_placements} placements = \d+ cases; a scenario has at most {MAX_SCENARIO_CASES}",
+    ):
+        load_scenario(path)
+
+
+def test_duplicate_top_level_key_is_refused_not_silently_replaced(tmp_path):
+    text = GOOD + "objects:\n  - {name: ball, shape: sphere, radius: 0.04, rgba: [0.1, 0.6, 0.1, 1.0]}\n"
+    path = write(tmp_path, text)
+    with pytest.raises(ScenarioError, match=r"line \d+, column 1: duplicate key 'objects'") as info:
+        load_scenario(path)
+    assert str(info.value).startswith(f"{path}: ")

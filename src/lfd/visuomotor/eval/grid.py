@@ -21,8 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
+from lfd.io.files import YamlError, read_yaml
 from lfd.visuomotor.policies import POLICIES
 
 __all__ = ["collect", "markdown_table", "plot_data_efficiency", "summarise"]
@@ -30,7 +29,10 @@ __all__ = ["collect", "markdown_table", "plot_data_efficiency", "summarise"]
 
 def _overrides(job: Path) -> dict[str, str]:
     """``key -> value`` of the job's Hydra overrides (``.hydra/overrides.yaml``)."""
-    items = yaml.safe_load((job / ".hydra" / "overrides.yaml").read_text(encoding="utf-8")) or []
+    items = read_yaml(job / ".hydra" / "overrides.yaml", what="a Hydra overrides file") or []
+    if not isinstance(items, list):
+        where = job / ".hydra" / "overrides.yaml"
+        raise YamlError(f"{where}: expected a list of overrides, got {type(items).__name__}")
     out = {}
     for item in items:
         key, _, value = str(item).lstrip("+~").partition("=")
@@ -51,6 +53,8 @@ def collect(sweep_dir: str | Path) -> list[dict[str, Any]]:
 
     Raises:
         FileNotFoundError: ``sweep_dir`` holds no job folder.
+        lfd.io.files.YamlError: an ``overrides.yaml`` that is not a list, too big, or uses
+            aliases or duplicate keys (one line naming the file).
     """
     sweep_dir = Path(sweep_dir)
     jobs = sorted(p.parent.parent for p in sweep_dir.glob("**/.hydra/overrides.yaml"))

@@ -44,8 +44,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from lfd.io.files import YamlError, read_yaml, show
 from lfd.sim.approach import TABLE_Z, plan_approach
 from lfd.sim.camera import Camera
 from lfd.sim.objects import FAMILY_SIZES, SHAPE_DIMS, ObjectSpec, Placement
@@ -61,6 +61,8 @@ SIZE_FIELDS: dict[str, tuple[str, ...]] = {
 COMMON_FIELDS = ("name", "shape", "rgba", "mass")
 #: Largest scenario file read (bytes).
 MAX_SCENARIO_BYTES = 1 << 20
+#: Most cases (objects x placements) in one scenario.
+MAX_SCENARIO_CASES = 10_000
 
 
 class ScenarioError(ValueError):
@@ -98,9 +100,8 @@ def _sorted(keys) -> list:
 
 
 def _show(value: Any, limit: int = 80) -> str:
-    """``repr(value)`` cut to ``limit`` characters, for messages."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    """``value`` for a message (:func:`lfd.io.files.show`: at most ``limit`` characters, bounded work)."""
+    return show(value, limit)
 
 
 def _number(value: Any) -> float | None:
@@ -287,46 +288,23 @@ def _check_reach(objects, placements, robot, table_z: float, path) -> None:
                 ) from e
 
 
-def _yaml_problem(e: yaml.YAMLError) -> str:
-    """One line saying where and why PyYAML gave up."""
-    if isinstance(e, yaml.reader.ReaderError):
-        char = f"#x{e.character:04x}, " if isinstance(e.character, int) else ""
-        if isinstance(e.character, str):
-            char = f"#x{ord(e.character):04x}, "
-        return f"not UTF-8 or UTF-16 text (position {e.position}: {char}{e.reason}); save it as UTF-8 YAML"
-    mark = getattr(e, "problem_mark", None)
-    problem = getattr(e, "problem", None) or getattr(e, "context", None) or type(e).__name__
-    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-    return f"not valid YAML{where}: {' '.join(str(problem).split())}"
-
-
 def read_scenario_yaml(path: str | Path) -> dict:
-    """The top-level mapping of the scenario file ``path``, parsed by ``yaml.safe_load`` from its
-    bytes (UTF-8, or UTF-16 with a byte-order mark; no Python object is built from a tag).
+    """The top-level mapping of the scenario file ``path``, parsed by :func:`lfd.io.files.read_yaml`
+    from its bytes (UTF-8, or UTF-16 with a byte-order mark; no Python object is built from a
+    tag; aliases, duplicate keys and deep nesting are refused, so the work is bounded by the
+    file's size).
 
     Raises:
         ScenarioError: one line naming the file: missing, not a regular file, over
-            :data:`MAX_SCENARIO_BYTES`, unreadable, not text, not YAML, or not a mapping.
+            :data:`MAX_SCENARIO_BYTES`, unreadable, not text, not YAML, refused, or not a mapping.
     """
     path = Path(path)
-    if not path.exists():
-        raise ScenarioError(f"scenario file not found: {path}")
-    if not path.is_file():
-        raise ScenarioError(f"{path}: not a regular file; expected a scenario YAML file")
     try:
-        if path.stat().st_size > MAX_SCENARIO_BYTES:
-            raise ScenarioError(
-                f"{path}: {path.stat().st_size} bytes; a scenario YAML file has at most {MAX_SCENARIO_BYTES}"
-            )
-        raw = path.read_bytes()
-    except OSError as e:
-        raise ScenarioError(f"{path}: cannot be read ({e.strerror or e})") from e
-    try:
-        data = yaml.safe_load(raw)
-    except yaml.YAMLError as e:
-        raise ScenarioError(f"{path}: {_yaml_problem(e)}") from e
-    except (ValueError, RecursionError) as e:  # e.g. an unhashable mapping key
-        raise ScenarioError(f"{path}: not valid YAML: {type(e).__name__}") from e
+        data = read_yaml(path, max_bytes=MAX_SCENARIO_BYTES, what="a scenario YAML file")
+    except FileNotFoundError:
+        raise ScenarioError(f"scenario file not found: {path}") from None
+    except YamlError as e:
+        raise ScenarioError(str(e)) from None
     if not isinstance(data, dict):
         raise ScenarioError(
             f"{path}: expected a mapping with keys 'objects' and 'placements', got "
@@ -370,6 +348,12 @@ def load_scenario(
         if not isinstance(value, list) or not value:
             raise ScenarioError(f"{path}: '{key}' must be a non-empty list, got {_show(value)}")
         lists[key] = value
+    n_cases = len(lists["objects"]) * len(lists["placements"])
+    if n_cases > MAX_SCENARIO_CASES:
+        raise ScenarioError(
+            f"{path}: {len(lists['objects'])} objects x {len(lists['placements'])} placements = {n_cases} cases; "
+            f"a scenario has at most {MAX_SCENARIO_CASES} (split it into several files)"
+        )
     objects = tuple(_parse_object(o, f"{path}: objects[{i}]") for i, o in enumerate(lists["objects"]))
     names = [o.name for o in objects]
     duplicates = sorted({n for n in names if names.count(n) > 1})
