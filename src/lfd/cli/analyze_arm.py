@@ -6,6 +6,7 @@ this module.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -13,35 +14,63 @@ import hydra
 from omegaconf import DictConfig, OmegaConf
 
 from lfd.cli import configs_dir, run_app
+from lfd.io.files import show
 
 #: The configs composed (the checkout's configs/, else the packaged copy: :func:`lfd.cli.configs_dir`).
 CONFIGS = configs_dir()
 
 
+def option(cfg: DictConfig, key: str, kind: type, *, optional: bool = False):
+    """The config value at ``key`` (dotted) as ``kind`` (``float``: finite; ``int``: whole;
+    ``bool``: true/false), ``None`` when ``optional`` and null.
+
+    Raises:
+        ValueError: one line naming ``key``, the expected kind and the value given.
+    """
+    value = OmegaConf.select(cfg, key)
+    if value is None and optional:
+        return None
+    expected = {float: "a finite number", int: "a whole number", bool: "true or false"}[kind]
+    if optional:
+        expected += " or null"
+    ok = isinstance(value, bool) if kind is bool else not isinstance(value, bool)
+    if ok and kind is not bool:
+        try:
+            number = float(value)
+            ok = math.isfinite(number) and (kind is float or number.is_integer())
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+    if not ok:
+        raise ValueError(f"{key} must be {expected}, got {show(value)}")
+    return value if kind is bool else kind(float(value)) if kind is int else float(value)
+
+
 def analysis_options(cfg: DictConfig) -> dict:
-    """Keyword arguments of :func:`lfd.human.analyze_arm` from the config."""
+    """Keyword arguments of :func:`lfd.human.analyze_arm` from the config (a bad value: a
+    ``ValueError`` naming its key, :func:`option`)."""
     return dict(
         side=cfg.side,
-        body_mass=float(cfg.subject.body_mass),
+        body_mass=option(cfg, "subject.body_mass", float),
         sex=cfg.subject.sex,
-        hand_load=float(cfg.subject.hand_load),
-        hand_length=None if cfg.subject.hand_length is None else float(cfg.subject.hand_length),
+        hand_load=option(cfg, "subject.hand_load", float),
+        hand_length=option(cfg, "subject.hand_length", float, optional=True),
         filter=cfg.filter.kind,
-        cutoff=float(cfg.filter.cutoff),
-        filter_order=int(cfg.filter.order),
-        median_kernel=int(cfg.filter.kernel),
-        hampel=bool(cfg.hampel.enabled),
-        hampel_window=int(cfg.hampel.window),
-        hampel_sigma=float(cfg.hampel.sigma),
-        max_gap=float(cfg.gaps.max_gap),
-        use_inferred=bool(cfg.gaps.use_inferred),
-        repair_swaps_=bool(cfg.gaps.repair_swaps),
-        bone_tolerance=float(cfg.gaps.bone_tolerance),
+        cutoff=option(cfg, "filter.cutoff", float),
+        filter_order=option(cfg, "filter.order", int),
+        median_kernel=option(cfg, "filter.kernel", int),
+        hampel=option(cfg, "hampel.enabled", bool),
+        hampel_window=option(cfg, "hampel.window", int),
+        hampel_sigma=option(cfg, "hampel.sigma", float),
+        max_gap=option(cfg, "gaps.max_gap", float),
+        use_inferred=option(cfg, "gaps.use_inferred", bool),
+        repair_swaps_=option(cfg, "gaps.repair_swaps", bool),
+        bone_tolerance=option(cfg, "gaps.bone_tolerance", float),
+        repair_frames=option(cfg, "gaps.repair_frames", bool),
         fit=cfg.fit.method,
-        poly_max_order=int(cfg.fit.poly_max_order),
-        poly_window=float(cfg.fit.poly_window),
-        spline_cutoff=None if cfg.fit.spline_cutoff is None else float(cfg.fit.spline_cutoff),
-        singular_deg=float(cfg.ik.singular_deg),
+        poly_max_order=option(cfg, "fit.poly_max_order", int),
+        poly_window=option(cfg, "fit.poly_window", float),
+        spline_cutoff=option(cfg, "fit.spline_cutoff", float, optional=True),
+        singular_deg=option(cfg, "ik.singular_deg", float),
     )
 
 
@@ -52,9 +81,9 @@ def save_options(cfg: DictConfig) -> dict:
         units=cfg.units,
         reader=OmegaConf.to_container(cfg.reader, resolve=True) if cfg.reader else {},
         analysis=analysis_options(cfg),
-        plots=bool(cfg.outputs.plots),
-        gif=bool(cfg.outputs.gif),
-        gif_frames=int(cfg.outputs.gif_frames),
+        plots=option(cfg, "outputs.plots", bool),
+        gif=option(cfg, "outputs.gif", bool),
+        gif_frames=option(cfg, "outputs.gif_frames", int),
     )
 
 
@@ -77,7 +106,11 @@ def run(cfg: DictConfig, out_dir: str | Path) -> Path:
     else:
         rows = analyze_folder(source, out, pattern=cfg.pattern, **save_options(cfg))
         ok = sum(r["status"] == "ok" for r in rows)
-        print(f"[lfd] {ok}/{len(rows)} files analysed; summary: {out / SUMMARY_FILE}")
+        skipped = sum(r["status"].startswith("skipped") for r in rows)
+        print(
+            f"[lfd] {ok}/{len(rows)} files analysed and written ({len(rows) - ok - skipped} failed, "
+            f"{skipped} skipped); summary: {out / SUMMARY_FILE}"
+        )
     print(f"[lfd] outputs in {out}")
     return out
 

@@ -20,6 +20,7 @@ Example (runnable)::
 from __future__ import annotations
 
 import dataclasses
+import logging
 import os
 
 import numpy as np
@@ -28,15 +29,21 @@ from .arm_ik import arm_fk, arm_ik, canonical_angles, forearm_pronation, mirror
 from .cleaning import fill_gaps, repair_swaps
 from .dynamics import arm_model, arm_torques
 from .filters import FILTERS, filter_positions, hampel_filter
-from .fit import FITS, fit_derivatives
-from .plausibility import check_body_mass
+from .fit import FITS, MIN_SAMPLES, fit_derivatives
+from .plausibility import check_body_mass, check_frames, implausible_frames
 from .readers import read_skeleton
 from .result import JOINT_NAMES, THESIS_NAMES, ArmAnalysis
 from .skeleton import Skeleton
 from .thesis_angles import thesis_ik
 from .trunk import to_trunk, trunk_frames
 
-__all__ = ["JOINT_NAMES", "THESIS_NAMES", "ArmAnalysis", "analyze_arm"]
+__all__ = ["JOINT_NAMES", "MIN_FRAMES", "THESIS_NAMES", "ArmAnalysis", "analyze_arm"]
+
+log = logging.getLogger(__name__)
+
+#: Fewest frames analysed: the smooth fit needs this many samples for velocities and accelerations
+#: (fewer would give a result without torques).
+MIN_FRAMES = MIN_SAMPLES
 
 _GRAVITY = 9.81
 _DEFAULT_HAND_LENGTH = {"male": 0.19, "female": 0.18}
@@ -85,6 +92,7 @@ def analyze_arm(
     hand_length: float | None = None,
     singular_deg: float = 10.0,
     gravity: float = _GRAVITY,
+    repair_frames: bool = False,
 ) -> ArmAnalysis:
     """Joint angles, velocities, accelerations and torques of one arm from a skeleton.
 
@@ -109,13 +117,19 @@ def analyze_arm(
         singular_deg: threshold of the singular poses (deg): arm hanging or straight up (plane
             of elevation undefined), straight elbow (axial rotation undefined).
         gravity: m/s^2, magnitude along ``-skeleton.up``.
+        repair_frames: frames that cannot be a person's motion (rows in another length unit,
+            single-frame spikes: :func:`lfd.human.plausibility.implausible_frames`) are dropped
+            (treated as missing: short gaps are interpolated, longer ones reported) and logged,
+            with their count in ``quality["repaired_frames"]``; ``False``: such a recording is refused.
 
     Returns:
         :class:`ArmAnalysis`.
 
     Raises:
-        ValueError: bad option (a body mass outside 20-250 kg, with a hint when it reads as grams)
-            or a skeleton without the needed joints.
+        ValueError: bad option (a body mass outside 20-250 kg, with a hint when it reads as grams),
+            a skeleton without the needed joints, fewer than :data:`MIN_FRAMES` frames, or
+            (without ``repair_frames``) implausible frames
+            (:class:`~lfd.human.plausibility.ImplausibleFrames`, naming the file and the frames).
         FileNotFoundError: a missing file.
     """
     if not isinstance(skeleton, Skeleton):
@@ -143,13 +157,29 @@ def analyze_arm(
         raise ValueError(
             f"{skeleton.source or 'skeleton'}: missing joint(s) {missing} for the {side} arm; has {skeleton.names}"
         )
-    if skeleton.n_frames < 2:
-        raise ValueError(f"{skeleton.source or 'skeleton'}: need at least 2 frames, got {skeleton.n_frames}")
+    where = skeleton.source or "skeleton"
+    if skeleton.n_frames < MIN_FRAMES:
+        raise ValueError(
+            f"{where}: {skeleton.n_frames} frame(s); the analysis needs at least {MIN_FRAMES} "
+            "(velocities and accelerations come from a smooth fit over them)"
+        )
     names, t = skeleton.names, skeleton.t
     rate = skeleton.rate
     quality: dict = {}
 
+    scale, spike = implausible_frames(skeleton)
+    drop = scale | spike
+    if drop.any() and not repair_frames:
+        check_frames(skeleton, where)  # raises, naming the frames
+    quality["repaired_frames"] = int(drop.sum())
+    if drop.any():
+        log.warning(
+            "%s: repair_frames: dropped %d frame(s) (%d in another length unit, %d spikes); "
+            "short gaps interpolated (max_gap=%g s)",
+            where, int(drop.sum()), int(scale.sum()), int(spike.sum()), max_gap,
+        )  # fmt: skip
     valid = np.isfinite(skeleton.positions).all(2) if use_inferred else skeleton.tracked.copy()
+    valid[drop] = False
     pos = np.where(valid[..., None], skeleton.positions, np.nan)
     swapped = np.zeros((len(t), 1), bool)
     if repair_swaps_:
@@ -256,6 +286,7 @@ def analyze_arm(
         spline_cutoff=spline_cutoff,
         singular_deg=singular_deg,
         rate_hz=rate,
+        repair_frames=repair_frames,
     )
     return ArmAnalysis(
         t=t, q=q, qd=qd, qdd=qdd, tau=tau, q_ik=canonical_angles(ik.q)[0], positions=positions,

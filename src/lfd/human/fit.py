@@ -150,8 +150,18 @@ def _reflect(t: np.ndarray, y: np.ndarray, pad: int) -> tuple[np.ndarray, np.nda
     return np.concatenate([t_pre, t, t_post]), np.concatenate([y_pre, y, y_post]), slice(k, k + len(t))
 
 
+#: Shortest run of finite samples that is fitted (shorter runs get no velocity or acceleration).
+MIN_SAMPLES = 8
+
+
 def fit_derivatives(
-    t: np.ndarray, q: np.ndarray, method: str = "spline", *, min_samples: int = 8, pad: int = 15, **options
+    t: np.ndarray,
+    q: np.ndarray,
+    method: str = "spline",
+    *,
+    min_samples: int = MIN_SAMPLES,
+    pad: int = 15,
+    **options,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Smoothed angles and their first and second time derivatives.
 

@@ -19,10 +19,15 @@ from .skeleton import Skeleton
 __all__ = [
     "BODY_MASS_RANGE_KG",
     "FRAME_RATE_RANGE_HZ",
+    "MAX_JOINT_SPEED_MPS",
+    "SCALE_JUMP_FACTOR",
     "UPPER_ARM_RANGE_M",
+    "ImplausibleFrames",
     "check_body_mass",
     "check_frame_rate",
+    "check_frames",
     "check_upper_arm",
+    "implausible_frames",
 ]
 
 #: Shoulder-elbow median length (m) accepted for an adult or a child.
@@ -31,6 +36,12 @@ UPPER_ARM_RANGE_M = (0.15, 0.6)
 FRAME_RATE_RANGE_HZ = (1.0, 1000.0)
 #: Body masses (kg) accepted by the torque model.
 BODY_MASS_RANGE_KG = (20.0, 250.0)
+
+#: A frame whose upper arm is more than this factor longer or shorter than the recording's median
+#: is in another length unit (a row in millimetres among metres) or a corrupt sample.
+SCALE_JUMP_FACTOR = 8.0
+#: A joint that leaves both its neighbouring frames faster than this (m/s) is a single-frame spike.
+MAX_JOINT_SPEED_MPS = 50.0
 
 _LENGTH_UNITS = (("m", "metres", 1.0), ("cm", "centimetres", 0.01), ("mm", "millimetres", 0.001))
 _TIME_UNITS = (("milliseconds", 1e-3), ("microseconds", 1e-6), ("100 ns ticks", 1e-7))
@@ -118,3 +129,86 @@ def check_body_mass(body_mass: float) -> None:
     if _inside(body_mass / 1000.0, BODY_MASS_RANGE_KG):
         hint = f" (is it in grams? {body_mass / 1000.0:g} kg)"
     raise ValueError(f"body_mass {body_mass:g} is outside {low:g}-{high:g} kg; give body_mass in kg{hint}")
+
+
+class ImplausibleFrames(ValueError):
+    """Frames of a recording that cannot be a person's motion (mixed length units, spikes); the
+    message names the file, the frames and the expectation. ``frames``: their indices."""
+
+    def __init__(self, message: str, frames: np.ndarray) -> None:
+        super().__init__(message)
+        self.frames = frames
+
+
+def implausible_frames(skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
+    """Frames that cannot be a person's motion, as two boolean (T,) masks ``(scale, spike)``.
+
+    ``scale``: the frame's tracked upper arm (shoulder-elbow) is more than :data:`SCALE_JUMP_FACTOR`
+    times longer or shorter than the recording's median (rows in another length unit, e.g.
+    millimetres among metres). ``spike``: a tracked joint leaves both its neighbouring frames
+    faster than :data:`MAX_JOINT_SPEED_MPS` (a single corrupt frame).
+    """
+    t, pos, tracked = skeleton.t, skeleton.positions, skeleton.tracked
+    n = skeleton.n_frames
+    scale = np.zeros(n, bool)
+    spike = np.zeros(n, bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for side in ("left", "right"):
+            a, b = f"shoulder_{side}", f"elbow_{side}"
+            if not skeleton.has(a, b):
+                continue
+            ia, ib = skeleton.index(a), skeleton.index(b)
+            d = np.linalg.norm(pos[:, ib] - pos[:, ia], axis=1)
+            d[~(tracked[:, ia] & tracked[:, ib])] = np.nan
+            if not np.isfinite(d).any():
+                continue
+            ratio = d / np.nanmedian(d)
+            scale |= np.isfinite(ratio) & ((ratio > SCALE_JUMP_FACTOR) | (ratio < 1.0 / SCALE_JUMP_FACTOR))
+        if n >= 3:
+            step = np.linalg.norm(np.diff(pos, axis=0), axis=2)  # (T-1, J) m
+            both = tracked[1:] & tracked[:-1]
+            speed = np.where(both, step / np.diff(t)[:, None], np.nan)
+            inner = np.fmin(speed[:-1], speed[1:])  # frames 1..T-2: the slower of leaving to either side
+            spike[1:-1] = (inner > MAX_JOINT_SPEED_MPS).any(1)
+    return scale, spike
+
+
+def _runs(mask: np.ndarray, t: np.ndarray, limit: int = 4) -> str:
+    """``"12-15 (t 0.4-0.5 s), 40"``: the first ``limit`` runs of True in ``mask``, then how many more."""
+    idx = np.flatnonzero(mask)
+    breaks = np.flatnonzero(np.diff(idx) > 1)
+    starts = np.concatenate([[idx[0]], idx[breaks + 1]])
+    stops = np.concatenate([idx[breaks], [idx[-1]]])
+    parts = [
+        f"{a}" + (f"-{b}" if b > a else "") + f" (t {t[a]:.3g}" + (f"-{t[b]:.3g}" if b > a else "") + " s)"
+        for a, b in zip(starts[:limit], stops[:limit])
+    ]
+    more = len(starts) - limit
+    return ", ".join(parts) + (f" and {more} more run(s)" if more > 0 else "")
+
+
+def check_frames(skeleton: Skeleton, where: str) -> None:
+    """:class:`ImplausibleFrames` (a ``ValueError``) when :func:`implausible_frames` finds any: one
+    line naming ``where`` (the file), the frames (0-based, with their times) and the expectation,
+    and that :func:`lfd.human.analyze_arm`'s ``repair_frames`` drops them."""
+    scale, spike = implausible_frames(skeleton)
+    bad = scale | spike
+    if not bad.any():
+        return
+    parts = []
+    if scale.any():
+        parts.append(
+            f"{int(scale.sum())} frame(s) {_runs(scale, skeleton.t)} have an upper arm over "
+            f"{SCALE_JUMP_FACTOR:g}x longer or shorter than the recording's median (rows in another length unit?)"
+        )
+    if spike.any():
+        parts.append(
+            f"{int(spike.sum())} frame(s) {_runs(spike, skeleton.t)} jump away and back faster than "
+            f"{MAX_JOINT_SPEED_MPS:g} m/s (corrupt samples?)"
+        )
+    raise ImplausibleFrames(
+        f"{where}: {'; '.join(parts)}; expected one length unit and a person's motion throughout: "
+        "fix the file, or pass repair_frames=true (analyze_arm.py: gaps.repair_frames=true) to drop these "
+        "frames and interpolate the short gaps",
+        bad,
+    )

@@ -10,6 +10,8 @@ from __future__ import annotations
 import gzip
 import io
 import os
+import stat
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -33,22 +35,65 @@ class SkeletonFormatError(ValueError):
         self.path, self.line, self.field = str(path), line, field
 
 
-def open_text(path: Path) -> io.TextIOBase:
-    """The file as text (UTF-8, BOM dropped; ``.gz`` decompressed).
+#: Largest skeleton text read (bytes): the file, or a ``.gz`` file's decompressed content
+#: (decompression stops there, so a small archive cannot expand to exhaust memory).
+MAX_SKELETON_BYTES = 256 << 20
+
+
+def read_bytes_bounded(path: Path, limit: int = MAX_SKELETON_BYTES) -> bytes:
+    """The bytes of the regular file ``path`` (``.gz``: decompressed), at most ``limit`` of them.
+
+    The file is opened without blocking and checked to be a regular file before anything is
+    read (a FIFO or a device named like a recording would block or never end).
 
     Raises:
-        FileNotFoundError: missing file or a directory. SkeletonFormatError: bad gzip or not UTF-8.
+        FileNotFoundError: missing file or a directory. SkeletonFormatError: not a regular
+            file, over ``limit`` bytes (decompressed), bad gzip, or unreadable.
     """
-    if not path.exists():
+    if not (path.exists() or path.is_symlink()):
         raise FileNotFoundError(f"skeleton file not found: {path}")
     if path.is_dir():
         raise FileNotFoundError(f"skeleton path is a directory, not a file: {path}")
-    raw = path.read_bytes()
-    if path.suffix == ".gz":
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise SkeletonFormatError(path, None, "file", f"cannot be read ({exc.strerror or exc})") from None
+    with os.fdopen(fd, "rb") as f:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise SkeletonFormatError(
+                path, None, "file", "not a regular file (a pipe or device?); expected a recording"
+            )
+        if os.fstat(fd).st_size > limit and path.suffix != ".gz":
+            raise SkeletonFormatError(
+                path, None, "size", f"{os.fstat(fd).st_size} bytes; a skeleton file has at most {limit}"
+            )
         try:
-            raw = gzip.decompress(raw)
-        except (OSError, EOFError) as exc:
-            raise SkeletonFormatError(path, None, "gzip", f"not a valid gzip file ({exc})") from exc
+            if path.suffix == ".gz":
+                with gzip.GzipFile(fileobj=f) as z:
+                    raw = z.read(limit + 1)
+                if len(raw) > limit:
+                    raise SkeletonFormatError(
+                        path,
+                        None,
+                        "gzip",
+                        f"decompresses to more than {limit} bytes; a skeleton file has at most {limit}",
+                    )
+                return raw
+            return f.read(limit + 1)
+        except (OSError, EOFError, zlib.error) as exc:
+            if path.suffix == ".gz":
+                raise SkeletonFormatError(path, None, "gzip", f"not a valid gzip file ({exc})") from None
+            raise SkeletonFormatError(path, None, "file", f"cannot be read ({exc})") from None
+
+
+def open_text(path: Path) -> io.TextIOBase:
+    """The file as text (UTF-8, BOM dropped; ``.gz`` decompressed), read by :func:`read_bytes_bounded`.
+
+    Raises:
+        FileNotFoundError: missing file or a directory. SkeletonFormatError: not a regular file,
+            over :data:`MAX_SKELETON_BYTES`, bad gzip or not UTF-8.
+    """
+    raw = read_bytes_bounded(path)
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
