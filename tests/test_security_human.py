@@ -6,8 +6,12 @@ summary marks such a file failed with that line and still analyses the others.""
 from __future__ import annotations
 
 import csv
+import json
+import os
+import signal
 import subprocess
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -150,3 +154,187 @@ def test_batch_marks_the_implausible_file_failed_and_analyses_the_good_one(tmp_p
     outputs = summary.parent
     assert (outputs / "good" / "arm.json").exists()
     assert not (outputs / "in_mm").exists() and not (outputs / "ticks").exists()
+
+
+# --- second round: mixed units, spikes, short recordings, pipes, gzip bombs, name collisions, options ----
+
+
+def _edited(dst: Path, rows: range | list[int], factor: float) -> Path:
+    """``GOOD`` with the coordinates of the given data rows (0-based frames) times ``factor``."""
+    lines = GOOD.read_text().splitlines()
+    out = [lines[0]]
+    for i, line in enumerate(lines[1:]):
+        t, *xyz = line.split(",")
+        k = factor if i in rows else 1.0
+        out.append(",".join([t] + [repr(float(v) * k) if v else "" for v in xyz]))
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+def _peak(path: Path, **options) -> float:
+    return analyze_arm(read_skeleton(path), **options).summary()["elevation_peak_torque_Nm"]
+
+
+def test_rows_in_millimetres_are_refused_naming_the_frames_and_repair_drops_them(tmp_path, caplog):
+    from lfd.human.plausibility import ImplausibleFrames
+
+    path = _edited(tmp_path / "mixed.csv", range(54, 90), 1000.0)  # the last 40 % of the rows in mm
+    with pytest.raises(ImplausibleFrames) as info:
+        analyze_file(path, tmp_path / "out", plots=False, gif=False)
+    message = str(info.value)
+    assert message.startswith(f"{path} (csv wide): 36 frame(s) 54-89 (t 1.8-2.97 s) have an upper arm over 8x")
+    assert "another length unit" in message and "repair_frames=true" in message and "\n" not in message
+    assert not (tmp_path / "out").exists()
+    with caplog.at_level("WARNING", logger="lfd.human.analysis"):
+        result = analyze_arm(read_skeleton(path), repair_frames=True)
+    assert (
+        result.quality["repaired_frames"] == 36
+        and "dropped 36 frame(s) (36 in another length unit" in caplog.text
+    )
+    clean = _peak(GOOD)
+    assert abs(result.summary()["elevation_peak_torque_Nm"] - clean) < 0.2 * clean
+
+
+def test_a_single_frame_spike_is_refused_and_repair_interpolates_it(tmp_path):
+    path = _edited(tmp_path / "spike.csv", [45], 1e6)
+    with pytest.raises(
+        ValueError, match=r"spike\.csv \(csv wide\): 1 frame\(s\) 45 \(t 1\.5 s\) have an upper arm"
+    ) as info:
+        analyze_arm(read_skeleton(path))
+    assert "1 frame(s) 45 (t 1.5 s) jump away and back faster than 50 m/s" in str(info.value)
+    clean = _peak(GOOD)
+    repaired = analyze_arm(read_skeleton(path), repair_frames=True)
+    assert repaired.quality["repaired_frames"] == 1 and repaired.quality["gaps_left"] == []
+    assert abs(repaired.summary()["elevation_peak_torque_Nm"] - clean) < 0.05 * clean
+
+
+def test_the_entry_point_refuses_mixed_units_in_one_line_and_repairs_on_request(tmp_path):
+    path = _edited(tmp_path / "mixed.csv", range(54, 90), 1000.0)
+    proc = _script(tmp_path / "run", f"file={path}", "outputs.gif=false")
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert proc.stderr.startswith(f"analyze_arm: {path} (csv wide): 36 frame(s) 54-89")
+    proc = _script(tmp_path / "run2", f"file={path}", "outputs.gif=false", "gaps.repair_frames=true")
+    assert proc.returncode == 0, proc.stderr
+    assert "repair_frames: dropped 36 frame(s)" in proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("frames", [2, 3, 7])
+def test_too_short_recordings_are_refused_with_the_minimum(tmp_path, frames):
+    from lfd.human.analysis import MIN_FRAMES
+
+    path = tmp_path / "short.csv"
+    path.write_text("\n".join(GOOD.read_text().splitlines()[: frames + 1]) + "\n")
+    with pytest.raises(
+        ValueError,
+        match=rf"short\.csv \(csv wide\): {frames} frame\(s\); the analysis needs at least {MIN_FRAMES}",
+    ):
+        analyze_file(path, tmp_path / "out", plots=False, gif=False)
+    assert not (tmp_path / "out").exists()
+    path.write_text("\n".join(GOOD.read_text().splitlines()[: MIN_FRAMES + 1]) + "\n")
+    assert np.isfinite(analyze_arm(read_skeleton(path)).tau).all()
+
+
+@contextmanager
+def _deadline(seconds: float):
+    def _raise(*_):
+        raise TimeoutError(f"still running after {seconds} s")
+
+    old = signal.signal(signal.SIGALRM, _raise)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_a_pipe_named_like_a_recording_is_skipped_with_a_line(tmp_path, capsys):
+    folder = tmp_path / "recordings"
+    folder.mkdir()
+    os.mkfifo(folder / "a.csv")
+    (folder / "b.csv").write_bytes(GOOD.read_bytes())
+    with _deadline(60):
+        with pytest.raises(ValueError, match=r"a\.csv, field file: not a regular file"):
+            read_skeleton(folder / "a.csv")
+        rows = analyze_folder(folder, tmp_path / "out", progress=False, plots=False, gif=False)
+    assert [(r["file"], r["status"]) for r in rows] == [
+        ("a.csv", "skipped: not a regular file"),
+        ("b.csv", "ok"),
+    ]
+    assert f"{folder / 'a.csv'}: not a regular file (a pipe or device?); skipped" in capsys.readouterr().err
+
+
+def test_gzip_content_over_the_cap_is_refused_without_inflating_it(tmp_path, monkeypatch):
+    import gzip
+
+    from lfd.human.readers import common
+
+    assert common.MAX_SKELETON_BYTES == 256 << 20  # the documented cap
+    monkeypatch.setattr(common, "MAX_SKELETON_BYTES", 1 << 20)
+    path = tmp_path / "bomb.csv.gz"
+    path.write_bytes(gzip.compress(GOOD.read_bytes() + b"0" * (3 << 20)))  # inflates to 3 MiB
+    assert path.stat().st_size < 20_000
+    with pytest.raises(
+        ValueError, match=r"bomb\.csv\.gz, field gzip: decompresses to more than 1048576 bytes"
+    ) as info:
+        read_skeleton(path)
+    assert "\n" not in str(info.value)
+    big = tmp_path / "big.csv"
+    big.write_bytes(GOOD.read_bytes() + b"\n" * (2 << 20))
+    with pytest.raises(
+        ValueError, match=r"big\.csv, field size: \d+ bytes; a skeleton file has at most 1048576"
+    ):
+        read_skeleton(big)
+    small = tmp_path / "ok.csv.gz"
+    small.write_bytes(gzip.compress(GOOD.read_bytes()))
+    assert read_skeleton(small).n_frames == 90
+
+
+def test_batch_outputs_never_collide_and_the_summary_counts_what_was_written(tmp_path):
+    import gzip
+
+    folder = tmp_path / "recordings"
+    (folder / "sub").mkdir(parents=True)
+    (folder / "rec.csv").write_bytes(GOOD.read_bytes())
+    (folder / "rec.csv.gz").write_bytes(gzip.compress(_rescaled(tmp_path / "x", length=1.1).read_bytes()))
+    (folder / "sub" / "x.csv").write_bytes(GOOD.read_bytes())
+    (folder / "sub__x.csv").write_bytes(_rescaled(tmp_path / "y", length=0.9).read_bytes())
+    (folder / "Summary.csv").write_bytes(GOOD.read_bytes())
+    out = tmp_path / "out"
+    rows = analyze_folder(folder, out, progress=False, plots=False, gif=False)
+    assert all(r["status"] == "ok" for r in rows) and len(rows) == 5
+    outputs = [r["output"] for r in rows]
+    assert len({o.lower() for o in outputs}) == 5 and "summary.csv" not in {o.lower() for o in outputs}
+    written = sorted(p.parent.name for p in out.glob("*/arm.json"))
+    assert written == sorted(outputs)
+    for row in rows:  # each folder holds its own file's result
+        saved = json.loads((out / row["output"] / "arm.json").read_text())
+        assert saved["summary"]["source"].startswith(str(folder / row["file"]))
+    with open(out / "summary.csv") as f:
+        assert [r["output"] for r in csv.DictReader(f)] == outputs
+
+
+@pytest.mark.parametrize(
+    ("override", "expected"),
+    [
+        ("subject.body_mass=abc", "subject.body_mass must be a finite number, got 'abc'"),
+        ("filter.cutoff=nan", "filter.cutoff must be a finite number, got nan"),
+        ("filter.order=2.5", "filter.order must be a whole number, got 2.5"),
+        ("hampel.enabled=maybe", "hampel.enabled must be true or false, got 'maybe'"),
+        ("subject.hand_length=long", "subject.hand_length must be a finite number or null, got 'long'"),
+        ("outputs.gif_frames=[1,2]", "outputs.gif_frames must be a whole number, got [1, 2]"),
+    ],
+)
+def test_bad_option_values_name_the_option(override, expected):
+    from lfd.cli.analyze_arm import save_options
+
+    with pytest.raises(ValueError) as info:
+        save_options(_cfg(f"file={GOOD}", override))
+    assert str(info.value) == expected
+
+
+def test_bad_option_value_is_one_line_and_exit_2(tmp_path):
+    proc = _script(tmp_path, f"file={GOOD}", "subject.body_mass=heavy")
+    assert proc.returncode == 2
+    assert proc.stderr == "analyze_arm: subject.body_mass must be a finite number, got 'heavy'\n"

@@ -40,8 +40,9 @@ class SkeletonFormatError(ValueError):
 MAX_SKELETON_BYTES = 256 << 20
 
 
-def read_bytes_bounded(path: Path, limit: int = MAX_SKELETON_BYTES) -> bytes:
-    """The bytes of the regular file ``path`` (``.gz``: decompressed), at most ``limit`` of them.
+def read_bytes_bounded(path: Path, limit: int | None = None) -> bytes:
+    """The bytes of the regular file ``path`` (``.gz``: decompressed), at most ``limit`` of them
+    (default :data:`MAX_SKELETON_BYTES`).
 
     The file is opened without blocking and checked to be a regular file before anything is
     read (a FIFO or a device named like a recording would block or never end).
@@ -50,6 +51,7 @@ def read_bytes_bounded(path: Path, limit: int = MAX_SKELETON_BYTES) -> bytes:
         FileNotFoundError: missing file or a directory. SkeletonFormatError: not a regular
             file, over ``limit`` bytes (decompressed), bad gzip, or unreadable.
     """
+    limit = MAX_SKELETON_BYTES if limit is None else limit
     if not (path.exists() or path.is_symlink()):
         raise FileNotFoundError(f"skeleton file not found: {path}")
     if path.is_dir():
