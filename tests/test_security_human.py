@@ -11,6 +11,7 @@ import os
 import signal
 import subprocess
 import sys
+import tracemalloc
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -182,7 +183,9 @@ def test_rows_in_millimetres_are_refused_naming_the_frames_and_repair_drops_them
     with pytest.raises(ImplausibleFrames) as info:
         analyze_file(path, tmp_path / "out", plots=False, gif=False)
     message = str(info.value)
-    assert message.startswith(f"{path} (csv wide): 36 frame(s) 54-89 (t 1.8-2.97 s) have an upper arm over 8x")
+    assert message.startswith(
+        f"{path} (csv wide): 36 frame(s) 54-89 (t 1.8-2.97 s) have an upper arm over 8x"
+    )
     assert "another length unit" in message and "repair_frames=true" in message and "\n" not in message
     assert not (tmp_path / "out").exists()
     with caplog.at_level("WARNING", logger="lfd.human.analysis"):
@@ -273,12 +276,18 @@ def test_gzip_content_over_the_cap_is_refused_without_inflating_it(tmp_path, mon
     assert common.MAX_SKELETON_BYTES == 256 << 20  # the documented cap
     monkeypatch.setattr(common, "MAX_SKELETON_BYTES", 1 << 20)
     path = tmp_path / "bomb.csv.gz"
-    path.write_bytes(gzip.compress(GOOD.read_bytes() + b"0" * (3 << 20)))  # inflates to 3 MiB
-    assert path.stat().st_size < 20_000
-    with pytest.raises(
-        ValueError, match=r"bomb\.csv\.gz, field gzip: decompresses to more than 1048576 bytes"
-    ) as info:
-        read_skeleton(path)
+    path.write_bytes(gzip.compress(GOOD.read_bytes() + b"0" * (40 << 20)))  # inflates to 40 MiB
+    assert path.stat().st_size < 100_000
+    tracemalloc.start()
+    try:
+        with pytest.raises(
+            ValueError, match=r"bomb\.csv\.gz, field gzip: decompresses to more than 1048576 bytes"
+        ) as info:
+            read_skeleton(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 8 << 20  # never inflated past the cap
     assert "\n" not in str(info.value)
     big = tmp_path / "big.csv"
     big.write_bytes(GOOD.read_bytes() + b"\n" * (2 << 20))
