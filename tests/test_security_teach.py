@@ -95,7 +95,10 @@ class Tab:
         )
 
     def click(self, label: str) -> None:
-        uuid = self.served.buttons[label]._impl.uuid
+        if label == "Take control":  # each viewer has its own button
+            uuid = self.served.clients.take_buttons[self.id]._impl.uuid
+        else:
+            uuid = self.served.buttons[label]._impl.uuid
         self.send(_messages.GuiUpdateMessage(uuid=uuid, updates={"value": True}))
 
     def close(self) -> None:
@@ -241,7 +244,7 @@ def test_nan_drag_keeps_the_worker_and_later_drags_move_the_arm(fresh):
         np.testing.assert_array_equal(fresh.session.q, q0)
         for n, bad in enumerate((np.array([np.inf, 0.0, 0.0]), np.zeros(2)), start=2):
             with fresh._cond:  # straight into the worker's slot (latest wins: one at a time)
-                fresh._pending = bad
+                fresh._pending = (bad, None)
                 fresh._cond.notify()
             assert _wait(lambda n=n: fresh.drag_errors == n) and fresh._worker.is_alive()
         assert "shape" in fresh.status.content
@@ -328,3 +331,81 @@ def test_second_tab_is_read_only_and_cannot_clear_the_first(fresh):
         first.close()
         if second is not None:
             second.close()
+
+
+# ---------------------------------------------------------------- no way out, malformed messages, busy port
+def test_share_request_is_refused_and_nothing_connects_out(fresh, monkeypatch):
+    """viser's Share button asks the server to open a public tunnel (share.viser.studio): the request is
+    dropped before viser sees it; no tunnel is built and no socket connects anywhere."""
+    import socket
+
+    import viser._viser
+
+    tunnels, connects = [], []
+
+    class Tunnel:  # stands in for viser's tunnel: records the attempt, never connects
+        def __init__(self, *args, **kwargs):
+            tunnels.append(args)
+
+    real_connect = socket.socket.connect
+
+    def connect_spy(sock, address):
+        connects.append(address)
+        return real_connect(sock, address)
+
+    monkeypatch.setattr(viser._viser, "ViserTunnel", Tunnel)
+    tab = Tab(fresh)
+    monkeypatch.setattr(socket.socket, "connect", connect_spy)
+    try:
+        tab.send(_messages.ShareUrlRequest())
+        tab.send(_messages.ShareUrlDisconnect())
+        assert _wait(lambda: len(fresh.guard.refused) == 2)
+        assert "ShareUrlRequest" in fresh.guard.refused[0]
+        time.sleep(0.5)  # let a wrongly dispatched request reach the thread pool
+        assert tunnels == [] and connects == []
+        with pytest.raises(RuntimeError, match="never opens a share tunnel"):
+            fresh.server.request_share_url()
+        assert tunnels == []
+        # the tab still works
+        p0 = fresh.session.tool_position
+        tab.drag(p0 + [0.0, 0.0, 0.02])
+        assert _wait(lambda: fresh.session.samples >= 2)
+    finally:
+        tab.close()
+
+
+def test_malformed_messages_are_dropped_and_the_connection_stays_open(fresh, capfd):
+    tab = Tab(fresh)
+    try:
+        for raw in (b"\x00garbage", msgspec.msgpack.encode({"type": "NoSuchMessage"}), msgspec.msgpack.encode([1, 2])):
+            tab.ws.send(raw)
+        tab.ws.send("a text frame")
+        tab.send(
+            _messages.TransformControlsUpdateMessage(
+                name="/gizmo", wxyz=(1.0, 0.0, 0.0, 0.0), position=(0.4, 0.0, 0.5), owner=None
+            )
+        )  # a viser message with a bad field (owner None)
+        assert _wait(lambda: len(fresh.guard.refused) >= 4)
+        assert all(r.startswith("refused: a ") for r in list(fresh.guard.refused)[:4])
+        p0 = fresh.session.tool_position
+        tab.drag(p0 + [0.0, 0.0, 0.02])  # the same connection still drives the arm
+        assert _wait(lambda: fresh.session.samples >= 2)
+        assert tab.ws.close_code is None and tab.id in fresh.server.get_clients()
+        assert "Traceback" not in capfd.readouterr().err
+    finally:
+        tab.close()
+
+
+def test_busy_port_is_refused_not_moved(tmp_path):
+    import socket
+
+    session = TeachSession(robot="wam4", scene=None)
+    with socket.socket() as blocker:
+        blocker.bind(("0.0.0.0", 0))
+        blocker.listen()
+        port = blocker.getsockname()[1]
+        try:
+            with pytest.raises(ValueError, match=f"port {port} on 0.0.0.0 is in use"):
+                TeachServer(session, host="0.0.0.0", port=port, export_dir=tmp_path)
+        finally:
+            session.close()

@@ -22,11 +22,26 @@ Rules (a refusal is an HTTP 403 whose body is the one-line reason):
   every request must carry the per-launch secret, as ``?token=`` in the URL, as the cookie
   the page receives with it (``HttpOnly; SameSite=Strict``: the viser page opens its
   websocket without the query string), or as ``Authorization: token <secret>``.
+
+Messages (every websocket message, before viser decodes it; :meth:`AccessGuard.message_refusal`):
+
+* **No way out**: viser's share request (``ShareUrlRequest``, its Share button) would make the server
+  open a public tunnel to ``share.viser.studio``; it is dropped and counted in ``refused``, viser's
+  share handlers are removed and :meth:`viser.ViserServer.request_share_url` refuses. lfd never opens a
+  connection out of the machine.
+* A message that is not one of viser's (not msgpack, an unknown type, wrong fields, a text frame) is
+  dropped with a one-line reason in ``refused``; the connection stays open (viser alone would close
+  it with code 1011 and print a traceback).
+* **Port**: an explicit port that is busy is refused (``ValueError``) instead of viser's silent move
+  to the next free port, whose address nobody printed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hmac
+import io
+import sys
 import http
 import ipaddress
 import secrets
@@ -36,9 +51,12 @@ from http.cookies import CookieError, SimpleCookie
 from urllib.parse import parse_qs, urlsplit
 
 import viser
+from viser import _messages
 
 __all__ = ["AccessGuard", "is_loopback", "new_token", "start_guarded_viser", "token_required"]
 
+#: viser messages refused whoever sends them: the share tunnel's (a connection out of the machine).
+REFUSED_MESSAGES = ("ShareUrlRequest", "ShareUrlDisconnect")
 LOOPBACK_NAMES = frozenset({"127.0.0.1", "localhost", "::1"})
 _WILDCARDS = frozenset({"", "0.0.0.0", "::"})
 _START_LOCK = threading.Lock()
@@ -152,6 +170,40 @@ class AccessGuard:
         want = self.token.encode()
         return any(hmac.compare_digest(x.encode(), want) for x in offered)
 
+    def message_refusal(self, raw) -> str | None:
+        """The one-line reason to drop the websocket message ``raw`` (bytes as received), or None to
+        hand it to viser: a text frame, bytes viser cannot decode, or a :data:`REFUSED_MESSAGES` type."""
+        if not isinstance(raw, (bytes, bytearray)):
+            return "refused: a text websocket message (viser speaks binary msgpack)"
+        try:
+            message = _messages.Message.deserialize(bytes(raw))
+        except Exception as e:  # any decoding failure is the sender's, not the server's
+            text = " ".join(str(e).split())[:120]
+            return f"refused: a malformed websocket message ({type(e).__name__}: {text})"
+        if type(message).__name__ in REFUSED_MESSAGES:
+            return f"refused: {type(message).__name__} (a public share tunnel out of this machine)"
+        return None
+
+    def wrap_handler(self, handler):
+        """viser's websocket connection handler, receiving through :meth:`message_refusal`: refused
+        messages are dropped (reason in ``refused``) and the connection stays open."""
+
+        async def guarded(connection):
+            receive = connection.recv
+
+            async def recv(*args, **kwargs):
+                while True:
+                    raw = await receive(*args, **kwargs)
+                    reason = self.message_refusal(raw)
+                    if reason is None:
+                        return raw
+                    self.refused.append(reason)
+
+            connection.recv = recv
+            return await handler(connection)
+
+        return guarded
+
     def wrap(self, inner):
         """A ``process_request`` hook: refuse (403) what :meth:`refusal` names, otherwise ask
         ``inner`` (viser's page server) and hand the page its token cookie."""
@@ -194,11 +246,14 @@ def start_guarded_viser(host: str, port: int, guard: AccessGuard, verbose: bool 
         def serve(handler, *args, **kwargs):
             if args[:1] == (host,) and "process_request" in kwargs:
                 kwargs["process_request"] = guard.wrap(kwargs["process_request"])
+                handler = guard.wrap_handler(handler)
             return original(handler, *args, **kwargs)
 
         ws_server.serve = serve
         try:
-            server = viser.ViserServer(host=host, port=port, verbose=verbose)
+            # viser prints a banner (``localhost:<port>``, without the token) unless asked to talk
+            with contextlib.redirect_stdout(sys.stdout if verbose else io.StringIO()):
+                server = viser.ViserServer(host=host, port=port, verbose=verbose)
         finally:
             ws_server.serve = original
     if not guard.installed:
@@ -207,5 +262,25 @@ def start_guarded_viser(host: str, port: int, guard: AccessGuard, verbose: bool 
             f"viser {viser.__version__} started its web server without the request hook lfd.teach "
             "checks Origin and token with; refusing to serve unchecked"
         )
+    if port and server.get_port() != port:
+        server.stop()
+        raise ValueError(
+            f"port {port} on {host} is in use: choose another port (port=0 picks a free one)"
+        )
+    _no_share(server)
     guard.port = server.get_port()
     return server
+
+
+def _no_share(server: viser.ViserServer) -> None:
+    """Remove viser's share-tunnel handlers and make ``request_share_url`` refuse (the messages are
+    also dropped before viser sees them: :meth:`AccessGuard.message_refusal`)."""
+    ws = server._websock_server
+    for name in REFUSED_MESSAGES:
+        with contextlib.suppress(AssertionError, KeyError):
+            ws.unregister_handler(getattr(_messages, name))
+
+    def refuse(*args, **kwargs):
+        raise RuntimeError("lfd.teach never opens a share tunnel (a connection out of this machine)")
+
+    server.request_share_url = refuse

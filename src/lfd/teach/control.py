@@ -5,7 +5,8 @@ tab) controls it at a time: the first to connect. Every later client is a read-o
 viewer (it sees the scene; its drags and buttons are ignored with a message) until it
 takes over explicitly (the "Take control" button) or the controller leaves, when the
 longest-connected viewer is promoted. Whenever control changes hands, a recording in
-progress is stopped, so one recording never holds two clients' drags.
+progress is stopped, so one recording never holds two clients' drags. The "Take control" button
+is a per-tab button that only viewers see (:attr:`ClientControl.take_buttons`).
 """
 
 from __future__ import annotations
@@ -95,6 +96,7 @@ class ClientControl:
 
     Attributes:
         control: the :class:`Control`. notices: the last message shown to each client id.
+        take_buttons: client id -> its "Take control" button (viewers only; the controller has none).
     """
 
     def __init__(
@@ -105,6 +107,22 @@ class ClientControl:
         self.control = Control()
         self.notices: dict[int, str] = {}
         self._noticed_at: dict[int, float] = {}
+        self.take_buttons: dict[int, object] = {}
+
+    def _show_take(self, client_id: int | None, show: bool) -> None:
+        """Give ``client_id``'s tab its own "Take control" button (``show``) or remove it."""
+        if client_id is None:
+            return
+        button = self.take_buttons.pop(client_id, None)
+        if button is not None:
+            with contextlib.suppress(Exception):  # a client that just left
+                button.remove()
+        client = self.client(client_id)
+        if show and client is not None:
+            with contextlib.suppress(Exception):
+                button = client.gui.add_button("Take control", color="orange", order=-100.0)
+                button.on_click(self.on_take)
+                self.take_buttons[client_id] = button
 
     def notify(self, client, text: str, persistent: bool = False) -> None:
         """Tell one client ``text`` (a notification in its page, the same one at most every
@@ -140,16 +158,19 @@ class ClientControl:
         with self.lock:
             if client.client_id not in self.server.get_clients():
                 return  # it left before this callback ran (they run on a thread pool)
-            if not self.control.connect(client.client_id):
+            if not self.control.connect(client.client_id) and client.client_id != self.control.owner:
+                self._show_take(client.client_id, True)
                 self.notify(client, "this teach session is in use by another tab: " + READ_ONLY, True)
 
     def on_disconnect(self, client) -> None:
         """A tab left: when it controlled the session, the longest-connected viewer takes over."""
         with self.lock:
             promoted = self.control.disconnect(client.client_id)
+            self.take_buttons.pop(client.client_id, None)
             self.notices.pop(client.client_id, None)
             self._noticed_at.pop(client.client_id, None)
             if promoted is not None:
+                self._show_take(promoted, False)
                 self.on_handover()
                 self.notify(self.client(promoted), "the controlling tab left: you now control this session")
 
@@ -163,6 +184,8 @@ class ClientControl:
             if previous is None:
                 self.notify(event.client, "you control this session")
                 return
+            self._show_take(client_id, False)
+            self._show_take(previous, True)
             self.on_handover()
             self.notify(event.client, "you took control of this session")
             self.notify(self.client(previous), "another tab took control: this view is now read-only")

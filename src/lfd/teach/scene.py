@@ -98,6 +98,10 @@ class Goal:
     def contains(self, point: np.ndarray) -> bool:
         return bool(np.linalg.norm(np.asarray(point, dtype=float) - self.center) <= self.radius)
 
+    def overlaps(self, box: Box) -> bool:
+        """Whether ``box`` reaches into the goal sphere (the tool could no longer enter it there)."""
+        return bool(box.distance(self.center[None])[0] < self.radius)
+
     def to_dict(self) -> dict:
         return {"center": self.center.tolist(), "radius": self.radius}
 

@@ -16,6 +16,7 @@ from lfd.robots.spec import rpy_to_matrix
 __all__ = ["GREEN", "RED", "SceneView", "urdf_visuals"]
 
 GREEN, RED, _GREY = (40, 180, 60), (220, 40, 40), (150, 150, 165)
+_BLUE, _PURPLE = (40, 90, 230), (150, 60, 200)
 
 
 @dataclass(frozen=True)
@@ -62,16 +63,19 @@ class SceneView:
 
     Args:
         viser_server: the running viser server.
-        session: the session drawn (its ``scene``, ``robot``, ``kin``, ``n_dof``, ``tool_position``).
+        session: the session drawn (its ``scene``, ``robot``, ``kin``, ``n_dof``, ``tool_pose()``).
         on_gizmo: called with each gizmo update event.
+        rotations: give the gizmo rings that turn the tool (arms with 6 or more joints).
 
     Attributes:
         visuals, link_nodes: the arm's shapes and one scene frame per link. gizmo, marker, ghost: the drag
         gizmo, the sphere on it (green / red) and the unreachable target. gizmo_scale: m, its arrows' length.
-        recorded_line, executed_line: the drawn paths (None: none).
+        recorded_line, executed_line, motion_line: the drawn paths (None: none). keyframe_handles: one small
+        gizmo per keyframe. timeline_markers: the recording's (blue) and the motion's (purple) tool at the
+        timeline's time.
     """
 
-    def __init__(self, viser_server, session, on_gizmo: Callable) -> None:
+    def __init__(self, viser_server, session, on_gizmo: Callable, rotations: bool = False) -> None:
         self.server, self.session = viser_server, session
         s, sc = session, viser_server.scene
         self.server.initial_camera.position = (1.3, -1.3, 1.0)
@@ -112,13 +116,14 @@ class SceneView:
                     radial_segments=16,
                     **pose,
                 )
-        tool = s.tool_position
+        tool, quat = s.tool_pose()
         self.gizmo_scale = 0.25  # m: length of the gizmo's arrows
         self.gizmo = sc.add_transform_controls(
             "/gizmo",
             scale=self.gizmo_scale,
             position=tuple(tool),
-            disable_rotations=True,
+            wxyz=(float(quat[3]), *map(float, quat[:3])) if rotations else (1.0, 0.0, 0.0, 0.0),
+            disable_rotations=not rotations,
             depth_test=False,
             line_width=4.0,
         )
@@ -127,6 +132,13 @@ class SceneView:
         self.gizmo.on_update(on_gizmo)
         self.recorded_line = None
         self.executed_line = None
+        self.motion_line = None
+        self._motion_marks: list = []
+        self.keyframe_handles: list = []
+        self.timeline_markers = (
+            sc.add_icosphere("/timeline/recorded", radius=0.02, color=_BLUE, visible=False),
+            sc.add_icosphere("/timeline/motion", radius=0.02, color=_PURPLE, visible=False),
+        )
 
     def add_box(self, i: int, box) -> None:
         """Draw obstacle number ``i`` (a :class:`~lfd.teach.scene.Box`)."""
@@ -160,7 +172,7 @@ class SceneView:
         if self.recorded_line is not None:
             self.recorded_line.remove()
             self.recorded_line = None
-        self.recorded_line = self._draw_path("/paths/recorded", tool, (40, 90, 230))
+        self.recorded_line = self._draw_path("/paths/recorded", tool, _BLUE)
 
     def show_executed(self, tool: np.ndarray) -> None:
         """Draw the executed tool path ``tool (N, 3)`` m of a Send (orange), replacing the previous one."""
@@ -169,8 +181,57 @@ class SceneView:
         self.executed_line = self._draw_path("/paths/executed", tool, (255, 140, 0))
 
     def clear_paths(self) -> None:
-        """Remove both paths."""
+        """Remove the recorded and executed paths, the motion and the timeline markers."""
         for line in (self.recorded_line, self.executed_line):
             if line is not None:
                 line.remove()
         self.recorded_line = self.executed_line = None
+        self.show_motion(None, [])
+        for marker in self.timeline_markers:
+            marker.visible = False
+
+    def show_motion(self, tool: np.ndarray | None, gripper_marks) -> None:
+        """Draw the planned motion's tool path ``tool (N, 3)`` m (purple; None: remove it) and one small
+        sphere per gripper event ``(position (3,) m, closed)`` (red closes, green opens)."""
+        for node in [self.motion_line, *self._motion_marks]:
+            if node is not None:
+                node.remove()
+        self.motion_line, self._motion_marks = None, []
+        if tool is None:
+            return
+        self.motion_line = self._draw_path("/paths/motion", tool, _PURPLE)
+        for k, (p, closed) in enumerate(gripper_marks):
+            self._motion_marks.append(
+                self.server.scene.add_icosphere(
+                    f"/paths/gripper{k}", radius=0.018, color=RED if closed else GREEN, position=tuple(p)
+                )
+            )
+
+    def show_keyframes(self, positions, on_move: Callable) -> None:
+        """One small translate-only gizmo per keyframe tool position ``(3,)`` m (replacing the previous
+        ones); ``on_move(i, event)`` is called with each update of keyframe ``i``'s gizmo."""
+        for handle in self.keyframe_handles:
+            handle.remove()
+        self.keyframe_handles = []
+        for i, p in enumerate(positions):
+            handle = self.server.scene.add_transform_controls(
+                f"/keyframes/{i}",
+                scale=0.08,
+                position=tuple(float(v) for v in p),
+                disable_rotations=True,
+                depth_test=False,
+                line_width=2.0,
+            )
+            handle.on_update(lambda event, i=i: on_move(i, event))
+            self.server.scene.add_icosphere(f"/keyframes/{i}/dot", radius=0.015, color=_PURPLE)
+            self.keyframe_handles.append(handle)
+
+    def show_timeline(self, recorded: np.ndarray | None, motion: np.ndarray) -> None:
+        """Put the timeline markers on the recording's tool ``recorded (3,)`` m (None: hidden) and the
+        motion's ``motion (3,)`` m."""
+        rec, mot = self.timeline_markers
+        rec.visible = recorded is not None
+        if recorded is not None:
+            rec.position = tuple(recorded)
+        mot.visible = True
+        mot.position = tuple(motion)
