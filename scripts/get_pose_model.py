@@ -8,12 +8,15 @@ package ``@mediapipe/pose@0.5.1675469404`` (a registry install, needs ``npm``: `
 npm``), takes ``package/pose_landmark_heavy.tflite`` out of the tarball, verifies its size and
 SHA-256, and installs it into MediaPipe's module folder (``mediapipe/modules/pose_landmark/``),
 or writes it to ``--dest`` (then pass ``pose.heavy_model=PATH``). Does nothing when a verified
-copy is already installed.
+copy is already installed (or already at ``--dest``). An existing ``--dest`` that is anything else
+(another file, a folder, a link) is refused with one line (exit status 2): lfd does not replace
+what it did not write.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import subprocess
 import sys
@@ -21,6 +24,7 @@ import tarfile
 import tempfile
 from pathlib import Path
 
+from lfd.cli import user_errors
 from lfd.human.video.estimator import (
     HEAVY_MODEL_BYTES,
     HEAVY_MODEL_NPM,
@@ -28,7 +32,7 @@ from lfd.human.video.estimator import (
     heavy_model_path,
     install_heavy_model,
 )
-from lfd.io.files import sha256_file, write_bytes_atomic
+from lfd.io.files import publish_output, sha256_file
 
 MEMBER = "package/pose_landmark_heavy.tflite"
 
@@ -54,11 +58,56 @@ def fetch(folder: Path) -> Path:
     return out
 
 
+#: The kind :func:`lfd.io.files.publish_output` records for a model written to ``--dest``.
+KIND = "pose-heavy-model"
+
+
+def verified(path: Path) -> bool:
+    """Whether ``path`` is a regular file (not a link) holding exactly the heavy model (size and SHA-256)."""
+    return (
+        not path.is_symlink()
+        and path.is_file()
+        and path.stat().st_size == HEAVY_MODEL_BYTES
+        and sha256_file(path) == HEAVY_MODEL_SHA256
+    )
+
+
+def check_dest(dest: Path) -> bool:
+    """Whether a verified copy is already at ``dest`` (True: nothing to do).
+
+    Raises:
+        ValueError: ``dest`` exists and is not the verified model: lfd does not replace it.
+    """
+    if not (dest.exists() or dest.is_symlink()):
+        return False
+    if verified(dest):
+        return True
+    what = "a symbolic link" if dest.is_symlink() else "a folder" if dest.is_dir() else "another file"
+    if dest.is_file() and not dest.is_symlink():
+        what += f" ({dest.stat().st_size} bytes, not the {HEAVY_MODEL_BYTES}-byte model)"
+    raise ValueError(
+        f"refusing to replace {dest}: it is {what}; lfd writes --dest only where nothing is "
+        "(or keeps a verified copy of the model): remove it yourself or choose another --dest"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--dest", type=Path, default=None, help="write here instead of MediaPipe's module folder")
     args = ap.parse_args()
-    if args.dest is None:
+    with user_errors("get_pose_model", (ValueError, FileNotFoundError, FileExistsError)):
+        provision(args.dest)
+
+
+def provision(dest: Path | None) -> None:
+    """Install the verified heavy model into MediaPipe's module folder, or write it to ``dest``
+    (never replacing a file there that is not the verified model: :func:`check_dest`)."""
+    if dest is not None:
+        dest = Path(os.path.abspath(dest))
+        if check_dest(dest):
+            print(f"get_pose_model: already at {dest}, verified; pass pose.heavy_model={dest}")
+            return
+    if dest is None:
         try:
             print(f"get_pose_model: already installed, verified: {install_heavy_model()}")
             return
@@ -72,12 +121,19 @@ def main() -> None:
                 f"get_pose_model: checksum mismatch for {HEAVY_MODEL_NPM}: {size} bytes, sha256 {digest} "
                 f"(expected {HEAVY_MODEL_BYTES}, {HEAVY_MODEL_SHA256}); nothing installed"
             )
-        if args.dest is not None:
-            write_bytes_atomic(args.dest, model.read_bytes())
-            print(f"get_pose_model: wrote {args.dest} (sha256 verified); pass pose.heavy_model={args.dest}")
+        if dest is not None:
+            if check_dest(dest):  # again: the download took a while
+                print(f"get_pose_model: already at {dest}, verified; pass pose.heavy_model={dest}")
+                return
+            # a new file only: of two runs racing to one --dest, the loser gets FileExistsError
+            with publish_output(
+                dest, KIND, kind_of=lambda p: KIND if verified(p) else None, who="get_pose_model"
+            ) as payload:
+                shutil.copyfile(model, payload)
+            print(f"get_pose_model: wrote {dest} (sha256 verified); pass pose.heavy_model={dest}")
         else:
             print(f"get_pose_model: installed {install_heavy_model(model)} (sha256 verified)")
-    if args.dest is None:
+    if dest is None:
         print(f"get_pose_model: MediaPipe loads it from {heavy_model_path()}")
 
 

@@ -240,3 +240,61 @@ def test_teach_scene_and_grid_overrides_use_the_safe_loader(tmp_path):
     (job / "overrides.yaml").write_text("- &s seed=1\n- *s\n")
     with pytest.raises(YamlError, match="overrides.yaml: .*alias"):
         collect(tmp_path / "sweep")
+
+
+# --- get_pose_model.py --dest: never replaces what lfd did not write ---------------------------------------
+
+
+@pytest.fixture
+def pose_script(monkeypatch, tmp_path):
+    """scripts/get_pose_model.py as a module, with a stand-in model instead of the npm download."""
+    import hashlib
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "get_pose_model_test", ROOT / "scripts" / "get_pose_model.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    model = b"tflite stand-in " * 64
+    monkeypatch.setattr(module, "HEAVY_MODEL_BYTES", len(model))
+    monkeypatch.setattr(module, "HEAVY_MODEL_SHA256", hashlib.sha256(model).hexdigest())
+    fetched = []
+
+    def fetch(folder: Path) -> Path:
+        fetched.append(folder)
+        (folder / "pose_landmark_heavy.tflite").write_bytes(model)
+        return folder / "pose_landmark_heavy.tflite"
+
+    monkeypatch.setattr(module, "fetch", fetch)
+    return SimpleNamespace(module=module, model=model, fetched=fetched)
+
+
+def test_get_pose_model_dest_refuses_a_file_it_did_not_write(pose_script, tmp_path, monkeypatch, capsys):
+    dest = tmp_path / "notes.txt"
+    dest.write_text("my notes")
+    monkeypatch.setattr(sys, "argv", ["get_pose_model.py", "--dest", str(dest)])
+    with pytest.raises(SystemExit) as info:
+        pose_script.module.main()
+    assert info.value.code == 2 and dest.read_text() == "my notes" and not pose_script.fetched
+    err = capsys.readouterr().err
+    assert err.startswith(f"get_pose_model: refusing to replace {dest}: it is another file (8 bytes")
+    assert err.count("\n") == 1
+    folder, link = tmp_path / "folder", tmp_path / "link.tflite"
+    folder.mkdir()
+    link.symlink_to(dest)
+    for path, what in ((folder, "a folder"), (link, "a symbolic link")):
+        with pytest.raises(ValueError, match=f"refusing to replace .*: it is {what}"):
+            pose_script.module.provision(path)
+    assert dest.read_text() == "my notes" and list(folder.iterdir()) == []
+
+
+def test_get_pose_model_dest_writes_a_new_file_and_keeps_a_verified_copy(pose_script, tmp_path, capsys):
+    dest = tmp_path / "models" / "heavy.tflite"
+    pose_script.module.provision(dest)
+    assert dest.read_bytes() == pose_script.model and len(pose_script.fetched) == 1
+    assert sorted(p.name for p in dest.parent.iterdir()) == ["heavy.tflite"]  # no leftovers
+    before = dest.stat().st_mtime_ns
+    pose_script.module.provision(dest)
+    assert len(pose_script.fetched) == 1 and dest.stat().st_mtime_ns == before
+    assert "already at" in capsys.readouterr().out

@@ -7,13 +7,12 @@ this module.
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import hydra
 from omegaconf import DictConfig, OmegaConf
 
-from lfd.cli import configs_dir, run_app
+from lfd.cli import configs_dir, run_app, user_errors
 from lfd.io.files import show
 
 #: The configs composed (the checkout's configs/, else the packaged copy: :func:`lfd.cli.configs_dir`).
@@ -119,11 +118,8 @@ def run(cfg: DictConfig, out_dir: str | Path) -> Path:
 def main(cfg: DictConfig) -> None:
     from hydra.core.hydra_config import HydraConfig
 
-    try:
+    with user_errors("analyze_arm"):  # bad input: one line, no traceback, exit 2
         run(cfg, HydraConfig.get().runtime.output_dir)
-    except (ValueError, FileNotFoundError) as e:  # bad input: one line, no traceback
-        print(f"analyze_arm: {e}", file=sys.stderr)
-        raise SystemExit(2) from None
 
 
 USAGE = """
