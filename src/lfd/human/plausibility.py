@@ -173,7 +173,7 @@ def implausible_frames(skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
     return scale, spike
 
 
-def _runs(mask: np.ndarray, t: np.ndarray, limit: int = 4) -> str:
+def _runs(mask: np.ndarray, t: np.ndarray, limit: int = 3) -> str:
     """``"12-15 (t 0.4-0.5 s), 40"``: the first ``limit`` runs of True in ``mask``, then how many more."""
     idx = np.flatnonzero(mask)
     breaks = np.flatnonzero(np.diff(idx) > 1)
@@ -195,20 +195,19 @@ def check_frames(skeleton: Skeleton, where: str) -> None:
     bad = scale | spike
     if not bad.any():
         return
-    parts = []
+    reasons = []
     if scale.any():
-        parts.append(
-            f"{int(scale.sum())} frame(s) {_runs(scale, skeleton.t)} have an upper arm over "
-            f"{SCALE_JUMP_FACTOR:g}x longer or shorter than the recording's median (rows in another length unit?)"
+        reasons.append(
+            f"{int(scale.sum())} with an upper arm over {SCALE_JUMP_FACTOR:g}x longer or shorter than the "
+            "median (another length unit?)"
         )
     if spike.any():
-        parts.append(
-            f"{int(spike.sum())} frame(s) {_runs(spike, skeleton.t)} jump away and back faster than "
-            f"{MAX_JOINT_SPEED_MPS:g} m/s (corrupt samples?)"
+        reasons.append(
+            f"{int(spike.sum())} jumping away and back faster than {MAX_JOINT_SPEED_MPS:g} m/s (spikes?)"
         )
     raise ImplausibleFrames(
-        f"{where}: {'; '.join(parts)}; expected one length unit and a person's motion throughout: "
-        "fix the file, or pass repair_frames=true (analyze_arm.py: gaps.repair_frames=true) to drop these "
-        "frames and interpolate the short gaps",
+        f"{where}: {int(bad.sum())} frame(s) {_runs(bad, skeleton.t)} cannot be a person's motion: "
+        f"{', '.join(reasons)}; expected one length unit and no jumps: fix the file, or pass "
+        "repair_frames=true (analyze_arm.py: gaps.repair_frames=true) to drop them and interpolate short gaps",
         bad,
     )
