@@ -268,6 +268,11 @@ def test_a_pipe_named_like_a_recording_is_skipped_with_a_line(tmp_path, capsys):
         ("b.csv", "ok"),
     ]
     assert f"{folder / 'a.csv'}: not a regular file (a pipe or device?); skipped" in capsys.readouterr().err
+    with _deadline(60):
+        proc = _script(tmp_path / "run", f"file={folder / 'a.csv'}")
+    assert proc.returncode == 2 and proc.stderr.startswith(
+        f"analyze_arm: file={folder / 'a.csv'}: not a regular file"
+    )
 
 
 def test_gzip_content_over_the_cap_is_refused_without_inflating_it(tmp_path, monkeypatch):

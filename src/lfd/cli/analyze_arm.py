@@ -94,6 +94,10 @@ def run(cfg: DictConfig, out_dir: str | Path) -> Path:
     source = Path(str(cfg.file))
     if not source.exists():
         raise FileNotFoundError(f"file={source}: no such file or folder")
+    if not (source.is_file() or source.is_dir()):
+        raise ValueError(
+            f"file={source}: not a regular file or a folder (a pipe or device?); expected a recording"
+        )
     if source.is_file():
         s = analyze_file(source, out, **save_options(cfg)).summary()
         print(
