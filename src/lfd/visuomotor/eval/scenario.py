@@ -33,6 +33,11 @@ Per shape the size fields are: cylinder ``radius``, ``height``; capsule ``radius
 ``name`` and ``rgba`` are required, ``mass`` (kg) is optional (default
 :data:`DEFAULT_MASS`). A bad field raises :class:`ScenarioError` naming the file, the
 entry and the field.
+
+Limits (bounded work on any file): at most :data:`MAX_SCENARIO_BYTES` bytes and
+:data:`MAX_SCENARIO_CASES` cases (objects x placements); YAML aliases, a key repeated in one
+mapping and nesting deeper than :data:`lfd.io.files.MAX_YAML_DEPTH` are refused
+(:func:`lfd.io.files.load_yaml`).
 """
 
 from __future__ import annotations
