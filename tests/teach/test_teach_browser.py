@@ -71,7 +71,7 @@ def page(browser, served):
 def _open(browser, server):
     page = browser.new_page()
     page.goto(server.url)
-    page.get_by_role("button", name="Store").wait_for(timeout=45_000)
+    page.get_by_role("button", name="Clear").wait_for(timeout=45_000)
     # wait until the page reports its camera, then point it at the arm and wait for the echo
     assert _wait(lambda: server.server.get_clients() and _camera(server).image_width > 0, timeout=45)
     cam = _camera(server)
@@ -123,6 +123,12 @@ def test_drag_gizmo_records_collides_exports_and_sends(page, served):
     s = served.session
     cam = _camera(served)
     _shot(page, "3d_0_loaded.png")
+    # no way out (viser's Share button), one controller without a "Take control", the hint, whole numbers
+    assert page.locator("svg.tabler-icon-share").count() == 0
+    assert page.get_by_role("button", name="Take control").count() == 0
+    assert page.get_by_text("Drag the arrows").count() == 1
+    for label in ("Playback", "Send"):
+        assert page.get_by_role("button", name=label, exact=True).count() == 1
     z0 = s.tool_position[2]
     _drag_arrow(page, served, cam, axis=2, distance=0.12)  # lift the tool
     assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
@@ -146,6 +152,15 @@ def test_drag_gizmo_records_collides_exports_and_sends(page, served):
     assert _wait(lambda: "final error" in served.status.content)
     time.sleep(0.5)
     _shot(page, "3d_3_sent.png")
+    # Clear puts the arm back at the start and the gizmo with it: the next drag starts there
+    page.get_by_role("button", name="Clear").click()
+    assert _wait(lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
+    time.sleep(0.5)  # let the page draw the gizmo where the server put it
+    jumps, z0 = s.counters["refused_jump"], s.tool_position[2]
+    _drag_arrow(page, served, cam, axis=2, distance=0.08)
+    assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
+    assert s.counters["refused_jump"] == jumps and s.tool_position[2] > z0 + 0.04
+    assert _wait(lambda: np.allclose(served.view.gizmo.position, s.tool_position, atol=1e-6))
 
 
 def test_two_d_panel_buttons(page, served):
@@ -154,10 +169,17 @@ def test_two_d_panel_buttons(page, served):
     assert _wait(lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
     page.get_by_role("button", name="2-D panel").click()
     assert _wait(lambda: s.mode == "2d")
-    # joint slider: drag the first slider's thumb to the right with the mouse
-    page.get_by_role("slider").first.wait_for(state="visible")
+    page.get_by_text("2-D panel", exact=True).last.click()  # open the folder
+    # joint slider: drag the first joint's slider thumb to the right with the mouse
+    q0 = page.get_by_role("slider").nth(2)  # after the timeline's and the speed's
+    q0.wait_for(state="visible")
     time.sleep(0.5)  # let the panel finish its layout before reading the thumb's position
-    thumb = page.get_by_role("slider").first.bounding_box()
+    # every number box shows its whole value
+    widths = page.locator("input.mantine-NumberInput-input").evaluate_all(
+        "(els) => els.filter(e => e.clientWidth > 0).map(e => [e.value, e.scrollWidth, e.clientWidth])"
+    )
+    assert widths and all(sw <= cw for _, sw, cw in widths), widths
+    thumb = q0.bounding_box()
     x, y = thumb["x"] + thumb["width"] / 2, thumb["y"] + thumb["height"] / 2
     page.mouse.move(x, y)
     page.mouse.down()
@@ -167,7 +189,7 @@ def test_two_d_panel_buttons(page, served):
     page.mouse.up()
     if not _wait(lambda: s.counters["panel_moves"] >= 1, timeout=5):
         # a drag that started beside the thumb moves nothing: move it as a keyboard user would
-        page.get_by_role("slider").first.focus()
+        q0.focus()
         for _ in range(5):
             page.keyboard.press("ArrowRight")  # one step (0.01 rad) each
             time.sleep(0.05)
@@ -191,7 +213,7 @@ def test_two_d_panel_buttons(page, served):
     assert _wait(lambda: np.allclose(s.q, s.start))
     page.get_by_role("button", name="Store").click()
     assert _wait(lambda: len(s.waypoints) == 3)
-    page.get_by_role("button", name="Playback", exact=True).nth(1).click()
+    page.get_by_role("button", name="Playback", exact=True).click()
     assert _wait(lambda: served.playbacks == 1, timeout=30)
     _shot(page, "2d_2_playback.png")
     assert s.counters["stores"] == 2 and s.counters["refused_stores"] == 0

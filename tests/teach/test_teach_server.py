@@ -69,7 +69,7 @@ def _shows_the_arm(server) -> None:
     s = server.session
     pos, quat = s.tool_pose()
     np.testing.assert_allclose(server.view.gizmo.position, pos, atol=1e-6)
-    np.testing.assert_allclose([sl.value for sl in server.sliders], s.q, atol=1e-9)
+    np.testing.assert_allclose([sl.value for sl in server.sliders], s.q, atol=5e-4 + 1e-9)
     np.testing.assert_allclose(server.xyz.value, np.round(pos, 3), atol=1e-9)
     assert f"{pos[0]:.3f} {pos[1]:.3f} {pos[2]:.3f}" in server.readout.content
 
@@ -99,8 +99,8 @@ def test_gizmo_readout_and_sliders_follow_the_arm_after_every_action(served):
     assert not served.view.gizmo.visible and served.mode_buttons["2d"].color == "blue"
     assert served.mode_buttons["3d"].color == "gray"
     served.sliders[0].value = float(s.q[0] + 0.1)
-    served._slider_moved()
-    assert s.q[0] == pytest.approx(s.start[0] + 0.1)
+    served._slider_moved(0)
+    assert s.q[0] == pytest.approx(np.round(s.start[0] + 0.1, 3)) and np.all(s.q[1:] == s.start[1:])
     _shows_the_arm(served)
     served._run(served._clear)
     served._on_mode(None, "3d")

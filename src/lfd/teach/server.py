@@ -85,6 +85,12 @@ def free_port(host: str = "127.0.0.1") -> int:
         return int(s.getsockname()[1])
 
 
+def _shown(value: float, low: float, high: float) -> float:
+    """A joint angle as its slider shows it: within the limits, rounded to the slider's step (0.001 rad),
+    so the number box shows all of it."""
+    return float(np.round(np.clip(value, low, high), 3))
+
+
 def xyzw_to_wxyz(q) -> tuple[float, float, float, float]:
     """Quaternion ``(x, y, z, w)`` (the session's order) -> ``(w, x, y, z)`` (viser's)."""
     x, y, z, w = (float(v) for v in q)
@@ -244,7 +250,7 @@ class TeachServer:
                     min=float(spec.lower[j]),
                     max=float(spec.upper[j]),
                     step=0.001,
-                    initial_value=float(s.q[j]),
+                    initial_value=_shown(s.q[j], float(spec.lower[j]), float(spec.upper[j])),
                 )
                 sl.on_update(self._on_slider)
                 self.sliders.append(sl)
@@ -402,19 +408,25 @@ class TeachServer:
             return
         with self.lock:
             try:
-                self._slider_moved()
+                self._slider_moved(next(j for j, sl in enumerate(self.sliders) if sl is event.target))
             except Exception as e:
                 self.status_text = error_line(e)
                 self._refresh_safely(sliders=True)
 
-    def _slider_moved(self) -> None:
+    def _slider_moved(self, j: int | None = None) -> None:
+        """Slider ``j`` moved (None: any of them): the arm goes to the current configuration with that
+        joint (every joint) at its slider's value."""
         if self.session.mode != "2d":
             self.session.mode = "2d" if self.session.recording_state == "idle" else self.session.mode
         if self.session.mode != "2d":
             self.status_text = "**switch to the 2-D panel (Clear first) to use the sliders**"
             self._refresh(sliders=True)
             return
-        q = np.array([sl.value for sl in self.sliders], dtype=float)
+        if j is None:
+            q = np.array([sl.value for sl in self.sliders], dtype=float)
+        else:
+            q = self.session.q.copy()
+            q[j] = float(self.sliders[j].value)
         r = self.session.set_joints(q)
         self.status_text = "" if r.accepted else f"refused: {r.reason} {r.detail}"
         self._refresh(sliders=not r.accepted)
@@ -658,7 +670,9 @@ class TeachServer:
             )
             if sliders:
                 for sl, v in zip(self.sliders, s.q, strict=True):
-                    sl.value = float(np.clip(v, sl.min, sl.max))
+                    shown = _shown(v, sl.min, sl.max)
+                    if sl.value != shown:
+                        sl.value = shown
             xyz = tuple(float(v) for v in np.round(position, 3))
             if tuple(self.xyz.value) != xyz:
                 self.xyz.value = xyz
