@@ -94,6 +94,9 @@ TARGETS: dict[str, Target] = {
     t.name: t
     for t in (
         Target("skeleton_csv", "recording.csv", _skeleton),
+        Target("kinect_csv", "kimore.csv", _skeleton),
+        Target("ntu_skeleton", "ntu.skeleton", _skeleton),
+        Target("trc", "synthetic.trc", _skeleton),
         Target("joint_csv", "arm.csv", _robot("joint_csv")),
         Target("ros1_bag", "arm.bag", _robot("bag")),
         Target(

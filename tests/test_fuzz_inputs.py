@@ -16,6 +16,7 @@ longer random one (``FUZZ_EXAMPLES_SLOW``).
 
 from __future__ import annotations
 
+import gzip
 import io
 import json
 import os
@@ -37,7 +38,14 @@ HOSTILE = (
     "null", "true", '"x"', "999999999999999999999", "0.0000001", "*a", "[1e9, 1e9]",
 )  # fmt: skip
 NUMBER = re.compile(rb"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
-REFERENCE_LEROBOT = Path(__file__).resolve().parent / "fixtures" / "lerobot_v3_reference"
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
+REFERENCE_LEROBOT = FIXTURES / "lerobot_v3_reference"
+#: skeleton formats beside the samples' generic CSV: real excerpts (KIMORE's Kinect CSV, NTU) and a .trc
+SKELETON_FIXTURES = {
+    "kimore.csv": "human/kimore_ex1_excerpt.csv.gz",
+    "ntu.skeleton": "human/ntu_S001C001P001R001A001_excerpt.skeleton.gz",
+    "synthetic.trc": "human/synthetic.trc",
+}
 
 
 # ---------------------------------------------------------------------------- samples
@@ -53,6 +61,9 @@ def samples(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("fuzz") / "samples"
     write_samples(root)
     shutil.copytree(REFERENCE_LEROBOT, root / "lerobot")
+    for name, fixture in SKELETON_FIXTURES.items():  # uncompressed: the mutations hit the text
+        data = (FIXTURES / fixture).read_bytes()
+        (root / name).write_bytes(gzip.decompress(data) if fixture.endswith(".gz") else data)
     policy = POLICIES["cnn_dmp"](
         image_size=32, channels=[4, 4], hidden=[8], n_basis=5, robot=None, n_joints=4
     )

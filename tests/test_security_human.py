@@ -354,3 +354,18 @@ def test_bad_option_value_is_one_line_and_exit_2(tmp_path):
     proc = _script(tmp_path, f"file={GOOD}", "subject.body_mass=heavy")
     assert proc.returncode == 2
     assert proc.stderr == "analyze_arm: subject.body_mass must be a finite number, got 'heavy'\n"
+
+
+def test_a_long_header_is_quoted_in_a_bounded_line(tmp_path):
+    """A CSV header without a time column is quoted in the refusal: cut to a short line however wide the
+    file (found by the fuzz harness: a 1184-character message for a Kinect CSV with one flipped byte)."""
+    from lfd.human import read_skeleton
+    from lfd.human.readers.common import MAX_PROBLEM_CHARS
+
+    path = tmp_path / "wide.csv"
+    path.write_text(",".join(f"joint_{k}_x" for k in range(2000)) + "\n" + ",".join("0" * 2000) + "\n")
+    with pytest.raises(ValueError) as info:
+        read_skeleton(path, format="csv")
+    message = str(info.value)
+    assert message.startswith(f"{path}, line 1, field t: header needs a time column") and "\n" not in message
+    assert len(message) <= len(f"{path}, line 1, field t: ") + MAX_PROBLEM_CHARS

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...checks import one_line
 from ..skeleton import canonical_joint_name
 
 #: Length units accepted by the readers -> metres.
@@ -27,13 +28,17 @@ KINECT_STATE_TRACKED = 2
 
 
 class SkeletonFormatError(ValueError):
-    """Malformed skeleton file; the message names the file, line (1-based) and field."""
+    """Malformed skeleton file; the message names the file, line (1-based) and field, and the
+    problem in one line of at most :data:`MAX_PROBLEM_CHARS` characters (a quoted row is cut)."""
 
     def __init__(self, path: str | os.PathLike, line: int | None, field: str, problem: str) -> None:
         where = f"{path}" + (f", line {line}" if line is not None else "")
-        super().__init__(f"{where}, field {field}: {problem}")
+        super().__init__(f"{where}, field {field}: {one_line(problem, MAX_PROBLEM_CHARS)}")
         self.path, self.line, self.field = str(path), line, field
 
+
+#: Longest problem text of a :class:`SkeletonFormatError` (characters).
+MAX_PROBLEM_CHARS = 200
 
 #: Largest skeleton text read (bytes): the file, or a ``.gz`` file's decompressed content
 #: (decompression stops there, so a small archive cannot expand to exhaust memory).
