@@ -377,7 +377,11 @@ def test_share_request_is_refused_and_nothing_connects_out(fresh, monkeypatch):
 def test_malformed_messages_are_dropped_and_the_connection_stays_open(fresh, capfd):
     tab = Tab(fresh)
     try:
-        for raw in (b"\x00garbage", msgspec.msgpack.encode({"type": "NoSuchMessage"}), msgspec.msgpack.encode([1, 2])):
+        for raw in (
+            b"\x00garbage",
+            msgspec.msgpack.encode({"type": "NoSuchMessage"}),
+            msgspec.msgpack.encode([1, 2]),
+        ):
             tab.ws.send(raw)
         tab.ws.send("a text frame")
         tab.send(

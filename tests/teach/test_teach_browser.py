@@ -21,8 +21,8 @@ import pytest
 from teach_helpers import BOXES, ROOT
 
 from lfd.teach import TeachSession
-from lfd.teach.drag_ik import as_rotation
 from lfd.teach.server import TeachServer
+from lfd.teach.visuals import project_to_pixel
 
 FLAGS = [
     "--no-sandbox",
@@ -87,12 +87,7 @@ def _camera(server):
     return next(iter(server.server.get_clients().values())).camera
 
 
-def _project(cam, point) -> np.ndarray:
-    """Pixel of a world point for viser's camera (OpenCV axes: x right, y down, z forward)."""
-    rot = as_rotation(cam.wxyz)
-    pc = rot.T @ (np.asarray(point, float) - cam.position)
-    f = cam.image_height / 2.0 / np.tan(cam.fov / 2.0)
-    return np.array([cam.image_width / 2.0 + f * pc[0] / pc[2], cam.image_height / 2.0 + f * pc[1] / pc[2]])
+_project = project_to_pixel
 
 
 def _drag_arrow(page, server, cam, axis: int, distance: float, steps: int = 15) -> None:

@@ -6,7 +6,6 @@ import time
 
 import numpy as np
 import pytest
-
 from teach_helpers import BOXES, FakeClock
 
 from lfd.teach import TeachSession, teach_robots
@@ -130,12 +129,14 @@ def test_rotation_handles_turn_the_tool_of_a_seven_dof_arm(tmp_path):
         assert server.rotations and server.view.gizmo.disable_rotations is False
         pos, quat = session.tool_pose()
         np.testing.assert_allclose(server.view.gizmo.wxyz, xyzw_to_wxyz(quat), atol=1e-9)
-        c, s_ = np.cos(np.radians(20)), np.sin(np.radians(20))
-        turn = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])  # 20 deg about z
-        goal = turn @ as_rotation(quat, order="xyzw")
-        for a in np.linspace(0.0, 1.0, 11)[1:]:  # the ring turned in 2-degree steps, through the worker
-            step = np.array([[np.cos(a * 0.349), -np.sin(a * 0.349), 0], [np.sin(a * 0.349), np.cos(a * 0.349), 0], [0, 0, 1]])
-            wxyz = matrix_to_quaternion(step @ as_rotation(quat, order="xyzw"))
+
+        def about_z(deg: float) -> np.ndarray:
+            c, s_ = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+            return np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
+
+        goal = about_z(20.0) @ as_rotation(quat, order="xyzw")
+        for deg in np.linspace(2.0, 20.0, 10):  # the ring turned in 2-degree steps, through the worker
+            wxyz = matrix_to_quaternion(about_z(deg) @ as_rotation(quat, order="xyzw"))
             server._on_gizmo(_Event(tuple(pos), wxyz=tuple(wxyz)))
             time.sleep(0.05)
         for _ in range(5):  # a held gizmo keeps sending its pose

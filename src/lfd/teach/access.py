@@ -40,11 +40,11 @@ from __future__ import annotations
 
 import contextlib
 import hmac
-import io
-import sys
 import http
+import io
 import ipaddress
 import secrets
+import sys
 import threading
 from collections import deque
 from http.cookies import CookieError, SimpleCookie
@@ -264,9 +264,7 @@ def start_guarded_viser(host: str, port: int, guard: AccessGuard, verbose: bool 
         )
     if port and server.get_port() != port:
         server.stop()
-        raise ValueError(
-            f"port {port} on {host} is in use: choose another port (port=0 picks a free one)"
-        )
+        raise ValueError(f"port {port} on {host} is in use: choose another port (port=0 picks a free one)")
     _no_share(server)
     guard.port = server.get_port()
     return server

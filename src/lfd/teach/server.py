@@ -65,7 +65,7 @@ from .session import SPEED_RANGE, TeachSession
 from .settings import TeachSettings
 from .visuals import GREEN, RED, SceneView
 
-__all__ = ["HINT", "TeachServer", "free_port", "xyzw_to_wxyz", "wxyz_to_xyzw"]
+__all__ = ["HINT", "TeachServer", "free_port", "wxyz_to_xyzw", "xyzw_to_wxyz"]
 
 #: The instructions shown on top of the panel.
 HINT = (
@@ -607,9 +607,7 @@ class TeachServer:
             self.gripper_list.content = ""
             return
         events = s.gripper_events
-        marks = [
-            (motion.tool[int(np.argmin(np.abs(motion.t - e.t)))], e.closed) for e in events
-        ]
+        marks = [(motion.tool[int(np.argmin(np.abs(motion.t - e.t)))], e.closed) for e in events]
         self.view.show_motion(motion.tool, marks)
         self.timeline.max = max(float(motion.t[-1]), 0.01)
         self.gripper_list.content = "  \n".join(

@@ -13,10 +13,25 @@ import numpy as np
 from lfd.robots.spatial import matrix_to_quaternion
 from lfd.robots.spec import rpy_to_matrix
 
-__all__ = ["GREEN", "RED", "SceneView", "urdf_visuals"]
+__all__ = ["GREEN", "RED", "SceneView", "project_to_pixel", "urdf_visuals"]
 
 GREEN, RED, _GREY = (40, 180, 60), (220, 40, 40), (150, 150, 165)
 _BLUE, _PURPLE = (40, 90, 230), (150, 60, 200)
+
+
+def project_to_pixel(camera, point) -> np.ndarray:
+    """(2,) pixel ``(x right, y down)`` of the world point ``point (3,)`` m in the page of a viser client
+    whose ``camera`` (a ``viser.CameraHandle``: ``wxyz``, ``position``, ``fov`` rad vertical, ``image_width``,
+    ``image_height``) looks at it (OpenCV camera axes: x right, y down, z forward). Scripts and browser tests
+    use it to grab the gizmo with the mouse."""
+    from .drag_ik import as_rotation
+
+    rot = as_rotation(camera.wxyz)
+    pc = rot.T @ (np.asarray(point, float) - np.asarray(camera.position, float))
+    f = camera.image_height / 2.0 / np.tan(camera.fov / 2.0)
+    return np.array(
+        [camera.image_width / 2.0 + f * pc[0] / pc[2], camera.image_height / 2.0 + f * pc[1] / pc[2]]
+    )
 
 
 @dataclass(frozen=True)
