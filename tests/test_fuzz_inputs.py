@@ -26,6 +26,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 from fuzz_targets import MAX_MESSAGE, TARGETS, Sandbox
 from hypothesis import HealthCheck, given, settings
@@ -273,3 +274,80 @@ def test_fuzzed_inputs_end_in_success_or_one_line(target_name, samples, tmp_path
 @pytest.mark.parametrize("target_name", sorted(TARGETS))
 def test_fuzzed_inputs_long_budget(target_name, samples, tmp_path_factory):
     fuzz(target_name, samples, tmp_path_factory, FUZZ_EXAMPLES_SLOW, derandomize=False)
+
+
+# ---------------------------------------------------------------------------- teach session calls
+#: values a browser message (or a script) could put where the teach session expects a number, an index,
+#: a position, an orientation or a permutation
+HOSTILE_VALUES = st.sampled_from(
+    [
+        float("nan"), float("inf"), -1, 0, 1, 2, 10**9, 1e308, -1e308, 0.5, True, None, "x", "0", [], [0.0] * 2,
+        [0.1, 0.0, 0.3], [float("nan")] * 3, [1e9, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0], [0.0] * 4, [[0.0] * 3] * 3,
+        [[float("nan")] * 3] * 3, {"x": 1}, [1, 0], [0, 0], [2, 1, 0], [0.0] * 7, [3.0] * 7,
+    ]
+    # positions the Sawyer reaches (its tool starts at 0.32, 0.16, 0.77) and its start orientation
+    + [[0.32, 0.16, 0.75], [0.34, 0.14, 0.72], [0.30, 0.20, 0.70], [0.0, 0.5736, 0.0, 0.8192]] * 3
+)  # fmt: skip
+TEACH_CALLS = (
+    ("drag", 1), ("drag", 2), ("move_to", 1), ("move_to", 2), ("set_joints", 1), ("move_keyframe", 2), ("add_keyframe", 1), ("delete_keyframe", 1),
+    ("move_keyframe", 3), ("reorder_keyframes", 1), ("add_gripper_event", 2), ("remove_gripper_event", 1),
+    ("at", 1), ("motion", 1), ("speed", 1), ("add_obstacle", 2), ("store", 0), ("go_home", 0), ("clear", 0),
+)  # fmt: skip
+
+
+def _call(session, name: str, args: list) -> None:
+    if name == "speed":
+        session.speed = args[0]
+    else:
+        getattr(session, name)(*args)
+
+
+def fuzz_teach_calls(examples: int, derandomize: bool) -> None:
+    """Sequences of teach-session calls with hostile arguments (what the page's handlers forward): each
+    call succeeds or raises one ``ValueError`` line, and the session stays usable (a good drag and the
+    motion afterwards)."""
+    from lfd.teach import TeachSession
+
+    with TeachSession(robot="sawyer") as session:
+        home = session.tool_position.copy()
+
+        @settings(
+            max_examples=examples,
+            derandomize=derandomize,
+            deadline=None,
+            database=None,
+            suppress_health_check=list(HealthCheck),
+        )
+        @given(
+            st.lists(
+                st.tuples(st.sampled_from(TEACH_CALLS), st.lists(HOSTILE_VALUES, min_size=3, max_size=3))
+            )
+        )
+        def one(calls):
+            session.clear()
+            session.go_home()
+            for (name, n_args), values in calls:
+                try:
+                    _call(session, name, values[:n_args])
+                except ValueError as e:
+                    message = str(e)
+                    assert message and "\n" not in message and len(message) <= MAX_MESSAGE, (
+                        name,
+                        values,
+                        message,
+                    )
+            session.clear()
+            session.go_home()
+            assert session.drag(home + [0.0, 0.0, 0.02]).accepted, calls
+            assert np.isfinite(session.tool_position).all()
+
+        one()
+
+
+def test_fuzzed_teach_calls_end_in_success_or_one_line():
+    fuzz_teach_calls(FUZZ_EXAMPLES * 2, derandomize=True)
+
+
+@pytest.mark.slow
+def test_fuzzed_teach_calls_long_budget():
+    fuzz_teach_calls(FUZZ_EXAMPLES_SLOW * 2, derandomize=False)
