@@ -289,7 +289,8 @@ HOSTILE_VALUES = st.sampled_from(
     + [[0.32, 0.16, 0.75], [0.34, 0.14, 0.72], [0.30, 0.20, 0.70], [0.0, 0.5736, 0.0, 0.8192]] * 3
 )  # fmt: skip
 TEACH_CALLS = (
-    ("drag", 1), ("drag", 2), ("move_to", 1), ("move_to", 2), ("set_joints", 1), ("move_keyframe", 2), ("add_keyframe", 1), ("delete_keyframe", 1),
+    ("drag", 1), ("drag", 2), ("move_to", 1), ("move_to", 2), ("set_joints", 1), ("move_keyframe", 2),
+    ("add_keyframe", 1), ("delete_keyframe", 1),
     ("move_keyframe", 3), ("reorder_keyframes", 1), ("add_gripper_event", 2), ("remove_gripper_event", 1),
     ("at", 1), ("motion", 1), ("speed", 1), ("add_obstacle", 2), ("store", 0), ("go_home", 0), ("clear", 0),
 )  # fmt: skip
