@@ -657,3 +657,13 @@ def test_lfd_manifest_is_checked_before_it_is_used(tiny, tmp_path, change, fragm
     with pytest.raises(DatasetError) as e:
         load_dataset(ds)
     assert str(e.value).startswith(f"{manifest}: ") and fragment in str(e.value) and "\n" not in str(e.value)
+
+
+def test_lerobot_task_table_that_does_not_decode_is_one_line(reference):
+    """A task table with one flipped byte (its task string no longer UTF-8: found by the fuzz harness):
+    one line naming meta/tasks.parquet, not a UnicodeDecodeError without the file."""
+    path = reference / "meta" / "tasks.parquet"
+    data = bytearray(path.read_bytes())
+    data[122] ^= 128
+    path.write_bytes(bytes(data))
+    _refused(reference, str(path), "unreadable task table")

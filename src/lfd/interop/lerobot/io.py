@@ -13,7 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from lfd.io.files import DatasetError, write_text_atomic
+from lfd.checks import one_line
+from lfd.io.files import DatasetError, show, write_text_atomic
 
 #: Largest ``meta/*.json`` file read (bytes): ``info.json`` and ``stats.json`` of real datasets
 #: are a few hundred KiB at most.
@@ -119,8 +120,8 @@ def read_table(path: Path):
         raise LeRobotFileMissing(f"{path} not found")
     try:
         return pq.read_table(path)
-    except (pa.ArrowException, OSError) as e:
-        raise LeRobotDatasetError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
+    except (pa.ArrowException, OSError, UnicodeDecodeError) as e:
+        raise LeRobotDatasetError(f"{path}: corrupt parquet file ({one_line(e)})") from e
 
 
 def parquet_footer(path: Path) -> tuple[int, int]:
@@ -195,14 +196,30 @@ def write_tasks(path: Path, tasks: Sequence[str]) -> None:
 
 def read_tasks(path: Path) -> list[str]:
     """Task strings of a ``tasks.parquet`` in ``task_index`` order (the strings in a ``task``
-    column, or in the pandas index ``__index_level_0__`` as lerobot writes them)."""
-    t = read_table(path).to_pydict()
+    column, or in the pandas index ``__index_level_0__`` as lerobot writes them).
+
+    Raises:
+        LeRobotDatasetError: not a readable parquet file, other columns, task strings that are not
+            UTF-8 text, or task indices that are not distinct integers (the message names the file).
+    """
+    pa, _ = pyarrow_modules()
+    try:
+        t = read_table(path).to_pydict()
+    except (pa.ArrowException, UnicodeDecodeError) as e:
+        raise LeRobotDatasetError(f"{path}: unreadable task table ({one_line(e)})") from e
     if "task_index" not in t or not {"task", "__index_level_0__"} & set(t):
         raise LeRobotDatasetError(
-            f"{path}: expected columns task_index and task (or __index_level_0__), got {sorted(t)}"
+            f"{path}: expected columns task_index and task (or __index_level_0__), got {show(sorted(t))}"
         )
     name_col = "task" if "task" in t else "__index_level_0__"
-    return [s for _, s in sorted(zip(t["task_index"], t[name_col], strict=True))]
+    index, names = t["task_index"], t[name_col]
+    if not all(isinstance(i, int) and not isinstance(i, bool) for i in index) or len(set(index)) != len(
+        index
+    ):
+        raise LeRobotDatasetError(f"{path}: task_index must hold distinct integers")
+    if not all(isinstance(n, str) for n in names):
+        raise LeRobotDatasetError(f"{path}: {name_col} must hold the task strings")
+    return [s for _, s in sorted(zip(index, names, strict=True))]
 
 
 def read_parquet_columns(paths: Sequence[Path]) -> dict[str, np.ndarray]:
