@@ -12,12 +12,15 @@ on its own clock:
 
 ``seen - move`` is the latency the user sees (pointer event -> gizmo message -> server IK, collision
 check and scene update -> websocket -> the page's next frame). Moves whose answer never came (the update was
-refused or dropped by the server's latest-wins slot) are counted apart. Beside it: the server-side part,
-the session's IK + collision check per update (``TeachSession.latencies``).
+refused or dropped by the server's latest-wins slot) are counted apart. The rows between split it: when
+viser handed the update to the server's callbacks, when the server finished it (scene messages queued)
+and when the page's main thread received the arm's message (epoch clocks of one machine). Beside it:
+the server-side part, the session's IK + collision check per update (``TeachSession.latencies``), and the
+page's frame interval (software WebGL draws a frame at a time: a message waits for the frame in progress).
 
     python benchmarks/teach_browser_latency.py [--moves 60] [--interval 120]
 
-Prints both as median / p95 in ms, and the share of moves answered.
+Prints a markdown table (median / p95 in ms, and the share of moves answered).
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: Runs in the page before viser's code: wraps ``Worker`` (viser's websocket lives in one) to time the
 #: messages that move the arm, and records the time of each pointer move with a button held.
 PAGE_PROBE = """
-window.__lfd = {moves: [], seen: []};
+window.__lfd = {moves: [], seen: [], received: [], origin: performance.timeOrigin};
 const NativeWorker = window.Worker;
 window.Worker = function (...args) {
   const worker = new NativeWorker(...args);
@@ -44,12 +47,16 @@ window.Worker = function (...args) {
     let text = "";
     try { text = JSON.stringify(ev.data); } catch (e) { return; }
     if (text && text.includes("/robot/link")) {
+      window.__lfd.received.push(performance.now());
       requestAnimationFrame(() => window.__lfd.seen.push(performance.now()));
     }
   });
   return worker;
 };
 window.Worker.prototype = NativeWorker.prototype;
+window.__lfd.frames = [];
+const tick = () => { window.__lfd.frames.push(performance.now()); requestAnimationFrame(tick); };
+requestAnimationFrame(tick);
 window.addEventListener("pointermove", (e) => { if (e.buttons) window.__lfd.moves.push(performance.now()); }, true);
 """
 
@@ -93,6 +100,17 @@ def main(argv=None) -> int:
     session = TeachSession(robot="wam4", scene=ROOT / "configs" / "teach" / "boxes.yaml")
     export = Path(tempfile.mkdtemp(prefix="lfd-teach-bench-"))
     server = TeachServer(session, port=0, export_dir=export)
+    arrived: list[float] = []  # epoch ms at which viser handed each gizmo update to the server's callbacks
+    server.view.gizmo.on_update(lambda event: arrived.append(time.time() * 1000.0))
+    handled: list[float] = []  # epoch ms at which the server finished each update (scene messages queued)
+    handle = server.handle_drag
+
+    def timed_handle(*a, **k):
+        out = handle(*a, **k)
+        handled.append(time.time() * 1000.0)
+        return out
+
+    server.handle_drag = timed_handle
     profile = tempfile.mkdtemp(prefix="lfd-teach-chromium-")
     try:
         with sync_playwright() as pw:
@@ -139,13 +157,25 @@ def main(argv=None) -> int:
         shutil.rmtree(profile, ignore_errors=True)
         shutil.rmtree(export, ignore_errors=True)
     seen = match(probe["moves"], probe["seen"], window_ms=args.interval)
+    received = match(probe["moves"], probe["received"], window_ms=args.interval)
     med, p95 = percentiles(seen)
+    rmed, rp95 = percentiles(received)
+    moves_epoch = np.asarray(probe["moves"]) + probe["origin"]
+    reached = match(moves_epoch, arrived, window_ms=args.interval)
+    amed, ap95 = percentiles(reached)
+    done = match(moves_epoch, handled, window_ms=args.interval)
+    dmed, dp95 = percentiles(done)
     smed, sp95 = percentiles(np.asarray(session.latencies) * 1000.0)
+    frames = np.diff(np.asarray(probe["frames"])[-300:])
+    print(f"frame interval median {np.median(frames):.1f} ms p95 {np.percentile(frames, 95):.1f} ms")
     print("| part | median ms | p95 ms | n |")
     print("|---|---|---|---|")
     print(
         f"| drag -> arm drawn in the browser | {med:.1f} | {p95:.1f} | {len(seen)} of {len(probe['moves'])} moves |"
     )
+    print(f"| drag -> gizmo update in the server's callback | {amed:.1f} | {ap95:.1f} | {len(reached)} |")
+    print(f"| drag -> server update done | {dmed:.1f} | {dp95:.1f} | {len(done)} |")
+    print(f"| drag -> arm message received by the page | {rmed:.1f} | {rp95:.1f} | {len(received)} |")
     print(f"| server: IK + collision check | {smed:.1f} | {sp95:.1f} | {len(session.latencies)} updates |")
     return 0
 

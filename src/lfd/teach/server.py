@@ -482,10 +482,7 @@ class TeachServer:
     def _send(self) -> None:
         res = self.session.send()
         self.view.show_executed(res.executed.tool)
-        self.status_text = (
-            f"sent: final error {res.final_error * 100:.2f} cm, "
-            f"max deviation {res.max_path_deviation * 100:.2f} cm"
-        )
+        self.status_text = f"sent: max deviation from the motion {res.max_path_deviation * 100:.2f} cm"
 
     def _add_box(self) -> None:
         from .scene import Box
@@ -580,7 +577,7 @@ class TeachServer:
         self.session.speed = float(self.speed.value)
 
     def _gripper(self, closed: bool) -> None:
-        t = float(self.timeline.value)
+        t = min(float(self.timeline.value), self.session.motion_duration)  # the slider's end is rounded up
         self.session.add_gripper_event(t, closed)
         self.status_text = f"gripper {'closes' if closed else 'opens'} at {t:.2f} s"
         self._motion_key = None
@@ -609,7 +606,7 @@ class TeachServer:
         events = s.gripper_events
         marks = [(motion.tool[int(np.argmin(np.abs(motion.t - e.t)))], e.closed) for e in events]
         self.view.show_motion(motion.tool, marks)
-        self.timeline.max = max(float(motion.t[-1]), 0.01)
+        self.timeline.max = max(np.ceil(float(motion.t[-1]) * 100) / 100, 0.01)  # whole hundredths
         self.gripper_list.content = "  \n".join(
             f"{'close' if e.closed else 'open'} at {e.t:.2f} s" for e in events
         )

@@ -97,6 +97,10 @@ class SceneView:
         self.server.initial_camera.look_at = (0.35, 0.0, 0.2)
         sc.set_up_direction("+z")
         sc.configure_default_lights(cast_shadow=False)  # shadows cost a lot in software WebGL
+        # image-based lighting costs software WebGL more than half of each frame (a drag is seen a frame later);
+        # a hemisphere light gives the same soft shading for almost nothing
+        sc.configure_environment_map(None)
+        sc.add_light_hemisphere("/lights/sky", intensity=2.0)
         if s.scene.table_z is not None:
             sc.add_box(
                 "/table",
