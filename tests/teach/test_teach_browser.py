@@ -217,3 +217,41 @@ def test_two_d_panel_buttons(page, served):
 def _shot(page, name: str) -> None:
     SHOTS.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=str(SHOTS / name), timeout=60_000)
+
+
+def test_rotation_ring_turns_the_sawyer_tool(browser, tmp_path):
+    """Drag the gizmo's ring about its z axis with the mouse: the Sawyer's tool follows the orientation the
+    gizmo commanded within 2 degrees, and the tool stays where it was."""
+    from lfd.teach.drag_ik import as_rotation, rotation_angle
+
+    session = TeachSession(robot="sawyer", scene=None)
+    server = TeachServer(session, port=0, export_dir=tmp_path)
+    page = None
+    try:
+        page, cam = _open(browser, server)
+        pos, quat = session.tool_pose()
+        rot = as_rotation(quat, order="xyzw")
+        radius = server.view.gizmo_scale * 0.65  # the ring between the gizmo's x and y arrows
+        arc = [pos + radius * rot @ [np.cos(a), np.sin(a), 0.0] for a in np.radians(np.linspace(45, 65, 21))]
+        pixels = [_project(cam, p) for p in arc]
+        page.mouse.move(*pixels[0])
+        page.mouse.down()
+        for p in pixels[1:]:
+            page.mouse.move(*p)
+            time.sleep(0.03)
+        time.sleep(0.3)
+        page.mouse.up()
+        assert _wait(lambda: server.last_target is not None and server.last_target[1] is not None)
+        assert _wait(lambda: not server._dragging)
+        commanded = as_rotation(server.last_target[1], order="xyzw")
+        frame = session.kin.frames(session.q)[-1]
+        turned = np.degrees(rotation_angle(commanded, rot))
+        assert turned > 5.0, turned  # the ring turned the gizmo
+        assert np.degrees(rotation_angle(commanded, frame[:3, :3])) < 2.0
+        assert np.linalg.norm(frame[:3, 3] - pos) < 0.01
+        _shot(page, "3d_4_sawyer_turned.png")
+    finally:
+        if page is not None:
+            page.close()
+        server.close()
+        session.close()

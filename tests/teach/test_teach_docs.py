@@ -24,3 +24,16 @@ def test_package_example_runs(monkeypatch):
     code = lfd.teach.__doc__.split("Example (runnable)::")[1]
     exec(compile(textwrap.dedent(code), "lfd.teach example", "exec"), {})
     assert os.getcwd() == str(ROOT)
+
+
+def test_teach_guide_images_exist_and_are_small():
+    """docs/teach.md's screenshots (taken by docs/images/teach/take_screenshots.py) are committed, small."""
+    import re
+
+    guide = (ROOT / "docs" / "teach.md").read_text()
+    images = re.findall(r"!\[[^\]]*\]\((images/teach/[^)]+\.png)\)", guide)
+    assert len(images) >= 4
+    for name in images:
+        path = ROOT / "docs" / name
+        assert path.is_file() and path.stat().st_size < 100_000, name
+    assert "Close gripper at t" in guide and "take_screenshots.py" in guide

@@ -188,7 +188,9 @@ def test_keyframes_timeline_speed_gripper_and_reopen(served, tmp_path):
     served._run(lambda: served._add_keyframe(None))
     served._run(served._stop)
     assert len(s.keyframes) == 2 and len(served.view.keyframe_handles) == 2
-    assert served.view.motion_line is not None and served.timeline.max == pytest.approx(s.motion_duration)
+    assert served.view.motion_line is not None and served.timeline.max == pytest.approx(
+        s.motion_duration, abs=0.01
+    )
     # drag keyframe 2 in 3-D: the keyframe moves, the motion is redrawn
     before = np.array(served.view.motion_line.points).copy()
     target = s.keyframe_poses()[1][0] + [0.0, 0.02, 0.0]
@@ -215,10 +217,15 @@ def test_keyframes_timeline_speed_gripper_and_reopen(served, tmp_path):
     duration = s.motion_duration
     served.speed.value = 2.0
     served._run(served._set_speed)
-    assert s.speed == 2.0 and served.timeline.max == pytest.approx(duration / 2, rel=1e-6)
-    # export and reopen: the page now drives the reopened session
+    assert s.speed == 2.0 and served.timeline.max == pytest.approx(duration / 2, abs=0.01)
+    # export and reopen: the exported skill passes the keyframes as edited in the panel within 1 mm
     served._run(served._export)
     folder = served.last_export["csv"].parent
+    from lfd.dmp import DMP
+
+    tool = np.array([s.kin.tool_position(q) for q in DMP.load(served.last_export["dmp"]).rollout()])
+    for p, _ in s.keyframe_poses():
+        assert np.linalg.norm(tool - p, axis=1).min() < 1e-3
     assert served.reopen_pick.value == folder.name
     old = s
     served._run(served._reopen)
