@@ -97,3 +97,20 @@ def test_entry_point_reports_a_bad_scene(tmp_path):
     scene.write_text("goal: {center: [0.4, 0, 0.3], radius: -1}\n")
     out = _script("robot=wam4", f"scene={scene}", "port=0", "duration_s=0")
     assert out.returncode == 2 and "goal.radius" in out.stderr
+
+
+def test_entry_point_refuses_a_busy_port_in_one_line():
+    """On every interface a busy port is refused (viser alone would move to the next port silently)."""
+    import socket
+
+    with socket.socket() as blocker:
+        blocker.bind(("0.0.0.0", 0))
+        blocker.listen()
+        port = blocker.getsockname()[1]
+        out = _script("robot=wam4", "scene=null", "host=0.0.0.0", f"port={port}", "duration_s=0")
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert (
+        out.stderr.strip()
+        == f"teach: port {port} on 0.0.0.0 is in use: choose another port (port=0 picks a free one)"
+    )
+    assert "ready at" not in out.stdout and "Traceback" not in out.stderr
