@@ -51,10 +51,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from lfd.checks import check_float
 from lfd.dmp import DMP
 from lfd.io.files import publish_output, write_bytes_atomic, write_npz_atomic
 
-from .gripper import gripper_state
+from .checks import check_vector
+from .gripper import GripperEvent, gripper_state
+from .keyframes import Keyframe
 
 if TYPE_CHECKING:
     from lfd.sim.tracking import TrackedPath
@@ -366,3 +369,61 @@ def send_session(session) -> SendResult:
     if not math.isfinite(final):
         raise ValueError("the simulated execution produced a non-finite tool position")
     return SendResult(plan_t, plan_q, run, demo_tool, final, deviation)
+
+
+def reopen_session(cls, export_dir, **settings_overrides):
+    """The :class:`~lfd.teach.session.TeachSession` (``cls``) continuing the export folder ``export_dir``
+    (:meth:`TeachSession.reopen <lfd.teach.session.TeachSession.reopen>` documents the contract)."""
+    info = read_export(export_dir)
+    where = f"{export_dir}/demo.json"
+
+    def field(name, kind):
+        value = info.get(name)
+        if not isinstance(value, kind):
+            raise ValueError(f"{where}: field '{name}' is missing or not a {getattr(kind, '__name__', kind)}")
+        return value
+
+    options = {"mode": field("mode", str), **settings_overrides}
+    try:
+        session = cls(field("robot", str), field("scene", dict), **options)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    try:
+        if "recording_raw" in info:
+            rec = field("recording_raw", dict)
+        else:
+            rec = field("recording", dict)
+        waypoints = info.get("waypoints", [])
+        if info.get("end_reason") not in (None, "goal", "stop"):
+            raise ValueError(f"field 'end_reason' must be goal, stop or null, got {info.get('end_reason')!r}")
+        session.recorder.restore(
+            info["mode"] if rec.get("t") or waypoints else "idle",
+            rec.get("t", []),
+            rec.get("q", []),
+            waypoints,
+            info.get("end_reason"),
+        )
+        keys = field("keyframes", dict)
+        kq, anchors = keys.get("q", []), keys.get("anchor", [])
+        if not isinstance(kq, list) or not isinstance(anchors, list) or len(anchors) != len(kq):
+            raise ValueError("field 'keyframes': q and anchor must be lists of one length")
+        raw = session.recorder.samples if session.recorder.mode == "3d" else 0
+        for q, a in zip(kq, anchors, strict=True):
+            q = check_vector(q, session.n_dof, "keyframes.q")
+            if a is not None and (isinstance(a, bool) or not isinstance(a, int) or not 0 <= a < raw):
+                raise ValueError(
+                    f"field 'keyframes.anchor': {a!r} is not a recording sample index (0..{raw - 1})"
+                )
+            session._keyframes.append(Keyframe(q, a))
+        session.speed = field("speed", (int, float))
+        for e in field("gripper_events", list):
+            if not isinstance(e, dict) or not isinstance(e.get("closed"), bool):
+                raise ValueError("field 'gripper_events': each must be {t: seconds, closed: true|false}")
+            t = check_float(e.get("t"), "gripper_events.t", low=0.0)
+            session._gripper.append(GripperEvent(t * session.speed, e["closed"]))
+        session._gripper.sort(key=lambda e: e.t)
+    except (ValueError, TypeError) as exc:
+        session.close()
+        raise ValueError(f"{where}: {exc}") from None
+    session._edits += 1
+    return session
