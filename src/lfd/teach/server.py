@@ -668,6 +668,8 @@ class TeachServer:
                     shown = _shown(v, sl.min, sl.max)
                     if sl.value != shown:
                         sl.value = shown
+            if self.speed.value != s.speed:  # a viewer's move of the speed slider is put back
+                self.speed.value = float(s.speed)
             xyz = tuple(float(v) for v in np.round(position, 3))
             if tuple(self.xyz.value) != xyz:
                 self.xyz.value = xyz
