@@ -255,3 +255,49 @@ def test_rotation_ring_turns_the_sawyer_tool(browser, tmp_path):
             page.close()
         server.close()
         session.close()
+
+
+def test_keyframes_added_dragged_and_deleted_in_the_page(page, served):
+    """Keyframes from the panel, one dragged by its own gizmo with the mouse, one deleted: the exported skill
+    passes the edited keyframes within 1 mm."""
+    from lfd.dmp import DMP
+
+    s = served.session
+    cam = _camera(served)
+    page.get_by_role("button", name="Clear").click()
+    assert _wait(lambda: s.recording_state == "idle")
+    page.get_by_role("button", name="3-D drag").click()
+    assert _wait(lambda: s.mode == "3d")
+    page.get_by_role("button", name="Add keyframe").click()
+    assert _wait(lambda: len(s.keyframes) == 1)
+    _drag_arrow(page, served, cam, axis=2, distance=0.10)
+    assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
+    page.get_by_role("button", name="Add keyframe").click()
+    assert _wait(lambda: len(s.keyframes) == 2)
+    page.get_by_role("button", name="Stop").click()
+    assert _wait(lambda: s.recording_state == "done" and served.view.motion_line is not None)
+    # drag keyframe 1's gizmo (at the start, below the arm's) along its y arrow, away from the wall
+    before = s.keyframe_poses()[0][0]
+    line = np.array(served.view.motion_line.points).copy()
+    y = np.eye(3)[1]
+    a = _project(cam, before + y * 0.08 * 0.7)
+    b = _project(cam, before + y * (0.08 * 0.7 - 0.04))
+    page.mouse.move(*a)
+    page.mouse.down()
+    for k in range(1, 11):
+        page.mouse.move(*(a + (b - a) * k / 10))
+        time.sleep(0.05)
+    page.mouse.up()
+    assert _wait(lambda: np.linalg.norm(s.keyframe_poses()[0][0] - before) > 0.01)
+    assert not np.allclose(served.view.motion_line.points, line)  # the motion was refitted
+    page.get_by_role("button", name="Add keyframe").click()  # a third one, then delete it (selected)
+    assert _wait(lambda: len(s.keyframes) == 3)
+    page.get_by_role("button", name="Delete keyframe").click()
+    assert _wait(lambda: len(s.keyframes) == 2 and len(served.view.keyframe_handles) == 2)
+    served.last_export = None
+    page.get_by_role("button", name="Export").click()
+    assert _wait(lambda: served.last_export is not None)
+    tool = np.array([s.kin.tool_position(q) for q in DMP.load(served.last_export["dmp"]).rollout()])
+    for p, _ in s.keyframe_poses():
+        assert np.linalg.norm(tool - p, axis=1).min() < 1e-3
+    _shot(page, "3d_5_keyframes.png")
