@@ -301,3 +301,25 @@ def test_keyframes_added_dragged_and_deleted_in_the_page(page, served):
     for p, _ in s.keyframe_poses():
         assert np.linalg.norm(tool - p, axis=1).min() < 1e-3
     _shot(page, "3d_5_keyframes.png")
+
+
+def test_gripper_event_round_trips_through_export_and_reopen_in_the_page(page, served):
+    """Close the gripper at the motion's end from the Timeline, Export, Reopen: the reopened session (now the
+    page's) has the event, the keyframes and the speed."""
+    s = served.session
+    assert s.recording_state == "done" and len(s.keyframes) == 2  # left by the keyframes test
+    with served.lock:  # the time slider at the end (dragging its thumb is the slider test's job)
+        served.timeline.value = float(np.floor(s.motion_duration * 100) / 100)
+    page.get_by_role("button", name="Close gripper at t").click()
+    assert _wait(lambda: len(s.gripper_events) == 1 and s.gripper_events[0].closed)
+    served.last_export = None
+    page.get_by_role("button", name="Export").click()
+    assert _wait(lambda: served.last_export is not None)
+    page.get_by_text("Reopen an export", exact=True).click()  # open the folder
+    page.get_by_role("button", name="Reopen").click()
+    assert _wait(lambda: served.session is not s and "reopened" in served.status.content)
+    r = served.session
+    assert [e.closed for e in r.gripper_events] == [True] and len(r.keyframes) == 2 and r.speed == s.speed
+    assert abs(r.gripper_events[0].t - s.gripper_events[0].t) < 1e-6
+    page.get_by_role("button", name="Clear").wait_for(timeout=20_000)  # the rebuilt panel is there
+    _shot(page, "3d_6_reopened.png")
