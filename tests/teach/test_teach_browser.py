@@ -323,3 +323,42 @@ def test_gripper_event_round_trips_through_export_and_reopen_in_the_page(page, s
     assert abs(r.gripper_events[0].t - s.gripper_events[0].t) < 1e-6
     page.get_by_role("button", name="Clear").wait_for(timeout=20_000)  # the rebuilt panel is there
     _shot(page, "3d_6_reopened.png")
+
+
+def test_a_drag_with_a_long_pause_exports_the_motion_time(page, served):
+    """Two drags of about 2.5 s with 10 s of holding still between them, all with the mouse: the exported
+    DMP lasts the time the arm moved (within 10 %), not the 15 s the clock saw; the raw recording keeps them."""
+    from lfd.dmp import DMP
+
+    page.get_by_role("button", name="Clear").click()
+    s = served.session  # the reopened session of the test before, or the first one
+    assert _wait(lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
+    page.get_by_role("button", name="3-D drag").click()
+    assert _wait(lambda: s.mode == "3d")
+    time.sleep(0.5)
+    cam = _camera(served)
+    moving = 0.0
+    for axis, distance in ((2, 0.06), (0, -0.05)):  # up, then towards the robot
+        tool = s.tool_position
+        along = np.eye(3)[axis] * served.view.gizmo_scale * 0.7
+        a, b = _project(cam, tool + along), _project(cam, tool + along + np.eye(3)[axis] * distance)
+        page.mouse.move(*a)
+        page.mouse.down()
+        start = time.monotonic()
+        for k in range(1, 26):  # one small move every 0.1 s
+            page.mouse.move(*(a + (b - a) * k / 25))
+            time.sleep(0.1)
+        moving += time.monotonic() - start
+        page.mouse.up()
+        if axis == 2:
+            assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 10)
+            time.sleep(10.0)  # the user holds still
+    time.sleep(0.5)
+    page.get_by_role("button", name="Stop").click()
+    assert _wait(lambda: s.recording_state == "done")
+    assert s.recorded_raw.t[-1] > moving + 9.0 and s.collisions == 0
+    served.last_export = None
+    page.get_by_role("button", name="Export").click()
+    assert _wait(lambda: served.last_export is not None)
+    tau = DMP.load(served.last_export["dmp"]).tau_
+    assert abs(tau - moving) < 0.1 * moving, (tau, moving)
