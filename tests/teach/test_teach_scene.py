@@ -114,3 +114,34 @@ def test_entry_point_refuses_a_busy_port_in_one_line():
         == f"teach: port {port} on 0.0.0.0 is in use: choose another port (port=0 picks a free one)"
     )
     assert "ready at" not in out.stdout and "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize(
+    ("text", "fragment"),
+    [
+        (
+            "goal: {center: [0.4, 0.2, 0.1], radius: 0/05}\n",
+            "scene field 'goal.radius' must be a finite number",
+        ),
+        (
+            "obstacles: [{center: [0, 0, 0], size: [1, 1, 1]}, null]\n",
+            "scene field 'obstacles[1]' must be a mapping",
+        ),
+        ("- just a list\n", "a scene must be a mapping"),
+        ("start: [1, .nan, 2, 3]\n", "scene field 'start' contains NaN or inf"),
+        ("obstacles: " + "x" * 5000 + "\n", "scene field 'obstacles' must be a list, got 'xxx"),
+    ],
+    ids=["goal-radius", "null-obstacle", "a-list", "nan-start", "long-value"],
+)
+def test_a_bad_field_in_a_scene_file_is_one_line_naming_the_file(tmp_path, text, fragment):
+    """Field errors of a scene read from a file name the file (found by the fuzz harness), and quote at most
+    a short piece of the value."""
+    from lfd.teach import TeachSession
+
+    path = tmp_path / "scene.yaml"
+    path.write_text(text)
+    with pytest.raises(ValueError) as info:
+        TeachSession(robot="wam4", scene=path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: ") and fragment in message and "\n" not in message
+    assert len(message) < len(str(path)) + 250

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from lfd.io.files import read_yaml
+from lfd.io.files import read_yaml, show
 
 __all__ = ["Box", "Goal", "TeachScene", "load_scene"]
 
@@ -46,18 +46,18 @@ def _vector(value: Any, length: int | None, name: str) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"scene field '{name}' must be a list of numbers, got {value!r}") from None
+        raise ValueError(f"scene field '{name}' must be a list of numbers, got {show(value)}") from None
     if arr.ndim != 1 or (length is not None and arr.shape[0] != length):
         want = f"{length} numbers" if length is not None else "a flat list of numbers"
-        raise ValueError(f"scene field '{name}' must be {want}, got {value!r}")
+        raise ValueError(f"scene field '{name}' must be {want}, got {show(value)}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"scene field '{name}' contains NaN or inf: {value!r}")
+        raise ValueError(f"scene field '{name}' contains NaN or inf: {show(value)}")
     return arr
 
 
 def _number(value: Any, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"scene field '{name}' must be a finite number, got {value!r}")
+        raise ValueError(f"scene field '{name}' must be a finite number, got {show(value)}")
     return float(value)
 
 
@@ -156,18 +156,28 @@ def load_scene(scene: str | os.PathLike | Mapping | TeachScene | None) -> TeachS
         scene = {} if loaded is None else loaded
         if "name" not in scene and isinstance(scene, Mapping):
             scene = {**scene, "name": path.stem}
+    if source == "<dict>":
+        return _parse_scene(scene, source)
+    try:
+        return _parse_scene(scene, source)
+    except ValueError as e:  # a field of a file: the line names the file too
+        raise ValueError(f"{source}: {e}") from None
+
+
+def _parse_scene(scene, source: str) -> TeachScene:
+    """The checked :class:`TeachScene` of a mapping (:func:`load_scene`'s contract; errors name the field)."""
     if not isinstance(scene, Mapping):
         raise ValueError(f"a scene must be a mapping (dict / YAML mapping), got {type(scene).__name__}")
     _unknown(scene.keys(), _TOP_KEYS, "")
     start = None if scene.get("start") is None else _vector(scene["start"], None, "start")
     raw_obstacles = scene.get("obstacles") or []
     if not isinstance(raw_obstacles, (list, tuple)):
-        raise ValueError(f"scene field 'obstacles' must be a list, got {raw_obstacles!r}")
+        raise ValueError(f"scene field 'obstacles' must be a list, got {show(raw_obstacles)}")
     boxes = []
     for i, ob in enumerate(raw_obstacles):
         where = f"obstacles[{i}]"
         if not isinstance(ob, Mapping):
-            raise ValueError(f"scene field '{where}' must be a mapping with center/size, got {ob!r}")
+            raise ValueError(f"scene field '{where}' must be a mapping with center/size, got {show(ob)}")
         _unknown(ob.keys(), _BOX_KEYS, f"'{where}'")
         for key in ("center", "size"):
             if key not in ob:
@@ -182,7 +192,7 @@ def load_scene(scene: str | os.PathLike | Mapping | TeachScene | None) -> TeachS
     if scene.get("goal") is not None:
         g = scene["goal"]
         if not isinstance(g, Mapping):
-            raise ValueError(f"scene field 'goal' must be a mapping with center/radius, got {g!r}")
+            raise ValueError(f"scene field 'goal' must be a mapping with center/radius, got {show(g)}")
         _unknown(g.keys(), _GOAL_KEYS, "'goal'")
         for key in ("center", "radius"):
             if key not in g:
