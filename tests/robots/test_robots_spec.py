@@ -43,7 +43,7 @@ WAM_DH = [(-90, 0, 0), (90, 0, 0), (-90, 0.045, 0.55), (90, -0.045, 0)]
 
 
 def test_available_robots_and_unknown_name():
-    assert set(available_robots()) == {"pr2_right_arm", "sawyer", "wam4", "human_arm"}
+    assert set(available_robots()) == {"pr2_right_arm", "sawyer", "wam4", "panda", "iiwa14", "human_arm"}
     with pytest.raises(ValueError, match="pr2_right_arm, sawyer, wam4, human_arm"):
         load_robot("ur5")
 

@@ -9,6 +9,12 @@ name               DoF   notes
 ``sawyer``         7     standard DH, base 0.316 m above the world frame
 ``wam4``           4     standard DH, tool d = 0.35 m; closed-form IK in
                          :mod:`lfd.robots.analytic`
+``panda``          7     Franka Emika Panda: Franka's modified (Craig) DH table as
+                         published, tool = flange (0.107 m past joint 7); world
+                         z = 0 is the mounting plate; home = Franka's ready pose
+``iiwa14``         7     KUKA LBR iiwa 14 R820: modified DH from KUKA's dimensions
+                         (0.36 / 0.42 / 0.40 / 0.126 m), KUKA's joint zeros and
+                         directions; tool = flange; world z = 0 is the mounting plate
 ``human_arm``      4     right arm, base frame at the shoulder, ISB shoulder angles
                          (plane of elevation, elevation, axial rotation) and elbow
                          flexion; segment lengths, body mass and sex are options
@@ -19,6 +25,15 @@ link (:func:`lfd.robots.spec.segment_inertials`) with the radii set in each buil
 (also used for the URDF shapes); velocity and
 effort limits not in the thesis are values from the public robot descriptions (PR2,
 Sawyer) or nominal values (WAM, human arm) used only for sampling and URDF limits.
+
+Panda and iiwa 14: position, velocity and torque limits are the manufacturers' data sheets
+(Franka Emika "Robot and interface specifications" of the Franka Control Interface; KUKA
+"LBR iiwa 7 R800, LBR iiwa 14 R820 Specification", the iiwa 14 R820 columns). Neither publishes
+link masses: the Panda's are the identified masses of Gaz et al. (2019, RA-L, "Dynamic
+Identification of the Franka Emika Panda Robot"), as in Franka's ``franka_description``; the
+iiwa's are those of its public robot description (the ``lbr_iiwa`` URDF PyBullet ships). The
+capsule radii are read off the dimension drawings of both data sheets (link housing diameters,
+rounded up). Their kinematics are checked against the URDFs in ``pybullet_data`` to 1 mm.
 """
 
 from __future__ import annotations
@@ -35,6 +50,8 @@ from .spec import RobotSpec, composite_inertial, cylinder_inertia, make_transfor
 __all__ = [
     "WAM4_DH",
     "WAM4_TOOL_D",
+    "IIWA14_FLANGE_D",
+    "PANDA_FLANGE_D",
     "CatalogueEntry",
     "available_robots",
     "catalogue_entries",
@@ -47,6 +64,10 @@ _DEG = np.pi / 180.0
 # Barrett WAM, standard DH rows (alpha, a, d) and tool offset along the last z axis (thesis).
 WAM4_DH = ((-np.pi / 2, 0.0, 0.0), (np.pi / 2, 0.0, 0.0), (-np.pi / 2, 0.045, 0.55), (np.pi / 2, -0.045, 0.0))
 WAM4_TOOL_D = 0.35
+# Flange distance (m) along the last joint axis: Franka Panda (from the joint-7 frame of Franka's DH
+# table) and KUKA LBR iiwa 14 R820 (from the wrist centre, the joint 6 axis).
+PANDA_FLANGE_D = 0.107
+IIWA14_FLANGE_D = 0.126
 
 
 def _pr2_right_arm() -> RobotSpec:
@@ -141,6 +162,54 @@ def _wam4() -> RobotSpec:
         # Elbow bent 90 deg: a non-singular ready pose (q = 0 is the stretched-up singularity).
         home=[0.0, 0.0, 0.0, np.pi / 2],
         tool_transform=make_transform((0.0, 0.0, WAM4_TOOL_D)),
+    )
+
+
+def _panda() -> RobotSpec:
+    # Franka Emika Panda, Franka's own modified (Craig) DH table, used as is (convention="modified");
+    # rows (alpha, a, d); the flange is d = 0.107 m along the last z axis.
+    d = _DEG
+    dh = [(0.0, 0.0, 0.333), (-90 * d, 0.0, 0.0), (90 * d, 0.0, 0.316), (90 * d, 0.0825, 0.0),
+          (-90 * d, -0.0825, 0.384), (90 * d, 0.0, 0.0), (90 * d, 0.088, 0.0)]  # fmt: skip
+    return RobotSpec.from_dh(
+        "panda",
+        dh,
+        convention="modified",
+        joint_names=[f"panda_joint{i}" for i in range(1, 8)],
+        link_names=[f"panda_link{i}" for i in range(1, 8)],
+        lower=[-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973],
+        upper=[2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973],
+        velocity_limits=[2.1750, 2.1750, 2.1750, 2.1750, 2.6100, 2.6100, 2.6100],
+        effort_limits=[87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0],
+        link_masses=[4.970684, 0.646926, 3.228604, 3.587895, 1.225946, 1.666555, 0.735522],
+        link_radii=[0.075, 0.07, 0.065, 0.065, 0.06, 0.055, 0.045],
+        # Franka's "ready" pose: elbow bent, flange 0.31 m in front of the base, 0.49 m up, pointing down.
+        home=np.array([0.0, -45.0, 0.0, -135.0, 0.0, 90.0, 45.0]) * d,
+        tool_transform=make_transform((0.0, 0.0, PANDA_FLANGE_D)),
+    )
+
+
+def _iiwa14() -> RobotSpec:
+    # KUKA LBR iiwa 14 R820: modified DH rows (alpha, a, d, theta_offset) built from KUKA's dimensions
+    # (base to shoulder 0.36 m, shoulder to elbow 0.42 m, elbow to wrist 0.40 m, wrist to flange 0.126 m)
+    # with KUKA's joint zeros and directions (q = 0: arm straight up); the flange is the last frame.
+    d = _DEG
+    pi = np.pi
+    dh = [(0.0, 0.0, 0.36, 0.0), (-90 * d, 0.0, 0.0, pi), (-90 * d, 0.0, 0.42, pi), (90 * d, 0.0, 0.0, 0.0),
+          (-90 * d, 0.0, 0.40, pi), (90 * d, 0.0, 0.0, 0.0), (-90 * d, 0.0, IIWA14_FLANGE_D, pi)]  # fmt: skip
+    return RobotSpec.from_dh(
+        "iiwa14",
+        dh,
+        convention="modified",
+        joint_names=[f"iiwa_a{i}" for i in range(1, 8)],
+        link_names=[f"iiwa_link{i}" for i in range(1, 8)],
+        lower=np.array([-170.0, -120.0, -170.0, -120.0, -170.0, -120.0, -175.0]) * d,
+        upper=np.array([170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0]) * d,
+        velocity_limits=np.array([85.0, 85.0, 100.0, 75.0, 130.0, 135.0, 135.0]) * d,
+        effort_limits=[320.0, 320.0, 176.0, 176.0, 110.0, 40.0, 40.0],
+        link_masses=[4.0, 4.0, 3.0, 2.7, 1.7, 1.8, 0.3],
+        link_radii=[0.09, 0.085, 0.075, 0.075, 0.065, 0.065, 0.045],
+        home=np.array([0.0, 35.0, 0.0, -75.0, 0.0, 70.0, 0.0]) * d,
     )
 
 
@@ -253,6 +322,8 @@ _ENTRIES: dict[str, CatalogueEntry] = {
         CatalogueEntry("sawyer", _sawyer, retarget="wrist_path", teach=True),
         CatalogueEntry("wam4", _wam4, retarget="posture", teach=True, closed_form_held_joint=2),
         CatalogueEntry("human_arm", _human_arm),
+        CatalogueEntry("panda", _panda, retarget="wrist_path", teach=True),
+        CatalogueEntry("iiwa14", _iiwa14, retarget="wrist_path", teach=True),
     )
 }
 _BUILDERS: dict[str, Callable[..., RobotSpec]] = {name: e.build for name, e in _ENTRIES.items()}
@@ -285,7 +356,8 @@ def load_robot(name: str, *, base_transform: np.ndarray | None = None, **options
     Args:
         name: one of :func:`available_robots`.
         base_transform: optional (4, 4) pose of the robot base in the world frame,
-            replacing the catalogue default (identity, or 0.316 m up for the Sawyer).
+            replacing the catalogue default (identity, or 0.316 m up for the Sawyer; for every
+            arm but the WAM and the PR2 the world z = 0 plane is the robot's mounting plate).
         **options: robot-specific options; only ``human_arm`` has any
             (``upper_arm_length``, ``forearm_length``, ``hand_length`` in m,
             ``body_mass`` in kg, ``sex`` ``"male"``/``"female"``).
