@@ -46,7 +46,7 @@ def test_documented_overrides_become_typed_values():
 @pytest.mark.parametrize(
     ("override", "message"),
     [
-        ("robot=ur5", "robot must be one of pr2_right_arm, sawyer, wam4, got 'ur5'"),
+        ("robot=ur5", "robot must be one of pr2_right_arm, sawyer, wam4, panda, iiwa14, got 'ur5'"),
         ("side=middle", "side must be one of left, right, got 'middle'"),
         ("wam_mount=top", "wam_mount must be one of auto, side"),
         ("source_type=pdf", "source_type must be one of video, multiview"),
