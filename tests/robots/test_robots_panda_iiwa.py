@@ -171,3 +171,23 @@ def test_teach_session_starts_on_the_default_scene_and_accepts_a_drag(name):
         np.testing.assert_allclose(session.tool_position, p0 + [0.0, 0.0, 0.05], atol=1e-3)
     finally:
         session.close()
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14"])
+def test_imitation_retargets_a_wrist_path(name):
+    """The catalogue's ``wrist_path`` kind works on the arm: the tool follows a person's scaled wrist path."""
+    from lfd.human.arm_ik import arm_fk
+    from lfd.human.retarget import retarget_wrist_path
+
+    t = np.arange(90) / 30.0  # 3 s at 30 Hz
+    angles = np.deg2rad([40.0, 50.0, 10.0, 70.0]) + np.deg2rad(20.0) * np.sin(2 * np.pi * 0.3 * t)[:, None]
+    elbow, wrist = arm_fk(angles, 0.30, 0.26)
+    shoulder = np.zeros_like(elbow)
+    res = retarget_wrist_path(shoulder, elbow, wrist, robot=name)
+    model = load_robot(name)
+    q = torch.from_numpy(res.q)
+    assert model.within_limits(q).all()
+    err = np.linalg.norm(model.fk(q).numpy()[:, :3, 3] - res.target, axis=1)
+    assert err.max() < 0.01, err.max()
+    np.testing.assert_allclose((res.target - res.target[0]) / res.scale, wrist - wrist[0], atol=1e-12)
+    assert np.abs(np.diff(res.q, axis=0)).max() < 0.15
