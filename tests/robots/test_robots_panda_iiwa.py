@@ -191,3 +191,24 @@ def test_imitation_retargets_a_wrist_path(name):
     assert err.max() < 0.01, err.max()
     np.testing.assert_allclose((res.target - res.target[0]) / res.scale, wrist - wrist[0], atol=1e-12)
     assert np.abs(np.diff(res.q, axis=0)).max() < 0.15
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14"])
+def test_imitation_executes_a_fitted_motion_in_pybullet(name, tmp_path):
+    import lfd.imitation
+    from lfd.imitation import ImitationSettings
+    from lfd.imitation.settings import DMPSettings, OutputSettings, SimSettings
+
+    robot = load_robot(name)
+    t = np.linspace(0.0, 1.0, 60)
+    q = robot.home.numpy() + np.outer(0.5 - 0.5 * np.cos(np.pi * t), [0.3, 0.2, 0.0, 0.3, 0.0, 0.2, 0.0])
+    cfg = ImitationSettings(
+        robot=name,
+        dmp=DMPSettings(n_basis=20),
+        sim=SimSettings(image_size=(32, 32)),
+        outputs=OutputSettings(video=False, gif=False, gif_frames=5),
+    )
+    fit = lfd.imitation.fit_dmp(cfg, robot, t, q, tmp_path)
+    run = lfd.imitation.execute(cfg, robot, np.eye(3), fit, q[-1])
+    assert run.q_exec.shape == q.shape
+    assert np.sqrt(np.mean((run.q_exec - fit.q_dmp) ** 2)) < 0.05
