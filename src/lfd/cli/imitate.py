@@ -43,7 +43,7 @@ USAGE = """
 lfd-imitate (python scripts/imitate.py): a demonstration -> a robot skill (configs/imitate.yaml)
   source=FILE|FOLDER|[FILE,...]   a joint CSV, skeleton file, video, ROS bag / MCAP, teach export, views
   source_type=...                 the kind of source when its name does not say (e.g. joint_csv)
-  robot=wam4|sawyer|pr2_right_arm   side=right|left   topic=/joint_states (a bag)
+  robot=wam4|sawyer|pr2_right_arm|panda|iiwa14   side=right|left   topic=/joint_states (a bag)
   calibration=FILE                the cameras of calibrated views
   refine.task=reach refine.target=[x,y,z]   refine the DMP by policy search (refine.method=power)
 Outputs: outputs/imitate/<date>_<time>/ (dmp.json, robot_trajectory.csv/.bag, summary.json).

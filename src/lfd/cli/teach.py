@@ -66,7 +66,7 @@ def main(cfg: DictConfig) -> None:
 
 USAGE = """
 lfd-teach (python scripts/teach.py): drag a robot in a browser, export demonstrations (configs/teach/)
-  robot=wam4|sawyer|pr2_right_arm   scene=configs/teach/boxes.yaml|null
+  robot=wam4|sawyer|pr2_right_arm|panda|iiwa14   scene=configs/teach/boxes.yaml|null
   host=127.0.0.1   port=8080 (0: a free port; a busy port is refused)   token=auto|true   mode=3d|2d
   export_dir=outputs/teach/export   duration_s=N (stop after N s; default: Ctrl-C)
 Prints the URL to open in a browser.
