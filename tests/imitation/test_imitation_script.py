@@ -79,7 +79,9 @@ def test_imitate_input_errors(tmp_path):
     script = _script()
     junk = tmp_path / "junk.mp4"
     junk.write_bytes(b"not a video" * 50)
-    with pytest.raises(ValueError, match="robot must be one of pr2_right_arm, sawyer, wam4, panda, iiwa14, got 'ur5'"):
+    with pytest.raises(
+        ValueError, match="robot must be one of pr2_right_arm, sawyer, wam4, panda, iiwa14, got 'ur5'"
+    ):
         script.run(_cfg([f"video={junk}", "robot=ur5"]), tmp_path)
     with pytest.raises(ValueError, match="cannot be decoded"):
         script.run(_cfg([f"video={junk}"]), tmp_path)

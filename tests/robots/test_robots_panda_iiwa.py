@@ -72,7 +72,9 @@ class ReferenceArm:
             p.resetJointState(self.body, j, float(angle), physicsClientId=self.client)
         out = np.tile(np.eye(4), (len(self.links), 1, 1))
         for k, link in enumerate(self.links):
-            state = p.getLinkState(self.body, link, computeForwardKinematics=True, physicsClientId=self.client)
+            state = p.getLinkState(
+                self.body, link, computeForwardKinematics=True, physicsClientId=self.client
+            )
             out[k, :3, :3] = np.reshape(p.getMatrixFromQuaternion(state[5]), (3, 3))
             out[k, :3, 3] = state[4]
         return out
@@ -82,7 +84,11 @@ class ReferenceArm:
 
 
 def _reference_joint_names(name: str) -> list[str]:
-    return [f"panda_joint{k}" for k in range(1, 8)] if name == "panda" else [f"lbr_iiwa_joint_{k}" for k in range(1, 8)]
+    return (
+        [f"panda_joint{k}" for k in range(1, 8)]
+        if name == "panda"
+        else [f"lbr_iiwa_joint_{k}" for k in range(1, 8)]
+    )
 
 
 def fk_errors(name: str, n_configs: int = N_CONFIGS, seed: int = 0) -> tuple[float, float]:
@@ -212,3 +218,12 @@ def test_imitation_executes_a_fitted_motion_in_pybullet(name, tmp_path):
     run = lfd.imitation.execute(cfg, robot, np.eye(3), fit, q[-1])
     assert run.q_exec.shape == q.shape
     assert np.sqrt(np.mean((run.q_exec - fit.q_dmp) ** 2)) < 0.05
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14"])
+def test_the_wam_closed_form_ik_refuses_the_arm_in_one_line(name):
+    from lfd.robots.analytic import wam4_ik_closed_form
+
+    with pytest.raises(ValueError, match="needs the catalogue 'wam4' chain") as error:
+        wam4_ik_closed_form(np.zeros((1, 3)), robot=load_robot(name))
+    assert "\n" not in str(error.value)

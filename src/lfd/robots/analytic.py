@@ -69,7 +69,9 @@ def wam4_ik_closed_form(position, q3: float = 0.0, robot: Robot | None = None) -
     robot = load_robot("wam4") if robot is None else robot
     reference, spec = _reference(), robot.spec
     fields = ("joint_xyz", "joint_rpy", "joint_axis", "tool_transform")
-    same_chain = all(np.allclose(getattr(spec, f), getattr(reference, f)) for f in fields)
+    same_chain = spec.n_dof == reference.n_dof and all(
+        np.allclose(getattr(spec, f), getattr(reference, f)) for f in fields
+    )
     if robot.name != "wam4" or not same_chain:
         raise ValueError("wam4_ik_closed_form needs the catalogue 'wam4' chain (any base transform)")
     if not spec.lower[2] <= q3 <= spec.upper[2]:

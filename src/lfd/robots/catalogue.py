@@ -48,10 +48,10 @@ from .robot import Robot
 from .spec import RobotSpec, composite_inertial, cylinder_inertia, make_transform, segment_inertials
 
 __all__ = [
-    "WAM4_DH",
-    "WAM4_TOOL_D",
     "IIWA14_FLANGE_D",
     "PANDA_FLANGE_D",
+    "WAM4_DH",
+    "WAM4_TOOL_D",
     "CatalogueEntry",
     "available_robots",
     "catalogue_entries",
