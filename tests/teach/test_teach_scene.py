@@ -145,3 +145,28 @@ def test_a_bad_field_in_a_scene_file_is_one_line_naming_the_file(tmp_path, text,
     message = str(info.value)
     assert message.startswith(f"{path}: ") and fragment in message and "\n" not in message
     assert len(message) < len(str(path)) + 250
+
+
+def test_every_teach_robot_starts_in_the_shipped_scene():
+    """configs/teach/boxes.yaml gives the WAM's start; every other arm starts at its home pose, clear of
+    the wall (``python scripts/teach.py robot=<any>`` runs with the default scene)."""
+    from lfd.teach.settings import teach_robots
+
+    scene = load_scene(BOXES)
+    assert set(scene.start) == {"wam4"}
+    for robot in teach_robots():
+        with TeachSession(robot=robot, scene=BOXES) as s:
+            expected = scene.start["wam4"] if robot == "wam4" else s.robot.home.numpy()
+            np.testing.assert_allclose(s.q, expected)
+            assert not s.checker.check(s.q).in_collision
+
+
+def test_a_start_per_robot_round_trips_and_a_wrong_length_says_how_to_fix_it(tmp_path):
+    scene = load_scene({"start": {"wam4": [0.0, 0.6, 0.0, 1.6], "sawyer": [0, -0.8, 0, 2.1, 0, 0.3, 0]}})
+    assert load_scene(scene.to_dict()).to_dict() == scene.to_dict()
+    np.testing.assert_allclose(scene.start_for("sawyer"), [0, -0.8, 0, 2.1, 0, 0.3, 0])
+    assert scene.start_for("panda") is None
+    with pytest.raises(ValueError, match=r"start: \{sawyer: \[\.\.\.\], \.\.\.\}"):
+        TeachSession(robot="sawyer", scene={"start": [0.0, 0.6, 0.0, 1.6]})
+    with pytest.raises(ValueError, match="scene field 'start.wam4' must be a flat list of numbers"):
+        load_scene({"start": {"wam4": [[0.0]]}})

@@ -4,6 +4,8 @@ A scene is a YAML file or the same dict (metres, radians; ``yaw_deg`` in degrees
 one unit converted at this edge)::
 
     start: [0.0, 0.6, 0.0, 1.6]          # rad, one per joint (default: the robot's home)
+    # or one start per robot; an arm not listed starts at its home pose:
+    # start: {wam4: [0.0, 0.6, 0.0, 1.6], sawyer: [0, -0.8, 0, 2.1, 0, 0.3, 0]}
     obstacles:
       - {center: [0.55, 0.0, 0.15], size: [0.12, 0.5, 0.3], yaw_deg: 0}
     goal: {center: [0.45, -0.4, 0.1], radius: 0.06}
@@ -108,9 +110,10 @@ class Goal:
 
 @dataclass(frozen=True)
 class TeachScene:
-    """A validated scene (see module docstring). ``start`` is None for the robot's home."""
+    """A validated scene (see module docstring). ``start`` is None for the robot's home, one
+    configuration, or ``{robot name: configuration}`` (:meth:`start_for`)."""
 
-    start: np.ndarray | None
+    start: np.ndarray | dict[str, np.ndarray] | None
     obstacles: tuple[Box, ...]
     goal: Goal | None
     table_z: float | None = None
@@ -119,13 +122,22 @@ class TeachScene:
 
     def to_dict(self) -> dict:
         out: dict[str, Any] = {"name": self.name, "obstacles": [b.to_dict() for b in self.obstacles]}
-        if self.start is not None:
+        if isinstance(self.start, dict):
+            out["start"] = {name: q.tolist() for name, q in self.start.items()}
+        elif self.start is not None:
             out["start"] = self.start.tolist()
         if self.goal is not None:
             out["goal"] = self.goal.to_dict()
         if self.table_z is not None:
             out["table_z"] = self.table_z
         return out
+
+    def start_for(self, robot: str) -> np.ndarray | None:
+        """The start configuration of ``robot`` (None: its home pose, also when the scene lists
+        starts of other robots only)."""
+        if isinstance(self.start, dict):
+            return self.start.get(robot)
+        return self.start
 
     def with_obstacle(self, box: Box) -> TeachScene:
         """A copy with one more obstacle."""
@@ -169,7 +181,15 @@ def _parse_scene(scene, source: str) -> TeachScene:
     if not isinstance(scene, Mapping):
         raise ValueError(f"a scene must be a mapping (dict / YAML mapping), got {type(scene).__name__}")
     _unknown(scene.keys(), _TOP_KEYS, "")
-    start = None if scene.get("start") is None else _vector(scene["start"], None, "start")
+    raw_start = scene.get("start")
+    if isinstance(raw_start, Mapping):
+        if not all(isinstance(k, str) for k in raw_start):
+            raise ValueError(
+                f"scene field 'start' must map robot names to joint angles, got {show(raw_start)}"
+            )
+        start = {k: _vector(v, None, f"start.{k}") for k, v in raw_start.items()}
+    else:
+        start = None if raw_start is None else _vector(raw_start, None, "start")
     raw_obstacles = scene.get("obstacles") or []
     if not isinstance(raw_obstacles, (list, tuple)):
         raise ValueError(f"scene field 'obstacles' must be a list, got {show(raw_obstacles)}")

@@ -177,15 +177,12 @@ class TeachSession:
         self.clock = clock or time.monotonic
         self._mode = settings.mode
         n = self.robot.n_dof
-        start = self.robot.home.numpy() if self.scene.start is None else self.scene.start
-        if start.shape != (n,):
-            raise ValueError(
-                f"scene field 'start' must have {n} joint angles for {robot}, got {start.shape[0]}"
-            )
-        self.start = np.asarray(start, dtype=float)
-        self.checker = CollisionWorld(self.robot, self.scene.obstacles, self.scene.table_z, settings.margin)
-        if validate:
-            validate_scene(self.robot, settings.robot, self.scene, self.start, self.checker)
+        try:
+            self.start = self._checked_start(settings, validate)
+        except ValueError as e:  # a scene read from a file: the line names it
+            if self.scene.source != "<dict>":
+                raise ValueError(f"{self.scene.source}: {e}") from None
+            raise
         self.guard = MoveGuard(self.checker, settings.sweep_resolution)
         self.recorder = Recorder(
             self.kin, n, settings.panel_speed, self.clock, settings.trim_idle, settings.idle_speed
@@ -197,6 +194,27 @@ class TeachSession:
         self._speed = 1.0
         self._edits = 0  # bumped by every edit of the keyframes, the speed or the recording
         self._skill: tuple[tuple, Skill] | None = None
+
+    def _checked_start(self, settings: TeachSettings, validate: bool) -> np.ndarray:
+        """The scene's start for this robot (its home when none), checked against the robot and the
+        scene (limits, collisions, base, goal reach) when ``validate``; builds ``self.checker`` (closed
+        again when a check fails)."""
+        n, robot = self.robot.n_dof, settings.robot
+        start = self.scene.start_for(robot)
+        start = self.robot.home.numpy() if start is None else np.asarray(start, dtype=float)
+        if start.shape != (n,):
+            raise ValueError(
+                f"scene field 'start' must have {n} joint angles for {robot}, got {start.shape[0]} "
+                f"(a scene for several arms gives one start per robot: start: {{{robot}: [...], ...}})"
+            )
+        self.checker = CollisionWorld(self.robot, self.scene.obstacles, self.scene.table_z, settings.margin)
+        if validate:
+            try:
+                validate_scene(self.robot, robot, self.scene, start, self.checker)
+            except ValueError:
+                self.checker.close()
+                raise
+        return start
 
     @classmethod
     def from_settings(
