@@ -72,7 +72,13 @@ def speed(minutes: float, repeats: int) -> None:
 
 
 def accuracy(seeds, duration: float) -> None:
-    combos = [(f, fit) for f in ("butterworth", "median", "none") for fit in ("polynomial", "spline")]
+    filters = {  # label -> analyze_arm options: the default cut-off chosen from each recording, and 6 Hz
+        "butterworth (auto cut-off)": {"filter": "butterworth"},
+        "butterworth 6 Hz": {"filter": "butterworth", "cutoff": 6.0},
+        "median": {"filter": "median"},
+        "none": {"filter": "none"},
+    }
+    combos = [(f, fit) for f in filters for fit in ("polynomial", "spline")]
     print(
         f"\n## Accuracy on synthetic ground truth (seeds {seeds[0]}-{seeds[-1]}, {duration:g} s each, both arms)"
     )
@@ -96,7 +102,7 @@ def accuracy(seeds, duration: float) -> None:
         angle, torque = [], []
         for rec in recs:
             for side in ("right", "left"):
-                res = analyze_arm(rec.skeleton, side=side, filter=filt, fit=fit)
+                res = analyze_arm(rec.skeleton, side=side, fit=fit, **filters[filt])
                 ok = np.isfinite(res.q).all(1)
                 angle.append(np.rad2deg(np.sqrt(np.mean((res.q[ok] - rec.q[side][ok]) ** 2, 0))))
                 torque.append(np.sqrt(np.mean((res.tau[ok] - rec.tau[side][ok]) ** 2, 0)))

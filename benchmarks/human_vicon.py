@@ -42,11 +42,12 @@ from lfd.human.readers.vicon import read_uiprmd_vicon
 
 MOVEMENTS = ("m07", "m08", "m09", "m10")
 VARIANTS = {
-    "default: Butterworth 6 Hz, per-frame angles": {},
+    "default: Butterworth, cutoff from the recording (auto), per-frame angles": {},
+    "Butterworth 6 Hz, per-frame angles": {"cutoff": 6.0},
     "no filter, per-frame angles": {"filter": "none"},
     "median filter, per-frame angles": {"filter": "median"},
-    "Butterworth 6 Hz + CV polynomial fit (q)": {"use_fit": True},
-    "Butterworth 6 Hz + spline fit 2 Hz (q)": {"use_fit": True, "fit": "spline"},
+    "Butterworth auto + CV polynomial fit (q)": {"use_fit": True},
+    "Butterworth auto + spline fit 2 Hz (q)": {"use_fit": True, "fit": "spline"},
 }
 
 

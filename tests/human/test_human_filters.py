@@ -109,3 +109,57 @@ def test_fits_recover_derivatives():
     assert np.isnan(v[100:110]).all() and np.isfinite(dd[:100]).all()
     with pytest.raises(ValueError, match="fit must be one of"):
         fit_derivatives(t, q, "fourier")
+
+
+def _arm_motion(noise: float, seed: int = 0, rate: float = 30.0, seconds: float = 6.0):
+    """Three points (a still shoulder, a moving elbow and wrist: 1.2 Hz with a 3.6 Hz component), metres,
+    with white noise of ``noise`` m."""
+    t = np.arange(0.0, seconds, 1.0 / rate)
+    phase = 2 * np.pi * 1.2 * t
+    shoulder = np.zeros((len(t), 3))
+    elbow = np.stack(
+        [0.3 * np.sin(phase) + 0.03 * np.sin(3 * phase), -0.3 * np.cos(phase), 0.05 * np.sin(2 * phase)], 1
+    )
+    wrist = elbow * 1.8
+    clean = np.stack([shoulder, elbow, wrist], 1)
+    rng = np.random.default_rng(seed)
+    return clean + rng.normal(0.0, noise, clean.shape), clean, rate
+
+
+def test_noise_level_recovers_white_noise_and_ignores_the_frame():
+    from scipy.spatial.transform import Rotation
+
+    from lfd.human.filters import noise_level
+
+    for sigma in (0.002, 0.01, 0.02):
+        noisy, _, _ = _arm_motion(sigma, seed=3)
+        assert noise_level(noisy) == pytest.approx(sigma, rel=0.2), sigma
+        turned = noisy @ Rotation.from_euler("xyz", [30, -50, 70], degrees=True).as_matrix().T
+        assert noise_level(turned) == pytest.approx(noise_level(noisy), rel=1e-9)
+
+
+def test_auto_cutoff_is_the_discrepancy_principle():
+    """The chosen cutoff is the highest whose residual still holds the estimated noise (the next one up
+    leaves less than the noise); it falls as the noise grows and does not depend on the frame."""
+    from scipy.spatial.transform import Rotation
+
+    from lfd.human.filters import AUTO_CUTOFFS, auto_cutoff, butterworth_filter, noise_level
+
+    cut = {}
+    for sigma in (0.0005, 0.005, 0.02):
+        noisy, _, rate = _arm_motion(sigma, seed=1)
+        cut[sigma] = c = auto_cutoff(noisy, rate)
+        level = noise_level(noisy)
+
+        def residual(f, x=noisy, rate=rate):
+            return np.sqrt(np.mean((x - butterworth_filter(x, rate, f)) ** 2))
+
+        higher = [f for f in AUTO_CUTOFFS if c < f <= 0.4 * rate]
+        assert c == AUTO_CUTOFFS[0] or residual(c) >= level, (sigma, c)
+        assert all(residual(f) < level for f in higher), (sigma, c)
+        turned = noisy @ Rotation.from_euler("zyx", [10, 20, 80], degrees=True).as_matrix().T
+        assert auto_cutoff(turned, rate) == c
+    assert cut[0.0005] > cut[0.005] > cut[0.02], cut
+    assert auto_cutoff(np.full((5, 3, 3), 0.1), 30.0) == 6.0  # too few frames: the default
+    with pytest.raises(ValueError, match=r"\(T, \.\.\., 3\)"):
+        auto_cutoff(np.zeros((50, 4)), 30.0)

@@ -122,9 +122,11 @@ def test_summary_side_and_bad_input():
 def test_lfd_against_vicon_markers_on_real_trials(name):
     """Per-trial summaries (the recordings are not frame-synchronised). Measured on these trials: lfd's peak
     elevation error 5.8 / 0.8 / 3.6 deg (48 validation trials: 4.8 deg mean, docs/human.md); the bound 8 deg
-    leaves room for the marker model's own uncertainty. lfd must not be worse than the raw Kinect
-    geometry by more than 0.5 deg (they are equal to 0.1 deg on these already smooth recordings), and
-    nothing may stop at 90 deg: the thesis model reported m07's 131-146 deg peak as 90.0."""
+    leaves room for the marker model's own uncertainty. On every summary (peak elevation, elevation range,
+    mean and peak elbow flexion) lfd must not be worse than the raw Kinect geometry by more than 0.2 deg:
+    the cleaning, filtering and IK chain may not lose range of motion (with the former fixed 6 Hz
+    cut-off m08's elevation range was 0.29 deg worse), and nothing may stop at 90 deg: the thesis model
+    reported m07's 131-146 deg peak as 90.0."""
     markers = read_uiprmd_vicon(UIPRMD / "Vicon" / "Positions" / f"{name}_positions.txt.gz")
     kinect = read_skeleton(UIPRMD / "Kinect" / "Positions" / f"{name}_positions.txt.gz")
     assert moving_side(markers.joint("lwra"), markers.joint("rwra")) == "right"
@@ -136,8 +138,8 @@ def test_lfd_against_vicon_markers_on_real_trials(name):
     error = {k: abs(lfd[k] - vicon[k]) for k in vicon}
     assert error["peak_elevation"] < 8.0, (lfd, vicon)
     assert error["mean_elbow_flexion"] < 6.0, (lfd, vicon)
-    for key in ("peak_elevation", "elevation_range", "mean_elbow_flexion"):
-        assert error[key] <= abs(raw[key] - vicon[key]) + 0.5, key
+    for key in ("peak_elevation", "elevation_range", "mean_elbow_flexion", "peak_elbow_flexion"):
+        assert error[key] <= abs(raw[key] - vicon[key]) + 0.2, (key, error[key], abs(raw[key] - vicon[key]))
     assert result.summary()["elevation_max_deg"] == pytest.approx(lfd["peak_elevation"])
     if name.startswith("m07"):
         assert vicon["peak_elevation"] > 120 and lfd["peak_elevation"] > 120  # no cap at 90

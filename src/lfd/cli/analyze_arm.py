@@ -54,7 +54,7 @@ def analysis_options(cfg: DictConfig) -> dict:
         hand_load=option(cfg, "subject.hand_load", float),
         hand_length=option(cfg, "subject.hand_length", float, optional=True),
         filter=cfg.filter.kind,
-        cutoff=option(cfg, "filter.cutoff", float),
+        cutoff="auto" if cfg.filter.cutoff == "auto" else option(cfg, "filter.cutoff", float),
         filter_order=option(cfg, "filter.order", int),
         median_kernel=option(cfg, "filter.kernel", int),
         hampel=option(cfg, "hampel.enabled", bool),

@@ -28,7 +28,7 @@ import numpy as np
 from .arm_ik import arm_fk, arm_ik, canonical_angles, forearm_pronation, mirror
 from .cleaning import fill_gaps, repair_swaps
 from .dynamics import arm_model, arm_torques
-from .filters import FILTERS, filter_positions, hampel_filter
+from .filters import FILTERS, auto_cutoff, filter_positions, hampel_filter
 from .fit import FITS, MIN_SAMPLES, fit_derivatives
 from .plausibility import check_body_mass, check_frames, implausible_frames
 from .readers import read_skeleton
@@ -74,7 +74,7 @@ def analyze_arm(
     sex: str = "male",
     filter: str = "butterworth",
     *,
-    cutoff: float = 6.0,
+    cutoff: float | str = "auto",
     filter_order: int = 2,
     median_kernel: int = 5,
     hampel: bool = False,
@@ -101,7 +101,9 @@ def analyze_arm(
             whose upper arm or frame rate is implausible).
         side: ``"right"`` or ``"left"``.
         body_mass: kg, 20-250. sex: ``"male"``/``"female"`` (de Leva segment fractions).
-        filter: one of ``butterworth`` (zero-phase, ``cutoff`` Hz, ``filter_order`` per pass),
+        filter: one of ``butterworth`` (zero-phase, ``cutoff`` Hz, ``filter_order`` per pass; ``cutoff="auto"``:
+            chosen from the arm's joints by :func:`lfd.human.filters.auto_cutoff`, reported as
+            ``quality["cutoff_hz"]``),
             ``median`` (``median_kernel`` samples) or ``none``.
         hampel: apply a Hampel outlier filter (``hampel_window`` samples, ``hampel_sigma``) first.
         max_gap: s, longest gap of missing/untracked samples that is interpolated.
@@ -138,6 +140,13 @@ def analyze_arm(
     _check_choice("sex", sex, ("male", "female"))
     _check_choice("filter", filter, FILTERS)
     _check_choice("fit", fit, FITS)
+    if cutoff != "auto" and not (
+        isinstance(cutoff, (int, float))
+        and not isinstance(cutoff, bool)
+        and np.isfinite(cutoff)
+        and cutoff > 0
+    ):
+        raise ValueError(f"cutoff must be 'auto' or a positive number of Hz, got {cutoff!r}")
     for key, value in (
         ("body_mass", body_mass),
         ("max_gap", max_gap),
@@ -203,6 +212,13 @@ def analyze_arm(
                   "spine_shoulder", "spine_base"}  # fmt: skip
     quality["gaps_filled"] = sum(g.filled for g in gaps if g.joint in arm_joints)
     quality["gaps_left"] = [dataclasses.asdict(g) for g in gaps if g.joint in arm_joints and not g.filled]
+    if filter == "butterworth":
+        if cutoff == "auto":
+            arm = [
+                names.index(f"{j}_{side}") for j in ("shoulder", "elbow", "wrist") if f"{j}_{side}" in names
+            ]
+            cutoff = auto_cutoff(pos[:, arm], rate, filter_order)
+        quality["cutoff_hz"] = float(cutoff)
     smooth = filter_positions(pos, rate, filter, cutoff=cutoff, order=filter_order, kernel=median_kernel)
 
     rotation, origin = trunk_frames(skeleton, smooth)

@@ -7,6 +7,10 @@
   is -3 dB at the requested cutoff (Winter 2009, "Biomechanics and motor control of human
   movement", section 3.4.4.3: ``C = (2^(1/n_pass) - 1)^(1/(2 N))``, applied to the
   pre-warped frequency of the bilinear transform).
+* :func:`auto_cutoff`: a Butterworth cutoff chosen from the recording itself (the discrepancy
+  principle): the highest cutoff whose residual still holds the sensor noise estimated from the
+  third differences. A stream the sensor already smoothed keeps its peaks; a noisy one is filtered
+  harder.
 * :func:`hampel_filter`: replaces samples further than ``n_sigma`` robust standard
   deviations (1.4826 x MAD) from the running median by that median.
 
@@ -20,15 +24,21 @@ import numpy as np
 from scipy import ndimage, signal
 
 __all__ = [
+    "AUTO_CUTOFFS",
     "FILTERS",
+    "auto_cutoff",
     "butterworth_filter",
     "butterworth_sos",
     "filter_positions",
     "hampel_filter",
     "median_filter",
+    "noise_level",
 ]
 
 FILTERS = ("butterworth", "median", "none")
+
+#: Hz: the cutoffs :func:`auto_cutoff` chooses among (capped below 0.4 x the sampling rate).
+AUTO_CUTOFFS = tuple(np.arange(2.0, 12.01, 0.5))
 
 
 def _segments(finite: np.ndarray) -> list[tuple[int, int]]:
@@ -111,6 +121,50 @@ def butterworth_filter(x: np.ndarray, rate: float, cutoff: float = 6.0, order: i
     return _per_segment(flat, run, 2 * order + 2).reshape(shape)
 
 
+#: median of the chi distribution with 3 degrees of freedom (the length of a 3-D standard normal vector)
+_CHI3_MEDIAN = 1.5381722544550522
+
+
+def noise_level(points: np.ndarray) -> float:
+    """Robust estimate of the white measurement noise (standard deviation per coordinate, same unit as
+    ``points``) of point trajectories ``(T, ..., 3)`` with finite samples: the smallest over points of
+    ``median |third difference| / (sqrt(20) x 1.5382)`` (the third difference of white noise of standard
+    deviation ``s`` per coordinate has variance ``20 s^2`` per coordinate, and its length the chi
+    distribution with 3 degrees of freedom; the point that moves least, e.g. the shoulder of an arm,
+    has the least motion in its third differences). It does not depend on the orientation of the
+    frame the points are given in."""
+    d3 = np.diff(np.asarray(points, dtype=float), 3, axis=0)
+    lengths = np.linalg.norm(d3, axis=-1).reshape(len(d3), -1)
+    return float(np.min(np.median(lengths, axis=0)) / (np.sqrt(20.0) * _CHI3_MEDIAN))
+
+
+def auto_cutoff(points: np.ndarray, rate: float, order: int = 2, default: float = 6.0) -> float:
+    """A Butterworth cutoff (Hz) for point trajectories ``points (T, ..., 3)`` sampled at ``rate`` Hz,
+    chosen by the discrepancy principle: the highest of :data:`AUTO_CUTOFFS` (at most ``0.4 rate``) at
+    which the filter still removes at least the noise, i.e. the RMS per coordinate of
+    ``points - butterworth_filter(points, rate, cutoff)`` is at least :func:`noise_level`. Frames with a NaN
+    are left out; with fewer than 10 finite frames, ``default``. The choice does not depend on the
+    frame's orientation.
+
+    On UI-PRMD's Kinect recordings (already smoothed by the Kinect SDK) it chooses high cutoffs (little
+    smoothing), and with 2 cm of added white noise low ones (``docs/human.md``)."""
+    pts = np.asarray(points, dtype=float)
+    if pts.shape[-1] != 3:
+        raise ValueError(f"auto_cutoff: points must have shape (T, ..., 3), got {pts.shape}")
+    pts = pts.reshape(len(pts), -1, 3)
+    pts = pts[np.isfinite(pts).all(axis=(1, 2))]
+    candidates = [c for c in AUTO_CUTOFFS if c <= 0.4 * rate]
+    if len(pts) < 10 or not candidates:
+        return float(default)
+    sigma = noise_level(pts)
+    chosen = candidates[0]
+    for c in candidates:
+        residual = float(np.sqrt(np.mean((pts - butterworth_filter(pts, rate, c, order)) ** 2)))
+        if residual >= sigma:
+            chosen = c
+    return float(chosen)
+
+
 def hampel_filter(x: np.ndarray, window: int = 7, n_sigma: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
     """Hampel outlier filter along time.
 
@@ -138,7 +192,8 @@ def hampel_filter(x: np.ndarray, window: int = 7, n_sigma: float = 3.0) -> tuple
 
 def filter_positions(positions: np.ndarray, rate: float, kind: str = "butterworth", *, cutoff: float = 6.0,
                      order: int = 2, kernel: int = 5) -> np.ndarray:  # fmt: skip
-    """Filter (T, J, 3) joint positions with ``kind`` in :data:`FILTERS`."""
+    """Filter (T, J, 3) joint positions with ``kind`` in :data:`FILTERS` (``cutoff`` in Hz; for ``"auto"``
+    choose it first with :func:`auto_cutoff`)."""
     if kind == "butterworth":
         return butterworth_filter(positions, rate, cutoff, order)
     if kind == "median":
