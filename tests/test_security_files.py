@@ -6,10 +6,8 @@ from __future__ import annotations
 
 import json
 import re
-import signal
 import subprocess
 import sys
-from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 from types import SimpleNamespace
@@ -17,6 +15,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import tomllib
+from time_limits import deadline
 
 import lfd.imitation
 from lfd.dmp import DMP
@@ -140,22 +139,6 @@ def test_binary_user_files_get_one_line_naming_them(tmp_path, name):
 # --- YAML: one safe loader for every user YAML file (scenario, teach scene, Hydra overrides) -------------
 
 
-@contextmanager
-def _deadline(seconds: float):
-    """Fail (TimeoutError) instead of hanging when the protection under test is switched off."""
-
-    def _raise(*_):
-        raise TimeoutError(f"still running after {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, _raise)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
-
-
 def _alias_bomb(depth: int = 9, width: int = 10) -> str:
     """``depth`` levels of ``width`` aliases each: a few hundred bytes standing for width**depth values."""
     lines = ["a0: &a0 [1.0]"]
@@ -180,7 +163,7 @@ def test_yaml_loader_refuses_aliases_duplicate_keys_and_deep_nesting(tmp_path, t
 
     path = tmp_path / "user.yaml"
     path.write_text(text)
-    with _deadline(10), pytest.raises(YamlError, match=expected) as info:
+    with deadline(10), pytest.raises(YamlError, match=expected) as info:
         read_yaml(path)
     assert str(info.value).startswith(f"{path}: ") and "\n" not in str(info.value)
 
@@ -191,7 +174,7 @@ def test_yaml_alias_bomb_is_refused_at_once_and_plain_yaml_still_loads(tmp_path)
     bomb = tmp_path / "bomb.yaml"
     bomb.write_text(_alias_bomb() + "mass: *a9\n")
     assert bomb.stat().st_size < 600
-    with _deadline(10), pytest.raises(YamlError, match=r"alias \*a0 refused") as info:
+    with deadline(10), pytest.raises(YamlError, match=r"alias \*a0 refused") as info:
         data = read_yaml(bomb)
         str(data)  # with aliases allowed: 10**9 values, unbounded work
     assert len(str(info.value)) < 300
@@ -233,7 +216,7 @@ def test_teach_scene_and_grid_overrides_use_the_safe_loader(tmp_path):
     with pytest.raises(YamlError, match=f"{re.escape(str(scene))}: .*duplicate key 'goal'"):
         load_scene(scene)
     scene.write_text(_alias_bomb() + "obstacles: *a9\n")
-    with _deadline(10), pytest.raises(YamlError, match="alias"):
+    with deadline(10), pytest.raises(YamlError, match="alias"):
         load_scene(scene)
     job = tmp_path / "sweep" / "0" / ".hydra"
     job.mkdir(parents=True)

@@ -8,16 +8,15 @@ from __future__ import annotations
 import csv
 import json
 import os
-import signal
 import subprocess
 import sys
 import tracemalloc
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hydra import compose, initialize_config_dir
+from time_limits import deadline
 
 from lfd.human import analyze_arm, read_skeleton
 from lfd.human.batch import analyze_file, analyze_folder
@@ -239,27 +238,13 @@ def test_too_short_recordings_are_refused_with_the_minimum(tmp_path, frames):
     assert np.isfinite(analyze_arm(read_skeleton(path)).tau).all()
 
 
-@contextmanager
-def _deadline(seconds: float):
-    def _raise(*_):
-        raise TimeoutError(f"still running after {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, _raise)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
-
-
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
 def test_a_pipe_named_like_a_recording_is_skipped_with_a_line(tmp_path, capsys):
     folder = tmp_path / "recordings"
     folder.mkdir()
     os.mkfifo(folder / "a.csv")
     (folder / "b.csv").write_bytes(GOOD.read_bytes())
-    with _deadline(60):
+    with deadline(60):
         with pytest.raises(ValueError, match=r"a\.csv, field file: not a regular file"):
             read_skeleton(folder / "a.csv")
         rows = analyze_folder(folder, tmp_path / "out", progress=False, plots=False, gif=False)
@@ -268,7 +253,7 @@ def test_a_pipe_named_like_a_recording_is_skipped_with_a_line(tmp_path, capsys):
         ("b.csv", "ok"),
     ]
     assert f"{folder / 'a.csv'}: not a regular file (a pipe or device?); skipped" in capsys.readouterr().err
-    with _deadline(60):
+    with deadline(60):
         proc = _script(tmp_path / "run", f"file={folder / 'a.csv'}")
     assert proc.returncode == 2 and proc.stderr.startswith(
         f"analyze_arm: file={folder / 'a.csv'}: not a regular file"

@@ -2,20 +2,13 @@
 
 import numpy as np
 import pytest
+from rl_helpers import quintic_demo
 
 from lfd.dmp import DMP
 
 #: Sawyer start pose [0, -50, 0, 120, 0, 0, 0] deg and a demonstrated final configuration (rad).
 SAWYER_START = np.deg2rad([0.0, -50.0, 0.0, 120.0, 0.0, 0.0, 0.0])
 SAWYER_DEMO_GOAL = np.array([1.51, -2.17, 2.04, -0.70, 0.85, 1.38, 0.56])
-
-
-def quintic_demo(start, goal, n_steps: int = 200, duration: float = 4.0):
-    """Minimum-jerk (quintic, zero end velocity/acceleration) joint trajectory: ``t (T,)``, ``y (T, D)``."""
-    t = np.linspace(0.0, duration, n_steps)
-    s = t / duration
-    profile = 10 * s**3 - 15 * s**4 + 6 * s**5
-    return t, np.asarray(start) + (np.asarray(goal) - np.asarray(start)) * profile[:, None]
 
 
 @pytest.fixture(scope="session")

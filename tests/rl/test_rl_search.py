@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import quintic_demo
+from rl_helpers import quintic_demo
 
 from lfd.dmp import DMP
 from lfd.rl import DMPRollout, ObstacleReward, SearchProblem, ViaPointReward, cmaes, pibb, power
