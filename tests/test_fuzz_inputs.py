@@ -11,7 +11,8 @@ process. The test fails on any run that ends in another exception's traceback, h
 without naming the file, or writes anything inside the input.
 
 The default suite runs a fixed, derandomised budget per format (``FUZZ_EXAMPLES``); ``-m slow`` runs a
-longer random one (``FUZZ_EXAMPLES_SLOW``).
+longer one (``FUZZ_EXAMPLES_SLOW``, ``LFD_FUZZ_EXAMPLES=N``), derandomised as well unless
+``LFD_FUZZ_RANDOM=1`` asks for new random cases.
 """
 
 from __future__ import annotations
@@ -34,6 +35,8 @@ from hypothesis import strategies as st
 
 FUZZ_EXAMPLES = 25
 FUZZ_EXAMPLES_SLOW = int(os.environ.get("LFD_FUZZ_EXAMPLES", "150"))
+#: the slow budget is derandomised too (CI is reproducible); LFD_FUZZ_RANDOM=1 explores new cases
+FUZZ_RANDOM = os.environ.get("LFD_FUZZ_RANDOM") == "1"
 HOSTILE = (
     "nan", "NaN", "inf", "-inf", "0", "-1", "-3", "1e9", "1e308", "-1e308", "1e-320", "", "[]", "{}",
     "null", "true", '"x"', "999999999999999999999", "0.0000001", "*a", "[1e9, 1e9]",
@@ -273,7 +276,7 @@ def test_fuzzed_inputs_end_in_success_or_one_line(target_name, samples, tmp_path
 @pytest.mark.slow
 @pytest.mark.parametrize("target_name", sorted(TARGETS))
 def test_fuzzed_inputs_long_budget(target_name, samples, tmp_path_factory):
-    fuzz(target_name, samples, tmp_path_factory, FUZZ_EXAMPLES_SLOW, derandomize=False)
+    fuzz(target_name, samples, tmp_path_factory, FUZZ_EXAMPLES_SLOW, derandomize=not FUZZ_RANDOM)
 
 
 # ---------------------------------------------------------------------------- teach session calls
@@ -351,4 +354,4 @@ def test_fuzzed_teach_calls_end_in_success_or_one_line():
 
 @pytest.mark.slow
 def test_fuzzed_teach_calls_long_budget():
-    fuzz_teach_calls(FUZZ_EXAMPLES_SLOW * 2, derandomize=False)
+    fuzz_teach_calls(FUZZ_EXAMPLES_SLOW * 2, derandomize=not FUZZ_RANDOM)
