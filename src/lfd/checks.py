@@ -53,13 +53,14 @@ __all__ = [
 ENTRY_POINT_KEYS = ("hydra", "paths", "task_name")
 
 
-def one_line(error: BaseException | str, limit: int = 300) -> str:
+def one_line(error: BaseException | str, limit: int | None = 300) -> str:
     """``error`` (an exception, shown as ``<type>: <message>``, or a text) as one printable line:
-    whitespace runs, newlines included, folded to one space, cut to ``limit`` characters with "...".
+    whitespace runs, newlines included, folded to one space, cut to ``limit`` characters with "..."
+    (``None``: not cut).
     For quoting another library's multi-line message inside lfd's one-line errors."""
     text = error if isinstance(error, str) else f"{type(error).__name__}: {error}".rstrip(": ")
     text = " ".join("".join(c if c.isprintable() else " " for c in text).split())
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    return text if limit is None or len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _or_none(optional: bool) -> str:

@@ -29,6 +29,8 @@ import torch
 from torch import nn
 from torch.overrides import TorchFunctionMode
 
+from lfd.checks import one_line
+
 __all__ = [
     "ACTIVATIONS",
     "CHECKPOINT_GLOB",
@@ -227,13 +229,6 @@ class _TensorBudget(TorchFunctionMode):
         return func(*args, **kwargs)
 
 
-def _first_line(e: BaseException) -> str:
-    """An exception's message as one short printable line (its type when it has none)."""
-    text = str(e).strip()
-    line = text.splitlines()[0] if text else type(e).__name__
-    return "".join(c for c in line if c.isprintable())[:300]
-
-
 def _names(keys: Sequence[str], at_most: int = 5) -> str:
     shown = [str(k)[:80] for k in keys[:at_most]]
     return f"{shown}" + (f" (+{len(keys) - at_most} more)" if len(keys) > at_most else "")
@@ -344,18 +339,22 @@ def load_checkpoint_module(
         ) from None
     except Exception as e:  # a value the model's own checks (or torch) refuse: TypeError, ValueError, ...
         raise CheckpointError(
-            f"{what} whose hyper-parameters {cls.__name__} refuses: {_first_line(e)}"
+            f"{what} whose hyper-parameters {cls.__name__} refuses: {one_line(str(e) or type(e).__name__)}"
         ) from None
     try:
         model.on_load_checkpoint(ckpt)  # e.g. drops an earlier release's retired entries
     except Exception as e:
-        raise CheckpointError(f"{what} that {cls.__name__} cannot read: {_first_line(e)}") from None
+        raise CheckpointError(
+            f"{what} that {cls.__name__} cannot read: {one_line(str(e) or type(e).__name__)}"
+        ) from None
     given = ckpt["state_dict"]
     check_state_dict(path, kind, model.state_dict(), given, f"{cls.__name__} built from its hyper-parameters")
     try:
         model.load_state_dict(given, strict=True)
     except Exception as e:  # e.g. a tensor of a dtype that cannot be copied
-        raise CheckpointError(f"{what} whose state_dict cannot be loaded: {_first_line(e)}") from None
+        raise CheckpointError(
+            f"{what} whose state_dict cannot be loaded: {one_line(str(e) or type(e).__name__)}"
+        ) from None
     return model.to(map_location).eval()
 
 

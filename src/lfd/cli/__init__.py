@@ -28,6 +28,8 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
+from lfd.checks import one_line
+
 #: The package folder (``src/lfd`` in a checkout, ``site-packages/lfd`` when installed).
 PACKAGE = Path(__file__).resolve().parents[1]
 #: The file every configs folder has (the check that a folder is lfd's configs).
@@ -124,6 +126,6 @@ def user_errors(command: str, errors: tuple[type[BaseException], ...] = USER_ERR
     try:
         yield
     except errors as e:
-        message = " ".join(line.strip() for line in str(e).strip().splitlines()) or type(e).__name__
+        message = one_line(str(e), limit=None) or type(e).__name__
         print(f"{command}: {message}", file=sys.stderr)
         raise SystemExit(2) from None

@@ -9,6 +9,8 @@ import hydra
 from hydra.errors import InstantiationException
 from omegaconf.errors import MissingMandatoryValue
 
+from lfd.checks import one_line
+
 #: A constructor's one-line error about one of its arguments: ``"ReachDataModule.image_size: expected ..."``.
 ARGUMENT_ERROR = re.compile(r"\w+\.(\w+): (.*)")
 
@@ -25,7 +27,7 @@ def instantiate_node(group: str, node, **kwargs):
     except InstantiationException as e:  # the constructor's own line: "Class.key: expected ..."
         if not isinstance(e.__cause__, TypeError | ValueError):
             raise
-        message = " ".join(str(e.__cause__).split())
+        message = one_line(str(e.__cause__), limit=None)
         named = ARGUMENT_ERROR.fullmatch(message)
         if named and named.group(1) in node:
             raise ValueError(f"{group}.{named.group(1)}: {named.group(2)}") from None

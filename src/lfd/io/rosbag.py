@@ -159,7 +159,7 @@ def _read(reader, path: Path, topic: str | None, joint_names: Sequence[str] | No
             item = next(messages, None)
         except Exception as exc:  # rosbags' own errors for a corrupt chunk or index
             raise ValueError(
-                f"{path}: topic {topic}: unreadable after message {number} ({_why(exc)})"
+                f"{path}: topic {topic}: unreadable after message {number} ({one_line(exc, 240)})"
             ) from None
         if item is None:
             break
@@ -173,7 +173,7 @@ def _read(reader, path: Path, topic: str | None, joint_names: Sequence[str] | No
         except Exception as exc:  # bytes that are no JointState message: rosbags' or numpy's error
             raise ValueError(
                 f"{path}: topic {topic}: message {number} (received at {1e-9 * timestamp:.9f} s) is not a "
-                f"readable sensor_msgs/JointState ({_why(exc)})"
+                f"readable sensor_msgs/JointState ({one_line(exc, 240)})"
             ) from None
         seen.update(names)
         if want is None:
@@ -205,13 +205,6 @@ def _read(reader, path: Path, topic: str | None, joint_names: Sequence[str] | No
     if not np.isfinite(q).all():
         raise ValueError(f"{path}: topic {topic}: positions hold NaN or inf")
     return JointRecording(t - t[0], tuple(want), q, topic, str(path), time_source)
-
-
-def _why(exc: BaseException) -> str:
-    """An error of a reader as ``<type>: <first line>``, short and printable."""
-    text = str(exc).strip()
-    line = "".join(c for c in (text.splitlines()[0] if text else "") if c.isprintable())[:200]
-    return f"{type(exc).__name__}: {line}" if line else type(exc).__name__
 
 
 def _check_clock(path: Path, topic: str, t: np.ndarray, seqs: list, numbers: list[int], source: str) -> None:
@@ -261,7 +254,9 @@ def _check_stored_order(path: Path, topic: str) -> None:
                         )
                     previous = stamp
         except sqlite3.Error as exc:
-            raise ValueError(f"{path}: {db.name}: not a readable ROS 2 sqlite3 bag ({_why(exc)})") from None
+            raise ValueError(
+                f"{path}: {db.name}: not a readable ROS 2 sqlite3 bag ({one_line(exc, 240)})"
+            ) from None
 
 
 def write_joint_trajectory(

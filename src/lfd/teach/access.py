@@ -53,6 +53,8 @@ from urllib.parse import parse_qs, urlsplit
 import viser
 from viser import _messages
 
+from lfd.checks import one_line
+
 __all__ = ["AccessGuard", "is_loopback", "new_token", "start_guarded_viser", "token_required"]
 
 #: viser messages refused whoever sends them: the share tunnel's (a connection out of the machine).
@@ -178,8 +180,7 @@ class AccessGuard:
         try:
             message = _messages.Message.deserialize(bytes(raw))
         except Exception as e:  # any decoding failure is the sender's, not the server's
-            text = " ".join(str(e).split())[:120]
-            return f"refused: a malformed websocket message ({type(e).__name__}: {text})"
+            return f"refused: a malformed websocket message ({one_line(e, 160)})"
         if type(message).__name__ in REFUSED_MESSAGES:
             return f"refused: {type(message).__name__} (a public share tunnel out of this machine)"
         return None

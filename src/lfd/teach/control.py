@@ -15,6 +15,8 @@ import contextlib
 import time
 from collections.abc import Callable
 
+from lfd.checks import one_line
+
 __all__ = ["READ_ONLY", "ClientControl", "Control", "error_line", "escape_markdown"]
 
 #: What a viewer is told when its action is ignored.
@@ -70,11 +72,9 @@ _MARKDOWN = str.maketrans({c: "\\" + c for c in "\\`*_[]<>#|"})
 def error_line(e: BaseException) -> str:
     """``e`` as one bold status line: its message (a ``ValueError``'s alone, other types
     prefixed with their name), newlines folded, at most 300 characters, Markdown escaped."""
-    text = " ".join(str(e).split()) or "(no message)"
+    text = one_line(str(e)) or "(no message)"
     if not isinstance(e, ValueError):
-        text = f"{type(e).__name__}: {text}"
-    if len(text) > 300:
-        text = text[:297] + "..."
+        text = one_line(f"{type(e).__name__}: {text}")
     return f"**{escape_markdown(text)}**"
 
 

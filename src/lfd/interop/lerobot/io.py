@@ -105,7 +105,7 @@ def read_json(path: Path) -> Any:
     try:
         return json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as e:
-        raise LeRobotDatasetError(f"{path}: corrupt JSON ({' '.join(str(e).split())})") from None
+        raise LeRobotDatasetError(f"{path}: corrupt JSON ({one_line(str(e))})") from None
 
 
 def read_table(path: Path):
@@ -144,7 +144,7 @@ def parquet_footer(path: Path) -> tuple[int, int]:
         )
         return int(md.num_rows), int(values)
     except (pa.ArrowException, OSError) as e:
-        raise LeRobotDatasetError(f"{path}: corrupt parquet file ({' '.join(str(e).split())})") from e
+        raise LeRobotDatasetError(f"{path}: corrupt parquet file ({one_line(str(e))})") from e
 
 
 def write_tasks(path: Path, tasks: Sequence[str]) -> None:
@@ -231,7 +231,7 @@ def read_parquet_columns(paths: Sequence[Path]) -> dict[str, np.ndarray]:
         table = pa.concat_tables(tables)
     except pa.ArrowException as e:
         raise LeRobotDatasetError(
-            f"{', '.join(map(str, paths))}: parquet files with different columns ({' '.join(str(e).split())})"
+            f"{', '.join(map(str, paths))}: parquet files with different columns ({one_line(str(e))})"
         ) from e
     out = {}
     for key in table.column_names:

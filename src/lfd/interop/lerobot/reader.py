@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from lfd.checks import one_line
 from lfd.interop.lerobot.io import (
     LeRobotDatasetError,
     LeRobotFileMissing,
@@ -430,4 +431,4 @@ class LeRobotFolder:
         try:
             return decode_video_frames(path, ts, self.tolerance_s)
         except (ValueError, OSError) as e:  # PyAV's decoding errors are both
-            raise LeRobotDatasetError(f"{path} ({key}, episode {ep}): {' '.join(str(e).split())}") from e
+            raise LeRobotDatasetError(f"{path} ({key}, episode {ep}): {one_line(str(e))}") from e

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.checks import one_line
 from lfd.io.files import DatasetError
 from lfd.sim.expert import DISCARD_REASONS
 from lfd.sim.objects import ObjectSpec, Placement, sample_object
@@ -79,7 +80,7 @@ def _check_sizes(path: Path, *, images: bool) -> None:
     except FileNotFoundError as e:
         raise DatasetError(f"missing episode file {path}") from e
     except (zipfile.BadZipFile, OSError) as e:
-        raise DatasetError(f"corrupt episode file {path}: {' '.join(str(e).split())}") from e
+        raise DatasetError(f"corrupt episode file {path}: {one_line(str(e))}") from e
     cap = MAX_EPISODE_IMAGE_BYTES if images else MAX_EPISODE_ARRAY_BYTES
     size = sum(m.file_size for m in members if (m.filename.removesuffix(".npy") in IMAGE_KEYS) == images)
     if size > cap:
@@ -214,7 +215,7 @@ class EpisodeRecord:
         except FileNotFoundError as e:
             raise DatasetError(f"missing episode file {path}") from e
         except Exception as e:  # zipfile/numpy raise several types for damaged archives
-            raise DatasetError(f"corrupt episode file {path}: {' '.join(str(e).split())}") from e
+            raise DatasetError(f"corrupt episode file {path}: {one_line(str(e))}") from e
         missing = [k for k in EPISODE_KEYS if k not in arrays]
         if missing:
             raise DatasetError(f"corrupt episode file {path}: no {missing}")
