@@ -291,4 +291,7 @@ def test_orientation_must_be_a_quaternion_or_rotation():
         s.drag(s.tool_position, [0.0, 0.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="rotation matrix"):
         s.drag(s.tool_position, -np.eye(3))
+    for bad in ({"x": 1}, "up", [[1.0], [0.0, 1.0]]):  # not numbers at all (found by the fuzz harness)
+        with pytest.raises(ValueError, match="got a (dict|str|list)"):
+            s.drag(s.tool_position, bad)
     s.close()

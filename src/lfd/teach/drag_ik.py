@@ -87,7 +87,13 @@ def as_rotation(orientation, order: str = "wxyz") -> np.ndarray:
     """
     if order not in QUATERNION_ORDERS:
         raise ValueError(f"order must be one of {QUATERNION_ORDERS}, got {order!r}")
-    o = np.asarray(orientation, dtype=float)
+    try:
+        o = np.asarray(orientation, dtype=float)
+    except (TypeError, ValueError):  # a mapping, a string, a ragged list
+        raise ValueError(
+            f"orientation must be a (3, 3) rotation or a finite non-zero (4,) quaternion ({', '.join(order)}), "
+            f"got a {type(orientation).__name__}"
+        ) from None
     if o.shape == (3, 3):
         if (
             not np.all(np.isfinite(o))
