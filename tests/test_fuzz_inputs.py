@@ -233,6 +233,18 @@ def check_run(target_name: str, sandbox: Sandbox, path: Path, mutated: str) -> N
     assert _snapshot(path) == before, f"{target_name} ({mutated}): the reader wrote inside its input"
 
 
+def _budget(examples: int, derandomize: bool):
+    """The hypothesis settings of a fuzz run: ``examples`` cases, no deadline (the sandbox bounds time),
+    no example database (runs are reproducible from the code alone)."""
+    return settings(
+        max_examples=examples,
+        derandomize=derandomize,
+        deadline=None,
+        database=None,
+        suppress_health_check=list(HealthCheck),
+    )
+
+
 def fuzz(target_name: str, samples: Path, tmp_path_factory, examples: int, derandomize: bool) -> None:
     target = TARGETS[target_name]
     sample = samples / target.sample
@@ -241,13 +253,7 @@ def fuzz(target_name: str, samples: Path, tmp_path_factory, examples: int, deran
     try:
         assert sandbox.run(sample) == ("ok", ""), f"the valid {target_name} sample is not read"
 
-        @settings(
-            max_examples=examples,
-            derandomize=derandomize,
-            deadline=None,
-            database=None,
-            suppress_health_check=list(HealthCheck),
-        )
+        @_budget(examples, derandomize)
         @given(st.data())
         def one(data):
             work = tmp_path_factory.mktemp(target_name) / sample.name
@@ -315,13 +321,7 @@ def fuzz_teach_calls(examples: int, derandomize: bool) -> None:
     with TeachSession(robot="sawyer") as session:
         home = session.tool_position.copy()
 
-        @settings(
-            max_examples=examples,
-            derandomize=derandomize,
-            deadline=None,
-            database=None,
-            suppress_health_check=list(HealthCheck),
-        )
+        @_budget(examples, derandomize)
         @given(
             st.lists(
                 st.tuples(st.sampled_from(TEACH_CALLS), st.lists(HOSTILE_VALUES, min_size=3, max_size=3))
