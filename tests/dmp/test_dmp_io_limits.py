@@ -74,3 +74,66 @@ def test_a_null_formulation_is_refused_naming_the_file(tmp_path):
     with pytest.raises(ValueError, match=rf"^{path}: bad DMP parameters: formulation") as info:
         DMP.load(path)
     assert "\n" not in str(info.value)
+
+
+def _edited(tmp_path, section, key, value, index=None):
+    path = _saved(tmp_path / "skill.dmp.json")
+    data = json.loads(path.read_text())
+    if index is None:
+        data[section][key] = value
+    else:
+        data[section][key][index] = (
+            value
+            if not isinstance(data[section][key][index], list)
+            else [value] * len(data[section][key][index])
+        )
+    out = tmp_path / "edited.dmp.json"
+    out.write_text(json.dumps(data))
+    return out
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "value", "index", "expected"),
+    [
+        # alpha_z = 1e308 once overflowed inside the rollout operator (alpha_z**2): found by the fuzz harness
+        ("params", "alpha_z", 1e308, None, "alpha_z must be a finite number in [1e-06, 10000], got 1e+308"),
+        ("params", "beta_z", 1e-308, None, "beta_z must be a finite number in [1e-06, 10000], got 1e-308"),
+        # alpha_s = 1000 made the last basis activations vanish: NaN trajectory
+        ("params", "alpha_s", 1000.0, None, "alpha_s must be a finite number in [1e-06, 100], got 1000.0"),
+        ("fitted", "goal", 1e308, 0, "goal must have every |value| <= 1e+06, got 1e+308"),
+        ("fitted", "y0", -1e300, 1, "y0 must have every |value| <= 1e+06, got 1e+300"),
+        ("fitted", "weights", 1e308, 0, "weights must have every |value| <= 1e+12, got 1e+308"),
+    ],
+)
+def test_values_whose_rollout_cannot_be_finite_are_refused_on_load(
+    tmp_path, section, key, value, index, expected
+):
+    path = _edited(tmp_path, section, key, value, index)
+    with pytest.raises(ValueError) as info:
+        DMP.load(path).rollout()
+    message = str(info.value)
+    assert message.startswith(str(path)) and message.endswith(expected) and "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "value", "index"),
+    [
+        ("params", "alpha_z", 1e4, None),  # the widest accepted values still roll out finite
+        ("params", "beta_z", 1e-6, None),
+        ("params", "alpha_s", 100.0, None),
+        ("fitted", "goal", 1e6, 0),
+        ("fitted", "weights", 1e12, 0),
+    ],
+)
+def test_extreme_accepted_values_give_a_finite_rollout(tmp_path, section, key, value, index):
+    path = _edited(tmp_path, section, key, value, index)
+    y = DMP.load(path).rollout()
+    assert np.isfinite(y).all()
+
+
+def test_default_alpha_s_past_its_bound_names_where_it_came_from():
+    with pytest.raises(
+        ValueError,
+        match=r"^alpha_s \(alpha_z / 3 by default\) must be a finite number in \[1e-06, 100\], got 1000",
+    ):
+        DMP(4, alpha_z=3000.0)

@@ -24,6 +24,12 @@ from .fitting import DEFAULT_RIDGE, check_ridge
 from .formulation import check_formulation
 from .gains import DiscreteGains, Gains
 
+#: Largest magnitude a saved DMP may hold in its per-DoF vectors (start, goal, velocities: a
+#: kilometre in metres, 1e6 rad) and in its forcing weights; a file beyond them is refused on
+#: load, since its rollout overflows to inf/NaN long before the values mean anything.
+MAX_STATE_MAGNITUDE = 1e6
+MAX_WEIGHT_MAGNITUDE = 1e12
+
 #: The constructor arguments of a discrete DMP, in order.
 DISCRETE_PARAMS = ("n_basis", "alpha_z", "beta_z", "alpha_s", "overlap", "formulation", "ridge")
 
@@ -146,13 +152,25 @@ class Primitive(DMPBase):
         return primitive
 
     def _restore(self, fitted: dict) -> None:
-        weights = checks.finite_array(fitted["weights"], "weights", ndim=(2, 3))
+        weights = _bounded(
+            checks.finite_array(fitted["weights"], "weights", ndim=(2, 3)), "weights", MAX_WEIGHT_MAGNITUDE
+        )
         if weights.shape[-1] != self.n_basis:
             raise ValueError(f"weights have {weights.shape[-1]} basis functions, expected {self.n_basis}")
-        vectors = {name: checks.finite_array(fitted[name], name, ndim=(1, 2)) for name in self._VECTORS}
+        vectors = {
+            name: _bounded(checks.finite_array(fitted[name], name, ndim=(1, 2)), name, MAX_STATE_MAGNITUDE)
+            for name in self._VECTORS
+        }
         for name, vector in vectors.items():
             if vector.shape != weights.shape[:-1]:
                 raise ValueError(f"{name} has shape {vector.shape}, expected {weights.shape[:-1]}")
         scalars = {name: convert(fitted[name], name) for name, convert in self._SCALARS.items()}
         for name, value in {"weights": weights, **vectors, **scalars}.items():
             setattr(self, name + "_", value)
+
+
+def _bounded(array, name: str, limit: float):
+    """``array`` when every |value| <= ``limit``; ``ValueError`` naming ``name`` otherwise."""
+    if array.size and float(abs(array).max()) > limit:
+        raise ValueError(f"{name} must have every |value| <= {limit:g}, got {float(abs(array).max()):g}")
+    return array
