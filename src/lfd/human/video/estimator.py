@@ -45,7 +45,9 @@ __all__ = [
     "heavy_model_path",
     "install_heavy_model",
     "landmarks_of",
+    "load_people_estimator",
     "load_pose_estimator",
+    "people_of",
     "route_cpp_log",
 ]
 
@@ -332,3 +334,105 @@ def landmarks_of(result, size: tuple[int, int], offset=(0.0, 0.0), scale=1.0):
     vis = np.array([p.visibility for p in lm])
     world = np.array([[p.x, p.y, p.z] for p in result.pose_world_landmarks.landmark])
     return px, vis, world
+
+
+_bundles: dict[str, bytes] = {}
+
+
+def _task_bundle(model: str) -> bytes:
+    """MediaPipe's pose-landmarker task bundle for ``model``, assembled in memory from the models the
+    wheel ships (``pose_detection.tflite`` and ``pose_landmark_<model>.tflite``, the same networks
+    the single-person solution runs): the tasks API wants both in one zip, each with its input
+    normalisation written as TFLite metadata (the detector takes pixels in [-1, 1], the landmark
+    model in [0, 1], as the solution's graph feeds them)."""
+    if model not in _bundles:
+        import io
+        import zipfile
+
+        from mediapipe.tasks.python.metadata.metadata_writers import metadata_writer
+
+        modules = _mediapipe_root() / "modules"
+        landmark = (
+            heavy_model_path()
+            if model == "heavy"
+            else modules / "pose_landmark" / f"pose_landmark_{model}.tflite"
+        )
+
+        def with_normalisation(path: Path, mean: float, std: float) -> bytes:
+            writer = metadata_writer.MetadataWriter.create(path.read_bytes())
+            writer.add_general_info(path.stem, f"{path.name} from the MediaPipe wheel")
+            writer.add_image_input(norm_mean=[mean], norm_std=[std])
+            return writer.populate()[0]
+
+        buffer = io.BytesIO()
+        with zipfile.ZipFile(buffer, "w") as bundle:
+            bundle.writestr(
+                "pose_detector.tflite",
+                with_normalisation(modules / "pose_detection" / "pose_detection.tflite", 127.5, 127.5),
+            )
+            bundle.writestr("pose_landmarks_detector.tflite", with_normalisation(landmark, 0.0, 255.0))
+        _bundles[model] = buffer.getvalue()
+    return _bundles[model]
+
+
+def load_people_estimator(
+    max_people: int = 4,
+    min_detection_confidence: float = 0.5,
+    min_tracking_confidence: float = 0.5,
+    model: str = "full",
+    heavy_model: str | os.PathLike | None = None,
+):
+    """A MediaPipe pose landmarker that finds up to ``max_people`` people in an image (``detect(image)``;
+    :func:`people_of` reads the result). It runs in image mode: every call detects afresh, and
+    :mod:`lfd.human.video.people` follows the people over time (the tasks API's video mode stops
+    looking for further people once it tracks one).
+
+    The single-person solution (:func:`load_pose_estimator`) follows the most prominent person;
+    this one runs the same detector and landmark networks through MediaPipe's tasks API, which
+    keeps several people. Nothing is downloaded: the task bundle is built in memory from the
+    wheel's models (and the verified heavy model for ``model="heavy"``).
+
+    Raises:
+        ImportError, ValueError, FileNotFoundError: as :func:`load_pose_estimator`;
+        ValueError also for ``max_people`` < 1.
+    """
+    if model not in MODELS:
+        raise ValueError(f"pose.model must be one of {', '.join(MODELS)}, got {model!r}")
+    if not (isinstance(max_people, int) and not isinstance(max_people, bool) and max_people >= 1):
+        raise ValueError(f"max_people must be an integer >= 1, got {max_people!r}")
+    if model == "full" and heavy_model is not None:
+        raise ValueError("heavy_model is given but model is 'full'; pass model='heavy' to use it")
+    if model == "heavy":
+        install_heavy_model(heavy_model)
+    try:
+        _protobuf_compat()
+        from mediapipe.tasks.python import BaseOptions, vision
+    except ImportError as exc:
+        raise ImportError(
+            "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
+            'pip install -e ".[video]" && lfd-install-mediapipe'
+        ) from exc
+    options = vision.PoseLandmarkerOptions(
+        base_options=BaseOptions(model_asset_buffer=_task_bundle(model)),
+        running_mode=vision.RunningMode.IMAGE,
+        num_poses=max_people,
+        min_pose_detection_confidence=min_detection_confidence,
+        min_pose_presence_confidence=min_detection_confidence,
+        min_tracking_confidence=min_tracking_confidence,
+    )
+    with _stderr_to_logging():
+        return vision.PoseLandmarker.create_from_options(options)
+
+
+def people_of(
+    result, size: tuple[int, int], offset=(0.0, 0.0), scale=1.0
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Every person of one pose-landmarker result as ``(px (33, 2), visibility (33,), world (33, 3) m)``,
+    pixels mapped as in :func:`landmarks_of`; an empty list when nobody was found."""
+    w, h = size
+    out = []
+    for image, world in zip(result.pose_landmarks, result.pose_world_landmarks):
+        px = np.array([[p.x * w, p.y * h] for p in image]) * scale + np.asarray(offset)
+        vis = np.array([p.visibility if p.visibility is not None else 0.0 for p in image])
+        out.append((px, vis, np.array([[p.x, p.y, p.z] for p in world])))
+    return out

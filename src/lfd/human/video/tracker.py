@@ -39,6 +39,8 @@ def estimate_keypoints(
     progress: bool = False,
     model: str = "full",
     heavy_model: str | os.PathLike | None = None,
+    person=None,
+    max_people: int = 4,
 ) -> VideoKeypoints:
     """Run the pose estimator over a video, following one person (see the module docstring).
 
@@ -55,6 +57,11 @@ def estimate_keypoints(
         model: landmark model, ``"full"`` (in MediaPipe's wheel) or ``"heavy"`` (more accurate,
             slower; see :func:`~lfd.human.video.estimator.load_pose_estimator`). heavy_model: path
             of a verified ``pose_landmark_heavy.tflite`` (None = MediaPipe's module folder).
+        person: None: MediaPipe's single-person tracker follows the most prominent person (as
+            above). ``"largest"``, ``"central"``, a point ``(x, y)`` or a box ``(x0, y0, x1, y1)``
+            px: everyone (up to ``max_people``) is found and followed and this person, chosen in
+            the first frame with anyone, is kept (:mod:`lfd.human.video.people`); frames without
+            them are marked, never filled with someone else.
 
     Returns:
         :class:`VideoKeypoints` (one entry per processed frame).
@@ -63,6 +70,26 @@ def estimate_keypoints(
         FileNotFoundError: no such video; ``model="heavy"`` without the heavy model.
         ValueError: unreadable video, bad arguments. ImportError: mediapipe is not installed.
     """
+    if person is not None:
+        from .people import check_person, estimate_people
+
+        choice = check_person(person)
+        people = estimate_people(
+            video,
+            width=width,
+            stride=stride,
+            max_frames=max_frames,
+            max_people=max_people,
+            min_detection_confidence=min_detection_confidence,
+            min_tracking_confidence=min_tracking_confidence,
+            max_jump=max_jump,
+            max_speed=max_speed,
+            reacquire_s=reacquire_s,
+            progress=progress,
+            model=model,
+            heavy_model=heavy_model,
+        )
+        return people.person(people.choose(choice))
     if not (max_jump > 0 and max_speed >= 0 and reacquire_s >= 0):
         raise ValueError(
             f"max_jump must be > 0, max_speed and reacquire_s >= 0; got {max_jump!r}, {max_speed!r}, {reacquire_s!r}"
