@@ -78,10 +78,26 @@ def estimate_multiview(settings: ImitationSettings, videos: Sequence[str | os.Pa
     mv = settings.multiview
     up = np.asarray(mv.up, float)
     kps = []
-    for name, path in zip(calib.names, paths):
-        kp = estimate_keypoints(path, **settings.pose.estimator_options())
+    options = settings.pose.estimator_options()
+    person = options.pop("person")
+    if person is None:
+        for path in paths:
+            kps.append(estimate_keypoints(path, **options))
+    else:  # several people in view: everyone found per view, the chosen one followed across them
+        from lfd.human.multiview.people import follow_person_in_videos
+        from lfd.human.video.people import estimate_people
+
+        if mv.person_view >= calib.n_cameras:
+            raise ValueError(
+                f"multiview.person_view must be a view in [0, {calib.n_cameras}), got {mv.person_view}"
+            )
+        people = [estimate_people(path, **options) for path in paths]
+        kps, _ = follow_person_in_videos(
+            calib, people, person, mv.person_view, videos=paths, width=options["width"],
+            model=options["model"], heavy_model=options["heavy_model"],
+        )  # fmt: skip
+    for name, kp in zip(calib.names, kps):
         kp.save(out / f"keypoints_{name}.npz")
-        kps.append(kp)
     T = min(k.n_frames for k in kps)
     pixels = np.stack([k.pixels[:T] for k in kps])
     conf = np.stack([k.visibility[:T] for k in kps])

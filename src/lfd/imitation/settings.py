@@ -43,6 +43,7 @@ from lfd.checks import (
 )
 from lfd.human.filters import FILTERS
 from lfd.human.video.estimator import MODELS
+from lfd.human.video.people import check_person
 from lfd.io.rosbag import BAG_FORMATS
 from lfd.rl.skill import SKILL_TASKS
 from lfd.robots.catalogue import catalogue_entries
@@ -95,6 +96,9 @@ class PoseSettings:
         max_frames: at most this many frames (None: the whole video).
         min_visibility: landmarks below (0..1) are treated as missing.
         repair_flips: undo MediaPipe's front/back relabelling. lift_depth: arm depth from bone lengths.
+        person: who to follow when several people are in view: None (MediaPipe's single-person
+            tracker, the most prominent person), ``"largest"``, ``"central"``, a point ``[x, y]`` or
+            a box ``[x0, y0, x1, y1]`` px in the first frame with anyone (:mod:`lfd.human.video.people`).
     """
 
     model: str = "full"
@@ -105,9 +109,15 @@ class PoseSettings:
     min_visibility: float = 0.5
     repair_flips: bool = True
     lift_depth: bool = True
+    person: Any = None
 
     def __post_init__(self) -> None:
         check_choice(self.model, "pose.model", tuple(MODELS))
+        if self.person is not None:
+            try:
+                _set(self, "person", check_person(self.person))
+            except ValueError as exc:
+                raise ValueError(f"pose.{exc}") from None
         _set(self, "heavy_model", check_text(self.heavy_model, "pose.heavy_model", optional=True))
         _set(self, "width", check_int(self.width, "pose.width", minimum=16))
         _set(self, "stride", positive_int(self.stride, "pose.stride"))
@@ -127,6 +137,7 @@ class PoseSettings:
             progress=progress,
             model=self.model,
             heavy_model=self.heavy_model,
+            person=self.person,
         )
 
 
@@ -138,14 +149,17 @@ class MultiviewSettings:
         max_error_px: views reprojecting worse than this (px, > 0) are dropped per joint and frame.
         other_person_px: a view fitting the others worse than this (px) shows someone else; None: never.
         up: the calibration's world up vector (3 numbers, not zero).
+        person_view: the view (index in the calibration's order) in which ``pose.person`` is chosen.
     """
 
     max_error_px: float = 20.0
     other_person_px: float | None = 50.0
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    person_view: int = 0
 
     def __post_init__(self) -> None:
         _set(self, "max_error_px", positive_float(self.max_error_px, "multiview.max_error_px"))
+        _set(self, "person_view", check_int(self.person_view, "multiview.person_view", minimum=0))
         other = check_float(
             self.other_person_px, "multiview.other_person_px", low=0.0, strict_low=True, optional=True
         )
