@@ -26,6 +26,11 @@ once with all views kept), and prints as JSON per model:
   one in that camera's frame (where the latter exceeds 3 cm): lifting takes only this sign;
 * ``arms``: per arm ``measured`` or why it cannot be analysed (the other arm is still measured);
 * ``pose_fps``: the estimator's frames/s per view (noisy on a shared machine: see video_speed.py).
+
+With ``--person`` (several people in view) every view's people are found and followed
+(:func:`lfd.human.video.people.estimate_people`, cached as ``<view>_<model>_people.npz``) and the
+person chosen in view ``--reference`` is followed across the views
+(:func:`lfd.human.multiview.people.follow_person_in_videos`); the rest is the same.
 """
 
 from __future__ import annotations
@@ -39,9 +44,11 @@ import numpy as np
 
 from lfd.human.filters import butterworth_filter
 from lfd.human.multiview import read_calibration, reconcile_left_right, triangulate
+from lfd.human.multiview.people import follow_person_in_videos
 from lfd.human.video import MEDIAPIPE_LANDMARKS, VideoKeypoints, estimate_keypoints
 from lfd.human.video.landmarks import ALL_LEFT, ALL_RIGHT, LEFT_RIGHT_GROUPS
 from lfd.human.video.lifting import lift_arm_depth
+from lfd.human.video.people import VideoPeople, estimate_people
 
 SIDES = ("left", "right")
 #: px; a view fitting the others worse than this shows someone else (chosen on the single-person
@@ -80,6 +87,26 @@ def keypoints(demo: Path, names, model: str, width: int, cache: Path | None) -> 
             kp.save(path)
         out.append(kp)
     return out
+
+
+def people_keypoints(demo: Path, calib, model: str, width: int, cache: Path | None, choice, reference: int):
+    """Everyone in every view (cached as ``<cache>/<view>_<model>_people.npz``), then the chosen
+    person followed across the views with crop searches."""
+    people = []
+    for name in calib.names:
+        path = cache / f"{name}_{model}_people.npz" if cache else None
+        if path is not None and path.exists():
+            people.append(VideoPeople.load(path))
+            continue
+        found = estimate_people(demo / "videos" / f"{name}.mp4", width=width, model=model, progress=True)
+        if path is not None:
+            found.save(path)
+        people.append(found)
+    videos = [demo / "videos" / f"{name}.mp4" for name in calib.names]
+    kps, _ = follow_person_in_videos(
+        calib, people, choice, reference, videos=videos, width=width, model=model
+    )
+    return kps
 
 
 def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
@@ -220,15 +247,28 @@ def main() -> dict:
     ap.add_argument(
         "--cutoff", type=float, default=6.0, help="Hz, low-pass of both before the angles (0: raw)"
     )
+    ap.add_argument(
+        "--person",
+        default=None,
+        help="follow one person of several: largest, central, x,y or x0,y0,x1,y1 px in the first frame of --reference",
+    )
+    ap.add_argument("--reference", type=int, default=0, help="view (index) in which --person is chosen")
     args = ap.parse_args()
     calib = read_calibration(args.demo / "calibration" / "Calib.qca.txt", n_cameras=4)
     if args.cache:
         args.cache.mkdir(parents=True, exist_ok=True)
     result = {}
     for model in args.models.split(","):
-        result[model] = evaluate(
-            calib, keypoints(args.demo, calib.names, model, args.width, args.cache), args
-        )
+        if args.person is None:
+            kps = keypoints(args.demo, calib.names, model, args.width, args.cache)
+        else:
+            choice = (
+                args.person
+                if args.person in ("largest", "central")
+                else [float(v) for v in args.person.split(",")]
+            )
+            kps = people_keypoints(args.demo, calib, model, args.width, args.cache, choice, args.reference)
+        result[model] = evaluate(calib, kps, args)
     print(json.dumps(result, indent=1))
     return result
 
