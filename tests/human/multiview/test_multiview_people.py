@@ -122,6 +122,13 @@ def test_video_people_marks_frames_without_the_person_and_round_trips(tmp_path):
         VideoPeople.load(tmp_path / "bad.npz")
     with pytest.raises(ValueError, match=r"track must be in \[0, 2\)"):
         people.person(2)
+    import dataclasses
+
+    ragged = dataclasses.replace(people, visibility=vis[:, :1])
+    with pytest.raises(
+        ValueError, match=r"ragged.npz: visibility must have shape \(5, 2, 33\), got \(5, 1, 33\)"
+    ):
+        VideoPeople.load(ragged.save(tmp_path / "ragged.npz"))
 
 
 def test_epipolar_distance_is_zero_for_one_point_and_grows_for_another():

@@ -63,7 +63,8 @@ class PersonInViews:
             the last one carried over where fewer than two views have them); NaN before the start.
         found: per view, ``{frame: (px, visibility, world)}`` taken from ``search`` (their track
             index in ``tracks`` is one past the view's tracks).
-        swapped: (C, T) bool, the person's left/right labels were swapped to fit the skeleton.
+        swapped: (C, T) bool, the person's left/right labels were swapped to fit the skeleton (the
+            entries of ``found`` are stored with the labels as taken).
     """
 
     tracks: np.ndarray
@@ -289,7 +290,12 @@ def follow_person(
         points[f] = skeleton
     for v in range(C):
         last = pixels[v].shape[1] - 1
-        searched[v] = {f: searched[v][f] for f in np.flatnonzero(chosen[v] == last)}
+        taken = {}
+        for f in np.flatnonzero(chosen[v] == last):  # as taken: with the labels the person was given
+            world = searched[v][f][2][_SWAP] if swapped[v, f] else searched[v][f][2]
+            taken[int(f)] = (pixels[v][f, -1].copy(), visibility[v][f, -1].copy(), world)
+            swapped[v, f] = False
+        searched[v] = taken
     return PersonInViews(chosen, points, searched, swapped)
 
 
@@ -435,7 +441,7 @@ def follow_person_in_videos(
         vis[ok] = full.visibility[rows[ok], pick[ok]]
         world[ok] = full.world[rows[ok], pick[ok]]
         swap = result.swapped[v] & ok
-        for f in np.flatnonzero(swap & (pick < p.n_people)):  # searched ones are stored as taken
+        for f in np.flatnonzero(swap):  # found ones are stored as taken: never marked swapped
             pixels[f], vis[f], world[f] = pixels[f][_SWAP], vis[f][_SWAP], world[f][_SWAP]
         kp = full.person(0)
         keypoints.append(

@@ -388,6 +388,10 @@ class VideoPeople:
         T = len(people.t)
         if people.pixels.ndim != 4 or people.pixels.shape[0] != T or people.pixels.shape[2:] != (33, 2):
             raise ValueError(f"{p}: pixels must have shape (T={T}, P, 33, 2), got {people.pixels.shape}")
+        P = people.pixels.shape[1]
+        for name, shape in (("visibility", (T, P, 33)), ("world", (T, P, 33, 3)), ("frame_index", (T,))):
+            if getattr(people, name).shape != shape:
+                raise ValueError(f"{p}: {name} must have shape {shape}, got {getattr(people, name).shape}")
         return people
 
 
