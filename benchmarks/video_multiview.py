@@ -21,6 +21,9 @@ once with all views kept), and prints as JSON per model:
   (:func:`lfd.human.video.lifting.lift_arm_depth`), over all frames and over the first half
   (``validation``: its length percentile was chosen there) and the second half (``test``);
   ``monocular_halves_median_abs_deg``: the world landmarks' errors on the same halves;
+* ``monocular_lifted_median_abs_deg_visible_arm``: the lifted errors over the frames where the arm's
+  shoulder, elbow and wrist all have visibility >= 0.5 (imitation's ``pose.min_visibility``
+  treats landmarks below as missing);
 * ``depth_sign_agreement``: per view, upper arm and forearm (both arms), the fraction of frames in
   which the world landmarks' depth difference along the segment has the sign of the triangulated
   one in that camera's frame (where the latter exceeds 3 cm): lifting takes only this sign;
@@ -151,6 +154,7 @@ def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
 
     out["arms"], out["rmse_deg"], errors, raw_errors = {}, {}, [], []
     halves = {"world": [], "lifted": []}  # (abs error (N, 2), frame (N,)) per view and arm
+    visible = []  # lifted abs errors (N, 2) where the arm's three landmarks have visibility >= 0.5
     lifted = [lift_arm_depth(k.pixels[:T], k.world[:T]) for k in kps]
     out["depth_sign_agreement"] = {}
     for c, (name, kp) in enumerate(zip(calib.names, kps)):
@@ -192,6 +196,10 @@ def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
             lift = arm_angles(smooth(lifted[c]), side)
             ok_l = ok & np.isfinite(lift).all(1)
             halves["lifted"].append((np.abs(lift - reference)[ok_l], np.flatnonzero(ok_l)))
+            arm_seen = kp.visibility[:T][:, [idx(f"{side}_{j}") for j in ("shoulder", "elbow", "wrist")]].min(
+                1
+            )
+            visible.append(np.abs(lift - reference)[ok_l & (arm_seen >= 0.5)])
             rmse = np.sqrt(np.mean(diff**2, axis=0))
             out["rmse_deg"][f"{name}_{side}"] = {
                 "elbow_flexion": float(rmse[0]),
@@ -216,6 +224,12 @@ def evaluate(calib, kps: list[VideoKeypoints], args) -> dict:
             for k in ("elbow_flexion", "shoulder_elevation")
         ]
         out["median_rmse_deg"] = float(np.median(rms))
+        seen = np.concatenate(visible)
+        out["monocular_lifted_median_abs_deg_visible_arm"] = {
+            "elbow_flexion": float(np.median(seen[:, 0])) if len(seen) else None,
+            "shoulder_elevation": float(np.median(seen[:, 1])) if len(seen) else None,
+            "samples": int(len(seen)),
+        }
         for variant, key in (
             ("lifted", "monocular_lifted_median_abs_deg"),
             ("world", "monocular_halves_median_abs_deg"),
