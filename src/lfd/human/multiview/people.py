@@ -237,9 +237,8 @@ def follow_person(
             if (others >= 0).sum() >= 2:
                 alone = _triangulate(calib, pixels, visibility, others, f - 1, max_error_px)
                 if alone is not None:
-                    projected[v] = np.where(
-                        np.isfinite(calib.project(alone)[v]), calib.project(alone)[v], projected[v]
-                    )
+                    by_others = calib.project(alone)[v]
+                    projected[v] = np.where(np.isfinite(by_others), by_others, projected[v])
         gate = max_jump + max_speed * (t[f] - last_t)
         for v in range(C):
             if search is not None:

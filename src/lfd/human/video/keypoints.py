@@ -18,7 +18,43 @@ from .flips import front_back_flips, undo_flips
 from .landmarks import CANONICAL_NAMES, MEDIAPIPE_LANDMARKS
 from .lifting import lift_arm_depth
 
-__all__ = ["VideoKeypoints"]
+__all__ = ["VideoKeypoints", "read_cache", "write_cache"]
+
+#: Fields of a keypoint cache that are not arrays, and how each is read back.
+_SCALARS = {"image_size": lambda v: tuple(int(x) for x in v), "source": str, "seconds": float, "model": str}
+
+
+def write_cache(path: str | os.PathLike, record, fields) -> Path:
+    """Write the ``fields`` (dataclass fields) of ``record`` to a compressed ``.npz``, atomically
+    (:func:`read_cache` reads it back); the landmark names are not written."""
+    buffer = io.BytesIO()
+    np.savez_compressed(
+        buffer, **{f.name: np.asarray(getattr(record, f.name)) for f in fields if f.name != "names"}
+    )
+    write_bytes_atomic(Path(path), buffer.getvalue())
+    return Path(path)
+
+
+def read_cache(path: str | os.PathLike, cls, what: str, defaults: dict | None = None):
+    """``cls(**arrays)`` of a cache written by :func:`write_cache` (no pickled objects are loaded);
+    a field missing from the file takes its value in ``defaults``.
+
+    Raises:
+        FileNotFoundError: no file. ValueError: not such a cache (``"<path>: not a <what> written by lfd"``).
+    """
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"{what} not found: {p}")
+    names = [f.name for f in dataclasses.fields(cls) if f.name != "names"]
+    try:
+        with np.load(p, allow_pickle=False) as z:
+            values = {n: z[n] if n in z.files or n not in (defaults or {}) else defaults[n] for n in names}
+        for name, convert in _SCALARS.items():
+            if name in values and isinstance(values[name], np.ndarray):
+                values[name] = convert(values[name])
+        return cls(**values)
+    except (OSError, ValueError, KeyError, EOFError, TypeError, zipfile.BadZipFile) as exc:
+        raise ValueError(f"{p}: not a {what} written by lfd ({type(exc).__name__}: {exc})") from None
 
 
 @dataclasses.dataclass(eq=False)
@@ -145,23 +181,7 @@ class VideoKeypoints:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write all arrays to an ``.npz`` cache (read back with :meth:`load`)."""
-        buffer = io.BytesIO()
-        np.savez_compressed(
-            buffer,
-            t=self.t,
-            frame_index=self.frame_index,
-            pixels=self.pixels,
-            visibility=self.visibility,
-            world=self.world,
-            detected=self.detected,
-            other_person=self.other_person,
-            image_size=np.array(self.image_size),
-            source=np.array(self.source),
-            seconds=np.array(self.seconds),
-            model=np.array(self.model),
-        )
-        write_bytes_atomic(Path(path), buffer.getvalue())
-        return Path(path)
+        return write_cache(path, self, dataclasses.fields(self))
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> VideoKeypoints:
@@ -171,25 +191,4 @@ class VideoKeypoints:
             FileNotFoundError: no file at ``path``.
             ValueError: the file is not such a cache (corrupt, truncated, or missing arrays).
         """
-        p = Path(path)
-        if not p.exists():
-            raise FileNotFoundError(f"keypoint cache not found: {p}")
-        try:
-            with np.load(p, allow_pickle=False) as z:
-                return cls(
-                    t=z["t"],
-                    frame_index=z["frame_index"],
-                    pixels=z["pixels"],
-                    visibility=z["visibility"],
-                    world=z["world"],
-                    detected=z["detected"],
-                    other_person=z["other_person"],
-                    image_size=tuple(int(v) for v in z["image_size"]),
-                    source=str(z["source"]),
-                    seconds=float(z["seconds"]),
-                    model=str(z["model"]) if "model" in z.files else "full",
-                )
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
-            raise ValueError(
-                f"{p}: not a keypoint cache written by lfd ({type(exc).__name__}: {exc})"
-            ) from None
+        return read_cache(path, cls, "keypoint cache", defaults={"model": "full"})

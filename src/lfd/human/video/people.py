@@ -25,20 +25,18 @@ True when someone else is in view), never filled with someone else. Which track:
 from __future__ import annotations
 
 import dataclasses
-import io
 import os
 import time
-import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from lfd.io.files import write_bytes_atomic
 from lfd.io.video import iter_frames, video_info
 
-from .keypoints import VideoKeypoints
+from .keypoints import VideoKeypoints, read_cache, write_cache
 from .landmarks import torso
+from .tracker import frame_bar, increasing
 
 __all__ = [
     "CHOICES",
@@ -342,21 +340,7 @@ class VideoPeople:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write all arrays to an ``.npz`` cache (read back with :meth:`load`)."""
-        buffer = io.BytesIO()
-        np.savez_compressed(
-            buffer,
-            t=self.t,
-            frame_index=self.frame_index,
-            pixels=self.pixels,
-            visibility=self.visibility,
-            world=self.world,
-            image_size=np.array(self.image_size),
-            source=np.array(self.source),
-            seconds=np.array(self.seconds),
-            model=np.array(self.model),
-        )
-        write_bytes_atomic(Path(path), buffer.getvalue())
-        return Path(path)
+        return write_cache(path, self, dataclasses.fields(self))
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> VideoPeople:
@@ -366,25 +350,7 @@ class VideoPeople:
             FileNotFoundError: no file. ValueError: not such a cache.
         """
         p = Path(path)
-        if not p.exists():
-            raise FileNotFoundError(f"people cache not found: {p}")
-        try:
-            with np.load(p, allow_pickle=False) as z:
-                people = cls(
-                    t=z["t"],
-                    frame_index=z["frame_index"],
-                    pixels=z["pixels"],
-                    visibility=z["visibility"],
-                    world=z["world"],
-                    image_size=tuple(int(v) for v in z["image_size"]),
-                    source=str(z["source"]),
-                    seconds=float(z["seconds"]),
-                    model=str(z["model"]),
-                )
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
-            raise ValueError(
-                f"{p}: not a people cache written by lfd ({type(exc).__name__}: {exc})"
-            ) from None
+        people = read_cache(p, cls, "people cache")
         T = len(people.t)
         if people.pixels.ndim != 4 or people.pixels.shape[0] != T or people.pixels.shape[2:] != (33, 2):
             raise ValueError(f"{p}: pixels must have shape (T={T}, P, 33, 2), got {people.pixels.shape}")
@@ -429,14 +395,7 @@ def estimate_people(
 
     ts, idxs, found, ids = [], [], [], []
     tracker = PeopleTracker(max_jump, max_speed)
-    total = info.frames // stride if info.frames else None
-    if max_frames is not None and total is not None:
-        total = min(total, max_frames)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=total, desc=f"people {Path(video).name}", unit="frame")
+    bar = frame_bar(f"people {Path(video).name}", info, stride, max_frames) if progress else None
     start = time.perf_counter()
 
     def detect(rgb, offset=(0.0, 0.0)):
@@ -479,10 +438,7 @@ def estimate_people(
         landmarker.close()
         if bar is not None:
             bar.close()
-    t = np.array(ts, float)
-    for i in range(1, len(t)):  # some containers repeat a timestamp
-        if t[i] <= t[i - 1]:
-            t[i] = t[i - 1] + 1e-6
+    t = increasing(ts)
     T, P = len(t), len(tracker.tracks)
     pixels, world = np.full((T, P, 33, 2), np.nan), np.full((T, P, 33, 3), np.nan)
     visibility = np.zeros((T, P, 33))

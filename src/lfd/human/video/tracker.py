@@ -25,6 +25,25 @@ from .landmarks import torso
 __all__ = ["estimate_keypoints"]
 
 
+def frame_bar(desc: str, info, stride: int, max_frames: int | None):
+    """A tqdm progress bar over the frames ``iter_frames(video, ..., stride, max_frames)`` yields."""
+    from tqdm import tqdm
+
+    total = info.frames // stride if info.frames else None
+    if max_frames is not None and total is not None:
+        total = min(total, max_frames)
+    return tqdm(total=total, desc=desc, unit="frame")
+
+
+def increasing(times) -> np.ndarray:
+    """Frame times (s) as a strictly increasing array: some containers repeat a timestamp."""
+    t = np.array(times, float)
+    for i in range(1, len(t)):
+        if t[i] <= t[i - 1]:
+            t[i] = t[i - 1] + 1e-6
+    return t
+
+
 def estimate_keypoints(
     video: str | os.PathLike,
     *,
@@ -101,14 +120,7 @@ def estimate_keypoints(
     searcher = None
     ts, idxs, pxs, viss, worlds, det, other = [], [], [], [], [], [], []
     last = None  # (t, centre, torso length, box) of the followed person
-    total = info.frames // stride if info.frames else None
-    if max_frames is not None and total is not None:
-        total = min(total, max_frames)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=total, desc=f"pose {Path(video).name}", unit="frame")
+    bar = frame_bar(f"pose {Path(video).name}", info, stride, max_frames) if progress else None
     start = time.perf_counter()
     try:
         for index, t, rgb in iter_frames(video, width, stride, max_frames):
@@ -162,11 +174,7 @@ def estimate_keypoints(
             searcher.close()
         if bar is not None:
             bar.close()
-    t = np.array(ts)
-    # Some containers repeat a timestamp; keep the clock strictly increasing.
-    for i in range(1, len(t)):
-        if t[i] <= t[i - 1]:
-            t[i] = t[i - 1] + 1e-6
+    t = increasing(ts)
     return VideoKeypoints(
         t=t,
         frame_index=np.array(idxs),
