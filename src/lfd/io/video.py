@@ -336,3 +336,22 @@ def iter_frames(
             raise ValueError(f"video {path}: no frame could be decoded")
     finally:
         container.close()
+
+
+def frame_bar(desc: str, info: VideoInfo, stride: int, max_frames: int | None):
+    """A tqdm progress bar over the frames ``iter_frames(video, ..., stride, max_frames)`` yields."""
+    from tqdm import tqdm
+
+    total = info.frames // stride if info.frames else None
+    if max_frames is not None and total is not None:
+        total = min(total, max_frames)
+    return tqdm(total=total, desc=desc, unit="frame")
+
+
+def increasing_times(times) -> np.ndarray:
+    """Frame times (s) as a strictly increasing array: some containers repeat a timestamp."""
+    t = np.array(times, float)
+    for i in range(1, len(t)):
+        if t[i] <= t[i - 1]:
+            t[i] = t[i - 1] + 1e-6
+    return t

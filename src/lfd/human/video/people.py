@@ -32,11 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd.io.video import iter_frames, video_info
+from lfd.io.video import frame_bar, increasing_times, iter_frames, video_info
 
 from .keypoints import VideoKeypoints, read_cache, write_cache
 from .landmarks import torso
-from .tracker import frame_bar, increasing
 
 __all__ = [
     "CHOICES",
@@ -438,7 +437,7 @@ def estimate_people(
         landmarker.close()
         if bar is not None:
             bar.close()
-    t = increasing(ts)
+    t = increasing_times(ts)
     T, P = len(t), len(tracker.tracks)
     pixels, world = np.full((T, P, 33, 2), np.nan), np.full((T, P, 33, 3), np.nan)
     visibility = np.zeros((T, P, 33))

@@ -16,32 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd.io.video import iter_frames, video_info
+from lfd.io.video import frame_bar, increasing_times, iter_frames, video_info
 
 from .estimator import landmarks_of, load_pose_estimator
 from .keypoints import VideoKeypoints
 from .landmarks import torso
 
 __all__ = ["estimate_keypoints"]
-
-
-def frame_bar(desc: str, info, stride: int, max_frames: int | None):
-    """A tqdm progress bar over the frames ``iter_frames(video, ..., stride, max_frames)`` yields."""
-    from tqdm import tqdm
-
-    total = info.frames // stride if info.frames else None
-    if max_frames is not None and total is not None:
-        total = min(total, max_frames)
-    return tqdm(total=total, desc=desc, unit="frame")
-
-
-def increasing(times) -> np.ndarray:
-    """Frame times (s) as a strictly increasing array: some containers repeat a timestamp."""
-    t = np.array(times, float)
-    for i in range(1, len(t)):
-        if t[i] <= t[i - 1]:
-            t[i] = t[i - 1] + 1e-6
-    return t
 
 
 def estimate_keypoints(
@@ -174,7 +155,7 @@ def estimate_keypoints(
             searcher.close()
         if bar is not None:
             bar.close()
-    t = increasing(ts)
+    t = increasing_times(ts)
     return VideoKeypoints(
         t=t,
         frame_index=np.array(idxs),
