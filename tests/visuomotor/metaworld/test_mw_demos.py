@@ -191,7 +191,7 @@ def test_fitted_dmp_reproduces_the_expert_in_closed_loop(task_name):
 
 
 def test_goal_probe_script(tiny, tmp_path, capsys):
-    """scripts/metaworld_goal_probe.py reports the goal error on both splits, one line for a bad folder."""
+    """scripts/metaworld_goal_probe.py reports the goal (or the object's) error on both splits, one line for a bad folder."""
     import importlib.util
     from pathlib import Path
 
@@ -204,5 +204,9 @@ def test_goal_probe_script(tiny, tmp_path, capsys):
     assert probe.main([str(path), "--steps", "2", "--channels", "4", "4"]) == 0
     out = capsys.readouterr().out
     assert "reach-v3: 3 train / 2 val goals" in out and "step     0: goal error train" in out
+    # the object's start position: reach places a puck-like object, its height never varies (finite errors)
+    assert probe.main([str(path), "--steps", "2", "--channels", "4", "4", "--target", "object"]) == 0
+    out = capsys.readouterr().out
+    assert "reach-v3: 3 train / 2 val objects" in out and "nan" not in out, out
     assert probe.main([str(tmp_path / "absent")]) == 2
     assert "no manifest.json" in capsys.readouterr().err
