@@ -7,7 +7,9 @@ trains on them unchanged:
 
 * ``"dmp"`` (one item per demonstration): ``image`` (first frame), ``joints`` (start state),
   ``goal``, ``weights``, ``y0``, ``tau``, ``t``, ``trajectory`` ``(T, 4)``, ``ee_path`` ``(T, 3)``
-  (the hand path), ``index``.
+  (the hand path), ``index``, ``placement`` ``(PLACEMENT_SIZE,)`` (the episode's placement:
+  the task's random reset vector of object and goal positions, m, zero-padded; a training-only
+  label for ``CNNDMPPolicy(placement_dim=...)``).
 * ``"velocity"`` (one item per step): ``image``, ``joints``, ``velocity`` and ``command`` (the
   state's change per second over the next step), ``t``, ``index``, ``step``.
 """
@@ -31,7 +33,32 @@ from lfd.visuomotor.metaworld.demos import (
 )
 from lfd.visuomotor.protocols import ITEM_MODES
 
-__all__ = ["MetaWorldDMPDataset", "MetaWorldDataModule", "MetaWorldVelocityDataset"]
+__all__ = ["PLACEMENT_SIZE", "MetaWorldDMPDataset", "MetaWorldDataModule", "MetaWorldVelocityDataset"]
+
+#: Entries of the served ``placement``: Meta-World's random reset vectors have 3 (an object's
+#: position) or 6 (an object's and a goal's) entries in all 50 v3 tasks; shorter ones are
+#: zero-padded, so one policy configuration fits every task.
+PLACEMENT_SIZE = 6
+#: m: the smallest spread ``stats["placement"]["std"]`` gives an entry (a coordinate a task
+#: never varies, e.g. a puck's height, or padding), so that normalising it stays finite.
+MIN_PLACEMENT_STD = 0.01
+
+
+def placements(eps) -> np.ndarray:
+    """``(E, PLACEMENT_SIZE)`` m: the episodes' placements, zero-padded.
+
+    Raises:
+        ValueError: a placement longer than :data:`PLACEMENT_SIZE`.
+    """
+    out = np.zeros((len(eps), PLACEMENT_SIZE))
+    for i, e in enumerate(eps):
+        p = np.asarray(e.arrays["placement"], dtype=np.float64).ravel()
+        if p.size > PLACEMENT_SIZE:
+            raise ValueError(
+                f"placement: at most {PLACEMENT_SIZE} entries expected, episode {e.index} has {p.size}"
+            )
+        out[i, : p.size] = p
+    return out
 
 
 def _image(frame: torch.Tensor) -> torch.Tensor:
@@ -73,6 +100,7 @@ class MetaWorldDMPDataset(Dataset):
             "trajectory": states,
             "ee_path": states[..., :3],
             "index": torch.tensor([_index(split, e.index) for e in eps], dtype=torch.int64),
+            "placement": torch.from_numpy(placements(eps)).float(),
         }
 
     def __len__(self) -> int:
@@ -247,7 +275,13 @@ class MetaWorldDataModule(L.LightningDataModule):
     def stats(self) -> dict[str, dict[str, torch.Tensor]]:
         if self.data is None:
             raise RuntimeError("MetaWorldDataModule.stats: call setup() first")
-        return {k: {m: torch.as_tensor(v[m]) for m in ("mean", "std")} for k, v in self.data.stats.items()}
+        out = {k: {m: torch.as_tensor(v[m]) for m in ("mean", "std")} for k, v in self.data.stats.items()}
+        train = placements(self.data.split("train"))
+        out["placement"] = {
+            "mean": torch.as_tensor(train.mean(0)),
+            "std": torch.as_tensor(np.maximum(train.std(0), MIN_PLACEMENT_STD)),
+        }
+        return out
 
     def fingerprint(self) -> dict:
         if self.data is None:

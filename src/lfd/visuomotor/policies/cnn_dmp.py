@@ -8,6 +8,13 @@ the default loss compares the resulting joint trajectory with the demonstration 
 optionally, the end-effector path through the robot's batched forward kinematics). The
 goal is predicted from the image: no object pose and no IK solution is used.
 
+With ``placement_dim`` the head goes through the scene instead: the keypoint head predicts the
+episode's *placement* (object and goal positions, a training-only label) from the image, and the
+DMP parameters are an affine function of that placement and the start joints: the ridge
+regression of the demonstrations' parameters on their true placements. At run time the predicted
+placement feeds the map. A map this simple generalises from a few dozen demonstrations where a
+head regressing 80 forcing weights from the image memorises them.
+
 In closed loop (:meth:`CNNDMPPolicy.controller`) the policy plans once on the first image, or,
 with ``replan_every=k``, also changes the DMP's goal online every ``k`` steps from a new image
 (:meth:`CNNDMPPolicy.predict_goal`, :meth:`CNNDMPPolicy.change_goal`; Ijspeert et al. 2013,
@@ -20,6 +27,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
+from torch import nn
 from torch.nn import functional as F
 
 from lfd.dmp import DMP, DMPLayer, DMPRunner, DMPState
@@ -73,6 +81,14 @@ class CNNDMPPolicy(KeypointPolicy):
             loop does. 0 compares only the demonstrated ``T`` samples.
         n_basis: DMP basis functions per joint (must match the dataset's).
         alpha_z: DMP damping gain.
+        placement_dim: 0 (default) or the size of the batches' ``placement`` (m; the datamodule's
+            training-only label, e.g. Meta-World's zero-padded random reset vector): the head then
+            predicts the normalised placement from the image alone and an affine map gives the
+            normalised DMP parameters from ``[placement, start joints]``. The map is the ridge
+            regression of the training demonstrations' parameters on their placements
+            (:meth:`fit_params_map`, at ``setup("fit")``) and stays fixed; training minimises the
+            placement's mean squared error (``placement_mse``; ``loss`` is then not used) and the
+            other metrics are those of the predicted placement (what runs).
         normalise_trajectory: compare trajectories in units of each state dimension's train-split
             standard deviation (the ``joints`` statistics) instead of raw units (rad^2). For states
             with small ranges in their units (Meta-World's hand in metres, a few cm of spread) the
@@ -97,11 +113,14 @@ class CNNDMPPolicy(KeypointPolicy):
         final_fraction: float = 0.25,
         rest_steps: int = 50,
         normalise_trajectory: bool = False,
+        placement_dim: int = 0,
         n_basis: int = 20,
         alpha_z: float = 25.0,
         **common,
     ) -> None:
         check_sizes("CNNDMPPolicy", n_basis=n_basis)
+        if isinstance(placement_dim, bool) or not isinstance(placement_dim, int) or placement_dim < 0:
+            raise ValueError(f"CNNDMPPolicy.placement_dim: expected an integer >= 0, got {placement_dim!r}")
         super().__init__(**common)
         if loss not in LOSSES:
             raise ValueError(f"CNNDMPPolicy.loss: expected one of {LOSSES}, got {loss!r}")
@@ -116,11 +135,92 @@ class CNNDMPPolicy(KeypointPolicy):
             n_basis=n_basis, n_steps=self.hparams.n_steps, dt=self.control_dt, alpha_z=alpha_z
         )
         self._horizon_layers: dict[int, DMPLayer] = {}  # longer closed-loop plans, same tau (not state)
-        self._build(n + n * n_basis, {"joints": (n,), "goal": (n,), "weights": (n, n_basis)})
+        stats = {"joints": (n,), "goal": (n,), "weights": (n, n_basis)}
+        if placement_dim:
+            self.params_map = nn.Linear(placement_dim + n, n + n * n_basis)  # set by fit_params_map
+            # the placement is the scene's: from the image alone (the start state would let the
+            # head tell training episodes apart instead of looking at the objects)
+            self._build(placement_dim, {**stats, "placement": (placement_dim,)}, joints_input=False)
+        else:
+            self._build(n + n * n_basis, stats)
 
     def predict_params(self, image: torch.Tensor, joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Normalised DMP goal ``(B, n)`` and weights ``(B, n, K)``."""
-        return self._split_params(self.features(image, joints))
+        out = self.features(image, joints)
+        if self.hparams.get("placement_dim", 0):
+            out = self._params_from_placement(out, joints)
+        return self._split_params(out)
+
+    def _params_from_placement(self, placement_n: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
+        """Normalised placement ``(B, p)`` and start joints ``(B, n)`` -> head-like output ``(B, n + n K)``."""
+        return self.params_map(torch.cat([placement_n, self.normalise("joints", joints)], dim=1))
+
+    def fit_params_map(
+        self,
+        placement: torch.Tensor,
+        joints: torch.Tensor,
+        goal: torch.Tensor,
+        weights: torch.Tensor,
+        ridge: float = 0.1,
+    ) -> None:
+        """Set the affine map of ``placement_dim`` to the ridge regression of the demonstrations'
+        normalised DMP parameters on their normalised placements and start states (the training
+        split's statistics must be in the buffers), and freeze it.
+
+        Args:
+            placement: ``(E, placement_dim)`` m; joints: ``(E, n)`` start states; goal: ``(E, n)``;
+                weights: ``(E, n, K)``: the training demonstrations.
+            ridge: the penalty on the map's weights (not its bias), > 0.
+
+        Raises:
+            ValueError: the policy has no placement map, or ``ridge`` is not a finite number > 0.
+        """
+        if not self.hparams.get("placement_dim", 0):
+            raise ValueError("CNNDMPPolicy.fit_params_map: the policy has no placement map (placement_dim=0)")
+        if not (isinstance(ridge, (int, float)) and np.isfinite(ridge) and ridge > 0):
+            raise ValueError(f"CNNDMPPolicy.fit_params_map: ridge must be a finite number > 0, got {ridge!r}")
+        with torch.no_grad():
+            x = torch.cat(
+                [self.normalise("placement", placement), self.normalise("joints", joints)], dim=1
+            ).double()
+            y = torch.cat(
+                [self.normalise("goal", goal), self.normalise("weights", weights).flatten(1)], dim=1
+            ).double()
+            x_mean, y_mean = x.mean(0), y.mean(0)
+            xc = x - x_mean
+            a = torch.linalg.solve(
+                xc.T @ xc + ridge * torch.eye(x.shape[1], dtype=x.dtype), xc.T @ (y - y_mean)
+            )
+            self.params_map.weight.copy_(a.T)
+            self.params_map.bias.copy_(y_mean - x_mean @ a)
+        self.params_map.requires_grad_(False)
+
+    def setup(self, stage: str) -> None:
+        """The harness's ``setup`` and, at ``fit`` with ``placement_dim``, :meth:`fit_params_map` on
+        the datamodule's training items."""
+        super().setup(stage)
+        if stage != "fit" or not self.hparams.get("placement_dim", 0):
+            return
+        train = getattr(self.trainer.datamodule, "datasets", {}).get("train")
+        if train is None or len(train) == 0 or "placement" not in train[0]:
+            raise ValueError(
+                f"CNNDMPPolicy(placement_dim={self.hparams.placement_dim}): the datamodule's training items "
+                "have no 'placement' (Meta-World's demonstrations have)"
+            )
+        items = [train[i] for i in range(len(train))]
+        keys = ("placement", "joints", "goal", "weights")
+        self.fit_params_map(*(torch.stack([item[k] for item in items]).to(self.device) for k in keys))
+
+    def _placement_target(self, batch: dict[str, torch.Tensor]) -> torch.Tensor:
+        """The batch's normalised ``placement`` ``(B, placement_dim)``; one line if it has none that fits."""
+        p = batch.get("placement")
+        dim = self.hparams.placement_dim
+        if p is None or p.ndim != 2 or p.shape[1] != dim:
+            got = "none" if p is None else f"shape {tuple(p.shape)}"
+            raise ValueError(
+                f"CNNDMPPolicy(placement_dim={dim}): batches need a 'placement' of shape (B, {dim}), got {got}"
+            )
+        return self.normalise("placement", p)
 
     def _split_params(self, out: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Head output ``(B, n + n K)`` -> normalised goal ``(B, n)`` and weights ``(B, n, K)``."""
@@ -165,12 +265,16 @@ class CNNDMPPolicy(KeypointPolicy):
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         joints = batch["joints"]
         params, aux = self.head_outputs(batch["image"], joints, top=batch.get("top"))
+        placement_mse = None
+        if self.hparams.get("placement_dim", 0):
+            placement_mse = F.mse_loss(params, self._placement_target(batch))
+            params = self._params_from_placement(params, joints)
         goal_n, weights_n = self._split_params(params)
         goal_err = F.mse_loss(goal_n, self.normalise("goal", batch["goal"]))
         weights_err = F.mse_loss(weights_n, self.normalise("weights", batch["weights"]))
         rest = self.hparams.rest_steps
-        trajectory = self.rollout(joints, goal_n, weights_n, n_steps=self.hparams.n_steps + rest)
         target, ee_target = _hold_last(batch["trajectory"], rest), _hold_last(batch["ee_path"], rest)
+        trajectory = self.rollout(joints, goal_n, weights_n, n_steps=self.hparams.n_steps + rest)
         error = trajectory - target
         if self.hparams.get("normalise_trajectory", False):
             error = error / self.joints_std
@@ -192,6 +296,8 @@ class CNNDMPPolicy(KeypointPolicy):
             out["loss"] = (sq * weights).mean() / weights.mean()
             if self.hparams.ee_weight > 0:
                 out["loss"] = out["loss"] + self.hparams.ee_weight * out["ee_mse"]
+        if placement_mse is not None:  # the map is fixed (fit_params_map): only the perception learns
+            out["placement_mse"] = out["loss"] = placement_mse
         return self.add_aux_losses(out, aux, batch)
 
     def time_weights(self) -> torch.Tensor:
@@ -229,6 +335,27 @@ class CNNDMPPolicy(KeypointPolicy):
         same DMP on past its duration, see :meth:`layer`)."""
         img, q, batched = self._observation(image, joints)
         traj = self.rollout(q, *self.predict_params(img, q), n_steps=n_steps).double().cpu().numpy()
+        return traj if batched else traj[0]
+
+    @torch.inference_mode()
+    def plan_from_placement(self, placement, joints, n_steps: int | None = None) -> np.ndarray:
+        """The plan of the affine map (``placement_dim``) from a known placement ``(p,)`` / ``(B, p)`` m
+        and start joints ``(n,)`` / ``(B, n)``: what :meth:`plan` would give if the network saw the
+        placement exactly (a diagnostic: ``scripts/metaworld_plan_error.py``). Same shapes as :meth:`plan`.
+
+        Raises:
+            ValueError: the policy has no placement map.
+        """
+        if not self.hparams.get("placement_dim", 0):
+            raise ValueError(
+                "CNNDMPPolicy.plan_from_placement: the policy has no placement map (placement_dim=0)"
+            )
+        q = torch.as_tensor(np.asarray(joints), dtype=torch.float32, device=self.device)
+        p = torch.as_tensor(np.asarray(placement), dtype=torch.float32, device=self.device)
+        batched = q.ndim == 2
+        q, p = q.reshape(-1, self.hparams.n_joints), p.reshape(-1, self.hparams.placement_dim)
+        params = self._split_params(self._params_from_placement(self.normalise("placement", p), q))
+        traj = self.rollout(q, *params, n_steps=n_steps).double().cpu().numpy()
         return traj if batched else traj[0]
 
     @torch.inference_mode()

@@ -72,17 +72,24 @@ class KeypointPolicy(VisuomotorPolicy):
         self.bias_input = nn.Parameter(torch.zeros(bias_dim))
         self._colour_tta = False
 
-    def _build(self, output_dim: int, stat_shapes: dict[str, tuple[int, ...]], extra_inputs: int = 0) -> None:
+    def _build(
+        self,
+        output_dim: int,
+        stat_shapes: dict[str, tuple[int, ...]],
+        extra_inputs: int = 0,
+        joints_input: bool = True,
+    ) -> None:
         """Subclasses call this at the end of ``__init__``: the fully connected head with
         ``output_dim`` outputs (and ``extra_inputs`` more inputs besides keypoints, joints
-        and bias, see :meth:`features`), and one persistent (mean, std) buffer pair per
-        statistic."""
+        and bias, see :meth:`features`; without ``joints_input`` the head does not see the
+        joints), and one persistent (mean, std) buffer pair per statistic."""
         hp = self.hparams
         self.output_dim = output_dim
+        self.joints_input = joints_input
         self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
         self.n_heads = 2 if hp.mode_heads else 1
         self.head = mlp(
-            self.encoder.out_dim + hp.n_joints + hp.bias_dim + extra_inputs,
+            self.encoder.out_dim + (hp.n_joints if joints_input else 0) + hp.bias_dim + extra_inputs,
             hp.hidden,
             self.n_heads * output_dim + self.n_aux,
         )
@@ -126,7 +133,9 @@ class KeypointPolicy(VisuomotorPolicy):
             extra = None if extra is None else extra.repeat(len(COLOUR_ORDERS), 1)
         keypoints = self.encoder(image)
         bias = self.bias_input.expand(image.shape[0], -1)
-        parts = [keypoints, self.normalise("joints", joints), bias]
+        parts = (
+            [keypoints, self.normalise("joints", joints), bias] if self.joints_input else [keypoints, bias]
+        )
         if extra is not None:
             parts.append(extra)
         out = self.head(torch.cat(parts, dim=1))
