@@ -46,6 +46,18 @@ TINY_EVAL = (
 )
 
 
+def _script(name: str):
+    """A script of ``scripts/`` as a module."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        name, Path(__file__).resolve().parents[3] / "scripts" / f"{name}.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 @pytest.mark.slow
 def test_train_then_evaluate_through_the_entry_points(compose, tmp_path, capsys):
     from hydra import initialize_config_dir
@@ -70,6 +82,18 @@ def test_train_then_evaluate_through_the_entry_points(compose, tmp_path, capsys)
     assert (data / "manifest.json").is_file() and len(list((data / "episodes").glob("*.npz"))) == 4
     assert json.loads((run / "timing.json").read_text())["global_step"] == 5
     capsys.readouterr()
+
+    # scripts/metaworld_plan_error.py on the same checkpoint and dataset: errors along the plan per split;
+    # the demonstrations' own fitted DMPs are the floor (millimetres), a 5-step policy is far from them
+    plan_error = _script("metaworld_plan_error")
+    assert plan_error.main([str(ckpt), str(data), "--every", "20"]) == 0
+    rows = {tuple(line.split()[:2]): line.split()[2:] for line in capsys.readouterr().out.splitlines()[1:]}
+    assert set(rows) == {("train", "plan"), ("val", "plan"), ("train", "fitted"), ("val", "fitted")}
+    assert all(len(v) == 4 for v in rows.values())  # steps 0, 20, 40, 60 of 80
+    assert max(float(v) for v in rows[("train", "fitted")]) < 1.0  # cm
+    assert max(float(v) for v in rows[("train", "plan")]) > max(float(v) for v in rows[("train", "fitted")])
+    assert plan_error.main([str(tmp_path / "absent.ckpt"), str(data)]) == 2
+    assert "metaworld_plan_error:" in capsys.readouterr().err
 
     out = tmp_path / "evaluation"
     cfg = compose(
