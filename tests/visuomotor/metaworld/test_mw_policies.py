@@ -54,6 +54,29 @@ def _copy_statistics(policy, datamodule) -> None:
             buffer.copy_(datamodule.stats[stat][moment].reshape(buffer.shape))
 
 
+def _small_cnn_dmp(dm, **settings) -> CNNDMPPolicy:
+    """A small CNN -> DMP on the Meta-World settings (the parameters' loss, unit-free trajectories) for
+    ``dm``'s data, seeded, with ``dm``'s statistics in its buffers."""
+    torch.manual_seed(0)
+    policy = CNNDMPPolicy(
+        robot=None,
+        n_joints=4,
+        channels=[8, 8, 16],
+        hidden=[64, 64],
+        bias_dim=4,
+        loss="params",
+        normalise_trajectory=True,
+        ee_weight=0.0,
+        image_size=dm.config.image_size,
+        n_steps=dm.config.n_steps,
+        duration=dm.config.duration,
+        n_basis=dm.config.n_basis,
+        **settings,
+    )
+    _copy_statistics(policy, dm)
+    return policy
+
+
 def _closing_step(gripper: torch.Tensor) -> torch.Tensor:
     """``(B, T)`` gripper commands -> ``(B,)`` the first step above :data:`CLOSING`."""
     return (gripper > CLOSING).float().argmax(dim=-1)
@@ -75,22 +98,7 @@ def test_cnn_dmp_fits_the_gripper_command_and_the_hand_end_point_of_push_demonst
     demo = batch["trajectory"]  # (4, 120, 4): hand xyz (m), gripper command
     assert demo.shape == (4, 120, 4)
     assert torch.all(demo[:, 0, 3] == -1.0) and torch.allclose(demo[:, -1, 3], torch.tensor(0.6))
-    torch.manual_seed(0)
-    policy = CNNDMPPolicy(
-        robot=None,
-        n_joints=4,
-        channels=[8, 8, 16],
-        hidden=[64, 64],
-        bias_dim=4,
-        loss="params",
-        normalise_trajectory=True,
-        ee_weight=0.0,
-        image_size=dm.config.image_size,
-        n_steps=dm.config.n_steps,
-        duration=dm.config.duration,
-        n_basis=dm.config.n_basis,
-    )
-    _copy_statistics(policy, dm)
+    policy = _small_cnn_dmp(dm)
     torch.testing.assert_close(policy.goal_mean, dm.stats["goal"]["mean"])
     with torch.no_grad():  # the demonstrations' own DMPs: what the parameters' loss drives the plan to
         fitted = policy.dmp(batch["joints"], batch["goal"], batch["weights"])
@@ -260,22 +268,7 @@ def test_cnn_dmp_through_the_placement_fits_push_demonstrations_and_sees_only_th
     within 1 cm of the demonstrations' (untrained: about 5 cm and 10 cm)."""
     dm = _datamodule(push, "dmp")
     batch = default_collate([dm.datasets["train"][i] for i in range(len(dm.datasets["train"]))])
-    torch.manual_seed(0)
-    policy = CNNDMPPolicy(
-        robot=None,
-        n_joints=4,
-        channels=[8, 8, 16],
-        hidden=[64, 64],
-        bias_dim=4,
-        loss="params",
-        normalise_trajectory=True,
-        placement_dim=6,
-        image_size=dm.config.image_size,
-        n_steps=dm.config.n_steps,
-        duration=dm.config.duration,
-        n_basis=dm.config.n_basis,
-    )
-    _copy_statistics(policy, dm)
+    policy = _small_cnn_dmp(dm, placement_dim=6)
     policy.fit_params_map(batch["placement"], batch["joints"], batch["goal"], batch["weights"], ridge=1e-3)
     frozen = policy.params_map.weight.clone()
 
