@@ -191,7 +191,8 @@ def test_fitted_dmp_reproduces_the_expert_in_closed_loop(task_name):
 
 
 def test_goal_probe_script(tiny, tmp_path, capsys):
-    """scripts/metaworld_goal_probe.py reports the goal (or the object's) error on both splits, one line for a bad folder."""
+    """scripts/metaworld_goal_probe.py reports the goal (or the object's) error on both splits, one line
+    for a bad folder."""
     import importlib.util
     from pathlib import Path
 
