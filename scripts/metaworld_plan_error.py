@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{data.config.task}: median hand error (cm) every {args.every} steps of {steps}")
     for split in ("train", "val"):
         planned, fitted, mapped = [], [], []
-        through_placement = bool(policy.hparams.get("placement_dim", 0))
+        through_placement = policy.through_placement
         for e in data.split(split):
             states = e.states
             with torch.no_grad():

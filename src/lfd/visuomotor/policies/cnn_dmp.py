@@ -147,9 +147,18 @@ class CNNDMPPolicy(KeypointPolicy):
     def predict_params(self, image: torch.Tensor, joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Normalised DMP goal ``(B, n)`` and weights ``(B, n, K)``."""
         out = self.features(image, joints)
-        if self.hparams.get("placement_dim", 0):
+        if self.through_placement:
             out = self._params_from_placement(out, joints)
         return self._split_params(out)
+
+    @property
+    def through_placement(self) -> bool:
+        """Whether the policy goes through the placement (``placement_dim`` > 0; older checkpoints: no)."""
+        return bool(self.hparams.get("placement_dim", 0))
+
+    def _need_placement_map(self, method: str) -> None:
+        if not self.through_placement:
+            raise ValueError(f"CNNDMPPolicy.{method}: the policy has no placement map (placement_dim=0)")
 
     def _params_from_placement(self, placement_n: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
         """Normalised placement ``(B, p)`` and start joints ``(B, n)`` -> head-like output ``(B, n + n K)``."""
@@ -175,8 +184,7 @@ class CNNDMPPolicy(KeypointPolicy):
         Raises:
             ValueError: the policy has no placement map, or ``ridge`` is not a finite number > 0.
         """
-        if not self.hparams.get("placement_dim", 0):
-            raise ValueError("CNNDMPPolicy.fit_params_map: the policy has no placement map (placement_dim=0)")
+        self._need_placement_map("fit_params_map")
         if not (isinstance(ridge, (int, float)) and np.isfinite(ridge) and ridge > 0):
             raise ValueError(f"CNNDMPPolicy.fit_params_map: ridge must be a finite number > 0, got {ridge!r}")
         with torch.no_grad():
@@ -199,7 +207,7 @@ class CNNDMPPolicy(KeypointPolicy):
         """The harness's ``setup`` and, at ``fit`` with ``placement_dim``, :meth:`fit_params_map` on
         the datamodule's training items."""
         super().setup(stage)
-        if stage != "fit" or not self.hparams.get("placement_dim", 0):
+        if stage != "fit" or not self.through_placement:
             return
         train = getattr(self.trainer.datamodule, "datasets", {}).get("train")
         if train is None or len(train) == 0 or "placement" not in train[0]:
@@ -266,7 +274,7 @@ class CNNDMPPolicy(KeypointPolicy):
         joints = batch["joints"]
         params, aux = self.head_outputs(batch["image"], joints, top=batch.get("top"))
         placement_mse = None
-        if self.hparams.get("placement_dim", 0):
+        if self.through_placement:
             placement_mse = F.mse_loss(params, self._placement_target(batch))
             params = self._params_from_placement(params, joints)
         goal_n, weights_n = self._split_params(params)
@@ -346,10 +354,7 @@ class CNNDMPPolicy(KeypointPolicy):
         Raises:
             ValueError: the policy has no placement map.
         """
-        if not self.hparams.get("placement_dim", 0):
-            raise ValueError(
-                "CNNDMPPolicy.plan_from_placement: the policy has no placement map (placement_dim=0)"
-            )
+        self._need_placement_map("plan_from_placement")
         q = torch.as_tensor(np.asarray(joints), dtype=torch.float32, device=self.device)
         p = torch.as_tensor(np.asarray(placement), dtype=torch.float32, device=self.device)
         batched = q.ndim == 2
