@@ -328,3 +328,94 @@ def test_placement_settings_and_batches_are_checked_in_one_line(push):
     del batch["placement"]
     with pytest.raises(ValueError, match=r"got none$"):
         policy.losses(batch)
+
+
+# ---------------------------------------------------------------------------- background subtraction
+def test_datamodule_background_is_the_median_first_image_of_the_training_episodes(push):
+    dm = _datamodule(push, "dmp")
+    first = np.stack([e.frames[0] for e in dm.data.split("train")]).astype(np.float64) / 255
+    background = dm.background
+    assert background.shape == (3, PUSH["image_size"], PUSH["image_size"])
+    np.testing.assert_allclose(background.numpy(), np.median(first, axis=0).transpose(2, 0, 1), atol=1e-6)
+    # the episodes differ where the puck and the goal are: not every first image is the median
+    assert max(np.abs(f.transpose(2, 0, 1) - background.numpy()).max() for f in first) > 0.2
+
+
+@pytest.mark.parametrize("kind", list(POLICIES))
+def test_every_policy_subtracting_the_background_sees_the_difference_and_keeps_it(
+    compose, push, tmp_path, kind
+):
+    """``model.subtract_background=true``: one training step copies the datamodule's background into
+    the policy; its outputs on an image equal those of the same weights without the option on
+    ``0.5 + 2 (image - background)`` (what its encoder sees), and not those on the raw image; the
+    background comes back from the saved checkpoint."""
+    from lfd.visuomotor.policies.factory import load_policy
+
+    cfg = _composed(compose, push, kind, "model.subtract_background=true")
+    datamodule, policy = train.instantiate_data_and_model(cfg)
+    trainer = L.Trainer(
+        accelerator="cpu",
+        max_steps=1,
+        limit_val_batches=0,
+        logger=False,
+        enable_checkpointing=False,
+        enable_progress_bar=False,
+        enable_model_summary=False,
+    )
+    trainer.fit(policy, datamodule=datamodule)
+    torch.testing.assert_close(policy.background, datamodule.background)
+
+    plain = type(policy)(**{**policy.hparams, "subtract_background": False})
+    state = {k: v for k, v in policy.state_dict().items() if k != "background"}
+    plain.load_state_dict(state)
+    policy.eval(), plain.eval()
+    batch = default_collate([datamodule.datasets["val"][0]])
+    image, joints = batch["image"], batch["joints"]
+    seen = (0.5 + 2 * (image - datamodule.background)).clamp(0, 1)
+    with torch.no_grad():
+        torch.testing.assert_close(policy.scene_image(image), seen)
+        features = _encoder_features(policy, image, joints)
+        torch.testing.assert_close(features, _encoder_features(plain, seen, joints))
+        assert not torch.allclose(features, _encoder_features(plain, image, joints))
+
+    ckpt = tmp_path / "policy.ckpt"
+    trainer.save_checkpoint(ckpt)
+    torch.testing.assert_close(load_policy(ckpt).background, datamodule.background)
+
+
+def _encoder_features(policy, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
+    """What each kind computes from the image first: the keypoint head's raw output, ACT's decoded
+    chunk at latent 0, Diffusion Policy's global condition."""
+    if isinstance(policy, KeypointPolicy):
+        extra = torch.zeros(1, 1) if policy.hparams.get("phase_input") else None
+        return policy._head_raw(image, joints, extra)
+    if hasattr(policy, "decode"):
+        return policy.decode(
+            image, policy.normalise("joints", joints), torch.zeros(1, policy.hparams.latent_dim)
+        )
+    return policy.condition(image, joints)
+
+
+def test_background_settings_are_checked_in_one_line():
+    common = dict(robot=None, n_joints=4, channels=[4], hidden=[8], image_size=32, n_steps=120, duration=1.5)
+    with pytest.raises(ValueError, match=r"^CNNDMPPolicy.subtract_background: expected true or false"):
+        CNNDMPPolicy(subtract_background="yes", **common)
+    with pytest.raises(ValueError, match=r"^CNNDMPPolicy.subtract_background: not with colour_augment"):
+        CNNDMPPolicy(subtract_background=True, colour_augment=True, **common)
+    policy = CNNDMPPolicy(subtract_background=True, **common)
+
+    class NoBackground:
+        pass
+
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy.subtract_background: the datamodule NoBackground has no"
+    ):
+        policy._copy_background(NoBackground())
+
+    class SmallBackground:
+        background = torch.zeros(3, 16, 16)
+
+    with pytest.raises(
+        ValueError, match=r"background has shape \(3, 16, 16\), the policy takes images of \(3, 32, 32\)"
+    ):
+        policy._copy_background(SmallBackground())

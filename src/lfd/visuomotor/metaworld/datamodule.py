@@ -283,6 +283,16 @@ class MetaWorldDataModule(L.LightningDataModule):
         }
         return out
 
+    @property
+    def background(self) -> torch.Tensor:
+        """The per-pixel median of the training episodes' first images ``(3, H, W)`` in [0, 1]:
+        the fixed camera's scene without what each episode placed (policies'
+        ``subtract_background``)."""
+        if self.data is None:
+            raise RuntimeError("MetaWorldDataModule.background: call setup() first")
+        first = np.stack([e.frames[0] for e in self.data.split("train")])
+        return _image(torch.from_numpy(np.median(first, axis=0)))
+
     def fingerprint(self) -> dict:
         if self.data is None:
             raise RuntimeError("MetaWorldDataModule.fingerprint: call setup() first")

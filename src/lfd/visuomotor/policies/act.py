@@ -150,7 +150,7 @@ class ACTPolicy(ChunkPolicy):
     def decode(self, image: torch.Tensor, joints_n: torch.Tensor, z: torch.Tensor) -> torch.Tensor:
         """Images ``(B, C, H, W)``, normalised joints ``(B, n)``, latent ``(B, latent_dim)`` ->
         normalised chunk ``(B, k, n)``."""
-        features = self.backbone(image)
+        features = self.backbone(self.scene_image(image))
         g = self.hparams.max_grid
         if features.shape[-2] > g or features.shape[-1] > g:
             features = F.adaptive_avg_pool2d(

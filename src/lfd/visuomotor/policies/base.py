@@ -97,6 +97,12 @@ class VisuomotorPolicy(L.LightningModule):
             times a random factor in that range (log-uniform;
             :func:`~lfd.visuomotor.policies.vision.scale_foreground_brightness`), or None. Needs
             ``depth`` (the depth channel tells the object from the table).
+        subtract_background: the encoders see ``0.5 + 2 (image - background)`` clipped to
+            [0, 1] instead of the image, where ``background`` ``(C, H, W)`` is the per-pixel
+            median of the training episodes' first images (a fixed camera's empty scene: what
+            differs from it is what the episode placed), filled at ``setup("fit")`` from the
+            datamodule's ``background`` and stored in the checkpoint. Not with the colour or
+            brightness augmentation (they change the image, not the background).
         plot_every_n_val: a validation sample plot goes to TensorBoard at every this many
             validation runs (0: never).
         kind: when given (from a checkpoint), must equal the class's :attr:`kind` (checked
@@ -199,6 +205,7 @@ class VisuomotorPolicy(L.LightningModule):
         plot_every_n_val: int = 5,
         colour_augment: bool = False,
         brightness_augment: tuple[float, float] | list[float] | None = None,
+        subtract_background: bool = False,
         kind: str | None = None,
         **unknown,
     ) -> None:
@@ -225,6 +232,15 @@ class VisuomotorPolicy(L.LightningModule):
         if depth_encoding != "range" and not depth:
             raise ValueError(f"{type(self).__name__}.depth_encoding: {depth_encoding!r} needs depth=true")
         brightness_augment = brightness_range(brightness_augment, depth, type(self).__name__)
+        if not isinstance(subtract_background, bool):
+            raise ValueError(
+                f"{type(self).__name__}.subtract_background: expected true or false, got {subtract_background!r}"
+            )
+        if subtract_background and (colour_augment or brightness_augment):
+            raise ValueError(
+                f"{type(self).__name__}.subtract_background: not with colour_augment or brightness_augment "
+                "(they change the image and not its background)"
+            )
         self.save_hyperparameters()
         self.hparams["kind"] = self.kind
         if not isinstance(depth, bool):
@@ -232,6 +248,15 @@ class VisuomotorPolicy(L.LightningModule):
         self.stat_names: tuple[str, ...] = ()
         self._robot = None
         self._val_runs = 0
+        if subtract_background:
+            self.register_buffer("background", torch.zeros(self.input_channels, image_size, image_size))
+
+    def scene_image(self, image: torch.Tensor) -> torch.Tensor:
+        """What the encoders see of images ``(B, C, H, W)`` in [0, 1]: the images, or with
+        ``subtract_background`` their difference from the background (same shape, in [0, 1])."""
+        if not self.hparams.get("subtract_background", False):
+            return image
+        return (0.5 + 2.0 * (image - self.background)).clamp(0.0, 1.0)
 
     @property
     def input_channels(self) -> int:
@@ -387,11 +412,28 @@ class VisuomotorPolicy(L.LightningModule):
                 f"the datamodule serves depth_encoding={served!r}"
             )
         self.dataset_fingerprint = dm.fingerprint() if generated else None
+        if self.hparams.get("subtract_background", False):
+            self._copy_background(dm)
         stats = dm.stats
         for stat in self.stat_names:
             for moment in ("mean", "std"):
                 buffer = getattr(self, f"{stat}_{moment}")
                 buffer.copy_(torch.as_tensor(stats[stat][moment], dtype=buffer.dtype).reshape(buffer.shape))
+
+    def _copy_background(self, dm) -> None:
+        background = getattr(dm, "background", None)
+        if background is None:
+            raise ValueError(
+                f"{type(self).__name__}.subtract_background: the datamodule {type(dm).__name__} has no "
+                "background image (Meta-World's has)"
+            )
+        background = torch.as_tensor(background, dtype=self.background.dtype)
+        if background.shape != self.background.shape:
+            raise ValueError(
+                f"{type(self).__name__}.subtract_background: the datamodule's background has shape "
+                f"{tuple(background.shape)}, the policy takes images of {tuple(self.background.shape)}"
+            )
+        self.background.copy_(background)
 
     def perturbation(self, joints: torch.Tensor) -> torch.Tensor:
         """Noise ``(B, n)`` rad for the training joints: ``N(0, state_noise^2)`` (velocity CNN, ACT,

@@ -120,7 +120,7 @@ class DiffusionPolicy(ChunkPolicy):
 
     def condition(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
         """Global condition ``(B, image_feature_dim + n)``: image features and normalised joints."""
-        feats = self.image_features(self.keypoints(self.backbone(image)))
+        feats = self.image_features(self.keypoints(self.backbone(self.scene_image(image))))
         return torch.cat([feats, self.normalise("joints", joints)], dim=-1)
 
     def predict_chunk(self, image: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:

@@ -126,6 +126,7 @@ class KeypointPolicy(VisuomotorPolicy):
         """Raw head output ``(B, n_heads * output_dim + n_aux)``; with :attr:`colour_tta`
         (outside training) the mean over the 6 orders of the RGB channels."""
         tta = self.colour_tta and not self.training
+        image = self.scene_image(image)
         b = image.shape[0]
         if tta:
             image = all_colour_orders(image)
