@@ -419,3 +419,99 @@ def test_background_settings_are_checked_in_one_line():
         ValueError, match=r"background has shape \(3, 16, 16\), the policy takes images of \(3, 32, 32\)"
     ):
         policy._copy_background(SmallBackground())
+
+
+# ---------------------------------------------------------------------------- the placement map's kernel correction
+def _synthetic_parameters(policy, placement: torch.Tensor, bend: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """DMP goals ``(E, 4)`` and weights ``(E, 4, K)`` that are an affine function of the normalised
+    placement's first two entries plus ``bend`` times a smooth non-affine one (a bump around the
+    middle of the placements)."""
+    x = policy.normalise("placement", placement)[:, :2]
+    n, k = policy.hparams.n_joints, policy.hparams.n_basis
+    gen = torch.Generator().manual_seed(3)
+    a = torch.randn(2, n + n * k, generator=gen)
+    b = torch.randn(1, n + n * k, generator=gen)
+    y = x @ a + bend * torch.exp(-(x**2).sum(1, keepdim=True) / 4) * b
+    goal = policy.denormalise("goal", y[:, :n])
+    weights = policy.denormalise("weights", y[:, n:].reshape(-1, n, k))
+    return goal, weights
+
+
+def _map_error(policy, placement, joints, goal, weights) -> float:
+    """Largest error of the map's normalised parameters against the given ones."""
+    with torch.no_grad():
+        out = policy._params_from_placement(policy.normalise("placement", placement), joints)
+    target = torch.cat([policy.normalise("goal", goal), policy.normalise("weights", weights).flatten(1)], 1)
+    return float((out - target).abs().max())
+
+
+def test_kernel_correction_follows_what_is_not_affine_in_the_placement(push):
+    """On placements whose DMP parameters bend away from an affine function, the map with its kernel
+    correction (the default ``map_kernel_scale``) predicts held-out placements at least 2 times closer
+    than the affine map alone; where they are affine, the correction stays below 0.02 (their spread is 1)."""
+    dm = _datamodule(push, "dmp")
+    mean, std = dm.stats["placement"]["mean"], dm.stats["placement"]["std"]
+    gen = torch.Generator().manual_seed(0)
+    spread = 2 * torch.rand(80, 6, generator=gen) - 1
+    spread[:, 2:] = 0  # the puck's x and y vary, uniformly over +-1.7 std; the rest stays
+    placement = (mean + std * spread * 1.7).float()
+    joints = dm.datasets["train"][0]["joints"].expand(80, -1)
+    fit, held = slice(0, 50), slice(50, 80)
+    errors = {}
+    for scale in (2.0, 0.0):
+        policy = _small_cnn_dmp(dm, placement_dim=6, map_kernel_scale=scale)
+        goal, weights = _synthetic_parameters(policy, placement, bend=1.0)
+        policy.fit_params_map(placement[fit], joints[fit], goal[fit], weights[fit])
+        assert policy.map_centres.shape == ((50, 10) if scale else (0, 10))
+        errors[scale] = _map_error(policy, placement[held], joints[held], goal[held], weights[held])
+    assert errors[2.0] < errors[0.0] / 2, errors
+
+    policy = _small_cnn_dmp(dm, placement_dim=6)
+    goal, weights = _synthetic_parameters(policy, placement, bend=0.0)
+    policy.fit_params_map(placement[fit], joints[fit], goal[fit], weights[fit], ridge=1e-6)
+    with torch.no_grad():
+        x = torch.cat(
+            [policy.normalise("placement", placement[held]), policy.normalise("joints", joints[held])], 1
+        )
+        correction = policy._kernel(x, policy.map_centres) @ policy.map_coefficients
+    assert float(correction.abs().max()) < 0.02
+
+
+def test_kernel_correction_is_kept_in_the_checkpoint_and_older_ones_load_affine(push, tmp_path):
+    from lfd.training import CheckpointError
+    from lfd.visuomotor.policies.factory import load_policy
+
+    dm = _datamodule(push, "dmp")
+    batch = default_collate([dm.datasets["train"][i] for i in range(len(dm.datasets["train"]))])
+    policy = _small_cnn_dmp(dm, placement_dim=6)
+    policy.fit_params_map(batch["placement"], batch["joints"], batch["goal"], batch["weights"])
+    assert policy.map_centres.shape == (4, 10) and float(policy.map_coefficients.abs().max()) > 0
+    path = tmp_path / "kernel.ckpt"
+    hp = dict(policy.hparams)
+    torch.save({"state_dict": policy.state_dict(), "hyper_parameters": hp}, path)
+    loaded = load_policy(path)
+    args = (batch["placement"].numpy(), batch["joints"].numpy())
+    np.testing.assert_allclose(
+        loaded.plan_from_placement(*args), policy.plan_from_placement(*args), atol=1e-6
+    )
+
+    # a checkpoint of the previous release: no correction, no length scale: the affine map alone
+    state = {k: v for k, v in policy.state_dict().items() if not k.startswith("map_")}
+    older = {k: v for k, v in hp.items() if k != "map_kernel_scale"}
+    torch.save({"state_dict": state, "hyper_parameters": older}, tmp_path / "older.ckpt")
+    affine = load_policy(tmp_path / "older.ckpt")
+    assert affine.map_centres.shape == (0, 10)
+    policy.map_centres, policy.map_coefficients = policy.map_centres[:0], policy.map_coefficients[:0]
+    np.testing.assert_allclose(
+        affine.plan_from_placement(*args), policy.plan_from_placement(*args), atol=1e-6
+    )
+
+    bad = dict(policy.state_dict(), map_centres=torch.zeros(4, 3))
+    torch.save({"state_dict": bad, "hyper_parameters": hp}, tmp_path / "bad.ckpt")
+    with pytest.raises(CheckpointError, match=r"map_centres is \(4, 3\), expected \(E, 10\)"):
+        load_policy(tmp_path / "bad.ckpt")
+    for scale in (-1.0, float("nan"), True, "2"):
+        with pytest.raises(
+            ValueError, match=r"^CNNDMPPolicy.map_kernel_scale: expected a finite number >= 0"
+        ):
+            _small_cnn_dmp(dm, placement_dim=6, map_kernel_scale=scale)

@@ -38,6 +38,11 @@ from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.plots import joint_figure
 
 LOSSES = ("trajectory", "params")
+#: Penalty of the kernel ridge regression of the placement map's correction (``map_kernel_scale``),
+#: in the normalised parameters' units (chosen with the length scale on validation placements).
+KERNEL_RIDGE = 0.1
+#: Most training demonstrations a checkpoint's kernel correction may hold (a bound on what loading allocates).
+MAX_MAP_CENTRES = 100_000
 
 
 @dataclass(frozen=True)
@@ -89,6 +94,12 @@ class CNNDMPPolicy(KeypointPolicy):
             (:meth:`fit_params_map`, at ``setup("fit")``) and stays fixed; training minimises the
             placement's mean squared error (``placement_mse``; ``loss`` is then not used) and the
             other metrics are those of the predicted placement (what runs).
+        map_kernel_scale: with ``placement_dim``, the length scale (in the normalised
+            ``[placement, start joints]``'s units) of a Gaussian-kernel correction added to the
+            affine map: the kernel ridge regression (penalty :data:`KERNEL_RIDGE`) of the affine
+            map's residuals on the training demonstrations, so that the map also follows what
+            is not affine in the placement (e.g. when the expert reaches a hole later for a far
+            box); 0: the affine map alone. Default 2.0 (chosen on validation placements).
         normalise_trajectory: compare trajectories in units of each state dimension's train-split
             standard deviation (the ``joints`` statistics) instead of raw units (rad^2). For states
             with small ranges in their units (Meta-World's hand in metres, a few cm of spread) the
@@ -114,6 +125,7 @@ class CNNDMPPolicy(KeypointPolicy):
         rest_steps: int = 50,
         normalise_trajectory: bool = False,
         placement_dim: int = 0,
+        map_kernel_scale: float = 2.0,
         n_basis: int = 20,
         alpha_z: float = 25.0,
         **common,
@@ -121,6 +133,14 @@ class CNNDMPPolicy(KeypointPolicy):
         check_sizes("CNNDMPPolicy", n_basis=n_basis)
         if isinstance(placement_dim, bool) or not isinstance(placement_dim, int) or placement_dim < 0:
             raise ValueError(f"CNNDMPPolicy.placement_dim: expected an integer >= 0, got {placement_dim!r}")
+        if isinstance(map_kernel_scale, bool) or not (
+            isinstance(map_kernel_scale, (int, float))
+            and np.isfinite(map_kernel_scale)
+            and map_kernel_scale >= 0
+        ):
+            raise ValueError(
+                f"CNNDMPPolicy.map_kernel_scale: expected a finite number >= 0, got {map_kernel_scale!r}"
+            )
         super().__init__(**common)
         if loss not in LOSSES:
             raise ValueError(f"CNNDMPPolicy.loss: expected one of {LOSSES}, got {loss!r}")
@@ -138,6 +158,10 @@ class CNNDMPPolicy(KeypointPolicy):
         stats = {"joints": (n,), "goal": (n,), "weights": (n, n_basis)}
         if placement_dim:
             self.params_map = nn.Linear(placement_dim + n, n + n * n_basis)  # set by fit_params_map
+            # the kernel correction: centres (E, p + n) and coefficients (E, n + n K), E = the number
+            # of training demonstrations (none until fit_params_map; sized from a checkpoint on load)
+            self.register_buffer("map_centres", torch.zeros(0, placement_dim + n))
+            self.register_buffer("map_coefficients", torch.zeros(0, n + n * n_basis))
             # the placement is the scene's: from the image alone (the start state would let the
             # head tell training episodes apart instead of looking at the objects)
             self._build(placement_dim, {**stats, "placement": (placement_dim,)}, joints_input=False)
@@ -162,7 +186,47 @@ class CNNDMPPolicy(KeypointPolicy):
 
     def _params_from_placement(self, placement_n: torch.Tensor, joints: torch.Tensor) -> torch.Tensor:
         """Normalised placement ``(B, p)`` and start joints ``(B, n)`` -> head-like output ``(B, n + n K)``."""
-        return self.params_map(torch.cat([placement_n, self.normalise("joints", joints)], dim=1))
+        x = torch.cat([placement_n, self.normalise("joints", joints)], dim=1)
+        out = self.params_map(x)
+        if self.map_centres.shape[0]:
+            out = out + self._kernel(x, self.map_centres) @ self.map_coefficients
+        return out
+
+    def _kernel(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+        """Gaussian kernel ``(A, B)`` of the map's inputs ``(A, d)`` and ``(B, d)``."""
+        scale = float(self.hparams.get("map_kernel_scale", 0.0))
+        return torch.exp(-torch.cdist(a, b.to(a.dtype)).square() / (2.0 * scale**2))
+
+    def on_load_checkpoint(self, checkpoint: dict) -> None:
+        """The harness's hook; then sizes the map's kernel correction to the checkpoint's number of
+        training demonstrations (a checkpoint without one, of an earlier release, gets none: the
+        affine map alone).
+
+        Raises:
+            ValueError: the checkpoint's correction does not fit the map's inputs and outputs.
+        """
+        super().on_load_checkpoint(checkpoint)
+        state = checkpoint.get("state_dict")
+        if not self.through_placement or not isinstance(state, dict):
+            return
+        for name in ("map_centres", "map_coefficients"):
+            own = self._buffers[name]
+            saved = state.setdefault(name, own)
+            if (
+                not isinstance(saved, torch.Tensor)
+                or saved.ndim != 2
+                or saved.shape[1] != own.shape[1]
+                or saved.shape[0] > MAX_MAP_CENTRES
+            ):
+                got = tuple(saved.shape) if isinstance(saved, torch.Tensor) else type(saved).__name__
+                raise ValueError(
+                    f"CNNDMPPolicy: the checkpoint's {name} is {got}, expected (E, {own.shape[1]})"
+                )
+            self._buffers[name] = torch.zeros(saved.shape, dtype=own.dtype, device=own.device)
+        if state["map_centres"].shape[0] != state["map_coefficients"].shape[0]:
+            raise ValueError(
+                "CNNDMPPolicy: the checkpoint's map_centres and map_coefficients differ in length"
+            )
 
     def fit_params_map(
         self,
@@ -174,7 +238,8 @@ class CNNDMPPolicy(KeypointPolicy):
     ) -> None:
         """Set the affine map of ``placement_dim`` to the ridge regression of the demonstrations'
         normalised DMP parameters on their normalised placements and start states (the training
-        split's statistics must be in the buffers), and freeze it.
+        split's statistics must be in the buffers) and, with ``map_kernel_scale``, its kernel
+        correction to the kernel ridge regression of the affine map's residuals; freeze both.
 
         Args:
             placement: ``(E, placement_dim)`` m; joints: ``(E, n)`` start states; goal: ``(E, n)``;
@@ -201,6 +266,16 @@ class CNNDMPPolicy(KeypointPolicy):
             )
             self.params_map.weight.copy_(a.T)
             self.params_map.bias.copy_(y_mean - x_mean @ a)
+            centres, coefficients = x[:0], y[:0]
+            if self.hparams.get("map_kernel_scale", 0.0) > 0:
+                residual = y - (x @ a + (y_mean - x_mean @ a))
+                k = self._kernel(x, x)
+                coefficients = torch.linalg.solve(
+                    k + KERNEL_RIDGE * torch.eye(len(k), dtype=k.dtype), residual
+                )
+                centres = x
+            self.map_centres = centres.to(self.params_map.weight)
+            self.map_coefficients = coefficients.to(self.params_map.weight)
         self.params_map.requires_grad_(False)
 
     def setup(self, stage: str) -> None:
@@ -347,7 +422,7 @@ class CNNDMPPolicy(KeypointPolicy):
 
     @torch.inference_mode()
     def plan_from_placement(self, placement, joints, n_steps: int | None = None) -> np.ndarray:
-        """The plan of the affine map (``placement_dim``) from a known placement ``(p,)`` / ``(B, p)`` m
+        """The plan of the placement map (``placement_dim``) from a known placement ``(p,)`` / ``(B, p)`` m
         and start joints ``(n,)`` / ``(B, n)``: what :meth:`plan` would give if the network saw the
         placement exactly (a diagnostic: ``scripts/metaworld_plan_error.py``). Same shapes as :meth:`plan`.
 
