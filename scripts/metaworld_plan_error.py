@@ -9,7 +9,12 @@ placement ("map": what the policy would do if it saw the placement exactly).
 A plan that ends where the demonstration does but misses it half-way has found the goal and not
 the object it must grasp on the way.
 
-    python scripts/metaworld_plan_error.py outputs/.../checkpoints/last.ckpt data/metaworld_push-v3_n50_s42
+With ``--rollouts N`` it also runs the first N validation placements of the task in closed loop
+(planned once, as ``eval.dmp_replan_every=null``) and prints the successes of the plan from the
+image and, for a policy with ``placement_dim``, of the map's plan from the episode's *true*
+placement: whether the misses come from what the network sees or from the map.
+
+    python scripts/metaworld_plan_error.py outputs/.../last.ckpt data/metaworld_push-v3_n50_s42 [--rollouts 30]
 """
 
 from __future__ import annotations
@@ -27,6 +32,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("checkpoint", type=Path, help="a CNN -> DMP checkpoint trained on Meta-World")
     parser.add_argument("dataset", type=Path, help="the Meta-World demonstration dataset folder")
     parser.add_argument("--every", type=int, default=10, help="steps between two printed errors")
+    parser.add_argument("--rollouts", type=int, default=0, help="closed-loop validation episodes (0: none)")
+    parser.add_argument("--horizon", type=int, default=200, help="control steps per closed-loop episode")
     args = parser.parse_args(argv)
 
     from lfd.io.files import DatasetError
@@ -75,7 +82,57 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             row = 100 * np.median(np.stack(err), axis=0)[:: args.every]
             print(f"{split:5s} {name:6s} " + " ".join(f"{v:4.1f}" for v in row), flush=True)
+    if args.rollouts > 0:
+        rollouts(policy, data.config, args.rollouts, args.horizon)
     return 0
+
+
+class _TruePlacement:
+    """The policy's map planning from a known placement (``plan`` as :class:`PlanController` calls it)."""
+
+    def __init__(self, policy, placement: np.ndarray) -> None:
+        self.policy, self.placement = policy, placement
+        self.input_channels, self.depth_encoding = policy.input_channels, policy.depth_encoding
+
+    def plan(self, image, joints, n_steps: int | None = None) -> np.ndarray:
+        return self.policy.plan_from_placement(self.placement, joints, n_steps=n_steps)
+
+
+def rollouts(policy, config, n: int, horizon: int) -> None:
+    """Successes of the image's plan and (with ``placement_dim``) the true placement's plan on the
+    first ``n`` validation placements of ``config.task``, ``horizon`` control steps each."""
+    from lfd.metaworld.env import MetaWorldTask, placement_seed
+    from lfd.visuomotor.metaworld.datamodule import PLACEMENT_SIZE
+    from lfd.visuomotor.policies.control import PlanController
+    from lfd.visuomotor.protocols import Observation
+
+    modes = ("image", "true placement") if policy.through_placement else ("image",)
+    wins = dict.fromkeys(modes, 0)
+    with MetaWorldTask(
+        config.task, image_size=config.image_size, camera=config.camera, fovy=config.camera_fovy
+    ) as task:
+        for i in range(n):
+            for mode in modes:
+                state = task.reset(placement_seed(config.seed, "val", i))
+                planner = policy
+                if mode != "image":
+                    true = np.asarray(task.placement, dtype=np.float64).ravel()
+                    planner = _TruePlacement(policy, np.pad(true, (0, PLACEMENT_SIZE - true.size)))
+                controller = PlanController(planner, task.control_dt)
+                controller.start(horizon)
+                for step in range(horizon):
+                    image = task.render() if controller.needs_image else None
+                    obs = Observation(image=image, joints=state.copy(), time=step * task.control_dt)
+                    target, _ = controller.command(obs, step, [])
+                    if task.step_to(np.asarray(target, dtype=np.float64)):
+                        wins[mode] += 1
+                        break
+                    state = task.state()
+    print(
+        f"{config.task}: closed-loop successes on {n} validation placements (planned once): "
+        + ", ".join(f"{mode} {k} / {n}" for mode, k in wins.items()),
+        flush=True,
+    )
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -92,6 +93,12 @@ def test_train_then_evaluate_through_the_entry_points(compose, tmp_path, capsys)
     assert all(len(v) == 4 for v in rows.values())  # steps 0, 20, 40, 60 of 80
     assert max(float(v) for v in rows[("train", "fitted")]) < 1.0  # cm
     assert max(float(v) for v in rows[("train", "plan")]) > max(float(v) for v in rows[("train", "fitted")])
+    # --rollouts: the plan from the image in closed loop on validation placements (no placement map here)
+    assert plan_error.main([str(ckpt), str(data), "--rollouts", "2", "--horizon", "20"]) == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert re.fullmatch(
+        r"reach-v3: closed-loop successes on 2 validation placements \(planned once\): image [0-2] / 2", last
+    )
     assert plan_error.main([str(tmp_path / "absent.ckpt"), str(data)]) == 2
     assert "metaworld_plan_error:" in capsys.readouterr().err
 
