@@ -209,6 +209,8 @@ class CNNDMPPolicy(KeypointPolicy):
         state = checkpoint.get("state_dict")
         if not self.through_placement or not isinstance(state, dict):
             return
+        if "map_kernel_scale" not in checkpoint.get("hyper_parameters", {}):
+            self.hparams["map_kernel_scale"] = 0.0  # an earlier release's: the affine map alone
         for name in ("map_centres", "map_coefficients"):
             own = self._buffers[name]
             saved = state.setdefault(name, own)
@@ -220,7 +222,8 @@ class CNNDMPPolicy(KeypointPolicy):
             ):
                 got = tuple(saved.shape) if isinstance(saved, torch.Tensor) else type(saved).__name__
                 raise ValueError(
-                    f"CNNDMPPolicy: the checkpoint's {name} is {got}, expected (E, {own.shape[1]})"
+                    f"CNNDMPPolicy: the checkpoint's {name} is {got}, "
+                    f"expected (E, {own.shape[1]}) with E <= {MAX_MAP_CENTRES}"
                 )
             self._buffers[name] = torch.zeros(saved.shape, dtype=own.dtype, device=own.device)
         if state["map_centres"].shape[0] != state["map_coefficients"].shape[0]:
