@@ -102,7 +102,7 @@ def rollouts(policy, config, n: int, horizon: int) -> None:
     """Successes of the image's plan and (with ``placement_dim``) the true placement's plan on the
     first ``n`` validation placements of ``config.task``, ``horizon`` control steps each."""
     from lfd.metaworld.env import MetaWorldTask, placement_seed
-    from lfd.visuomotor.metaworld.datamodule import PLACEMENT_SIZE
+    from lfd.visuomotor.metaworld.datamodule import padded_placement
     from lfd.visuomotor.policies.control import PlanController
     from lfd.visuomotor.protocols import Observation
 
@@ -116,8 +116,7 @@ def rollouts(policy, config, n: int, horizon: int) -> None:
                 state = task.reset(placement_seed(config.seed, "val", i))
                 planner = policy
                 if mode != "image":
-                    true = np.asarray(task.placement, dtype=np.float64).ravel()
-                    planner = _TruePlacement(policy, np.pad(true, (0, PLACEMENT_SIZE - true.size)))
+                    planner = _TruePlacement(policy, padded_placement(task.placement))
                 controller = PlanController(planner, task.control_dt)
                 controller.start(horizon)
                 for step in range(horizon):

@@ -44,20 +44,27 @@ PLACEMENT_SIZE = 6
 MIN_PLACEMENT_STD = 0.01
 
 
+def padded_placement(placement, where: str = "the placement") -> np.ndarray:
+    """``(PLACEMENT_SIZE,)`` m: a task's placement vector (e.g. ``MetaWorldTask.placement``), zero-padded.
+
+    Raises:
+        ValueError: a placement longer than :data:`PLACEMENT_SIZE` (one line naming ``where``).
+    """
+    p = np.asarray(placement, dtype=np.float64).ravel()
+    if p.size > PLACEMENT_SIZE:
+        raise ValueError(f"placement: at most {PLACEMENT_SIZE} entries expected, {where} has {p.size}")
+    return np.pad(p, (0, PLACEMENT_SIZE - p.size))
+
+
 def placements(eps) -> np.ndarray:
-    """``(E, PLACEMENT_SIZE)`` m: the episodes' placements, zero-padded.
+    """``(E, PLACEMENT_SIZE)`` m: the episodes' placements, zero-padded (:func:`padded_placement`).
 
     Raises:
         ValueError: a placement longer than :data:`PLACEMENT_SIZE`.
     """
     out = np.zeros((len(eps), PLACEMENT_SIZE))
     for i, e in enumerate(eps):
-        p = np.asarray(e.arrays["placement"], dtype=np.float64).ravel()
-        if p.size > PLACEMENT_SIZE:
-            raise ValueError(
-                f"placement: at most {PLACEMENT_SIZE} entries expected, episode {e.index} has {p.size}"
-            )
-        out[i, : p.size] = p
+        out[i] = padded_placement(e.arrays["placement"], f"episode {e.index}")
     return out
 
 
