@@ -176,6 +176,18 @@ def test_metaworld_experiment_specialises_each_policy(compose):
     assert (act.backbone, act.d_model) == ("trunk", 64)  # the quick experiment's CPU-sized ACT
 
 
+def _quiet_trainer(**settings) -> L.Trainer:
+    """A CPU Lightning trainer without logger, checkpoints, progress bar or summary, with ``settings``."""
+    return L.Trainer(
+        accelerator="cpu",
+        logger=False,
+        enable_checkpointing=False,
+        enable_progress_bar=False,
+        enable_model_summary=False,
+        **settings,
+    )
+
+
 @pytest.mark.parametrize("kind", list(POLICIES))
 def test_every_policy_trains_on_metaworld_items_and_runs_closed_loop(compose, push, tmp_path, kind):
     """Two optimiser steps and one validation batch on the items of the policy's ``item_mode``; then
@@ -191,17 +203,12 @@ def test_every_policy_trains_on_metaworld_items_and_runs_closed_loop(compose, pu
     assert hp.duration == pytest.approx(119 * 0.0125)
     assert policy.training_run["data"]["task"] == "push-v3"
     torch.manual_seed(0)
-    trainer = L.Trainer(
-        accelerator="cpu",
+    trainer = _quiet_trainer(
         max_steps=2,
         val_check_interval=2,
         check_val_every_n_epoch=None,
         limit_val_batches=1,
         num_sanity_val_steps=0,
-        logger=False,
-        enable_checkpointing=False,
-        enable_progress_bar=False,
-        enable_model_summary=False,
     )
     trainer.fit(policy, datamodule=datamodule)
     assert trainer.global_step == 2
@@ -353,15 +360,7 @@ def test_every_policy_subtracting_the_background_sees_the_difference_and_keeps_i
 
     cfg = _composed(compose, push, kind, "model.subtract_background=true")
     datamodule, policy = train.instantiate_data_and_model(cfg)
-    trainer = L.Trainer(
-        accelerator="cpu",
-        max_steps=1,
-        limit_val_batches=0,
-        logger=False,
-        enable_checkpointing=False,
-        enable_progress_bar=False,
-        enable_model_summary=False,
-    )
+    trainer = _quiet_trainer(max_steps=1, limit_val_batches=0)
     trainer.fit(policy, datamodule=datamodule)
     torch.testing.assert_close(policy.background, datamodule.background)
 
