@@ -1,9 +1,10 @@
-"""Tables and the data-efficiency plot of a policy grid (issue 35), from its multirun folder.
+"""Tables and the data-efficiency plot of a policy grid, from its multirun folder.
 
     python train.py -m experiment=quick +grid=policies [hydra/launcher=joblib]
+    python train.py -m experiment=metaworld +grid=mt10 [hydra/launcher=joblib]
     python scripts/collect_grid.py outputs/train/multirun/<date> [--out DIR] [--metric success_5cm]
 
-Prints the Markdown table (mean ± std over seeds per policy and training-set size) and writes
+Prints the Markdown table (mean ± std over seeds per task, policy and training-set size) and writes
 ``grid.md``, ``grid.json`` (one row per job) and ``data_efficiency.png`` into ``--out`` (the
 multirun folder by default). Unfinished jobs are counted, not hidden.
 """
@@ -22,7 +23,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("sweep_dir", type=Path, help="the multirun folder (hydra.sweep.dir)")
     parser.add_argument("--out", type=Path, default=None, help="where to write (default: sweep_dir)")
-    parser.add_argument("--metric", default="success_5cm", help="the plotted metric (a grid.json key)")
+    parser.add_argument(
+        "--metric",
+        default=None,
+        help="the plotted metric, a grid.json key (default: success_rate for Meta-World, success_5cm for reaching)",
+    )
     args = parser.parse_args(argv)
     try:
         rows = collect(args.sweep_dir)

@@ -68,6 +68,67 @@ def test_collect_summarise_table_and_plot(tmp_path):
         collect(tmp_path / "plot.png.d")
 
 
+def _metaworld_job(root: Path, n: int, task: str, policy: str, demos: int, seed: int, successes: int | None):
+    job = root / str(n)
+    (job / ".hydra").mkdir(parents=True)
+    overrides = [
+        "experiment=metaworld",
+        f"task={task}",
+        f"model={policy}",
+        f"data.train_episodes={demos}",
+        f"seed={seed}",
+    ]
+    (job / ".hydra" / "overrides.yaml").write_text(yaml.safe_dump(overrides))
+    (job / "timing.json").write_text(
+        json.dumps({"fit_s": 120.0, "global_step": 3000, "train_episodes": demos})
+    )
+    if successes is None:
+        return
+    entry = {
+        "task": task,
+        "episodes": 50,
+        "successes": successes,
+        "success_rate": successes / 50,
+        "mean_time_to_success_s": 1.0 + seed,
+        "latency_ms": 2.0,
+    }
+    (job / "evaluate").mkdir()
+    (job / "evaluate" / "metrics.json").write_text(json.dumps({policy: entry}))
+
+
+def test_metaworld_grid_is_summarised_per_task_policy_and_demonstrations(tmp_path):
+    grid = [
+        ("push-v3", "cnn_dmp", 10, 0, 10),
+        ("push-v3", "cnn_dmp", 10, 1, 20),
+        ("push-v3", "cnn_dmp", 50, 0, 30),
+        ("push-v3", "act", 10, 0, 5),
+        ("reach-v3", "cnn_dmp", 10, 0, 40),
+        ("reach-v3", "cnn_dmp", 50, 0, None),
+    ]
+    for n, job in enumerate(grid):
+        _metaworld_job(tmp_path, n, *job)
+    rows = collect(tmp_path)
+    assert {r["task"] for r in rows} == {"push-v3", "reach-v3"}
+    assert sum(bool(r.get("missing")) for r in rows) == 1
+    summaries = summarise(rows)
+    keyed = {(s["task"], s["policy"], s["demonstrations"]): s for s in summaries}
+    ten = keyed[("push-v3", "cnn_dmp", 10)]
+    assert ten["seeds"] == 2 and ten["success_rate"] == pytest.approx(0.3)
+    assert ten["success_rate_std"] == pytest.approx(statistics.stdev([0.2, 0.4]))
+    assert ten["time_to_success_s"] == pytest.approx(1.5) and ten["train_objects"] is None
+    assert keyed[("reach-v3", "cnn_dmp", 50)]["missing"] == 1
+    # tasks in order, then the registry's policy order, then sizes ascending
+    assert [(s["task"], s["policy"], s["demonstrations"]) for s in summaries] == [
+        ("push-v3", "cnn_dmp", 10), ("push-v3", "cnn_dmp", 50), ("push-v3", "act", 10),
+        ("reach-v3", "cnn_dmp", 10), ("reach-v3", "cnn_dmp", 50),
+    ]  # fmt: skip
+    table = markdown_table(summaries)
+    assert "| push-v3 | cnn_dmp | 10 | 2 | 30 ± 14 | 1.50 ± 0.71 | 2.0 | 2.0 |" in table
+    assert "| reach-v3 | cnn_dmp | 50 | 0 (+1 unfinished) | — |" in table
+    png = plot_data_efficiency(summaries, tmp_path / "plot.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 TINY = [
     "data.n_train_objects=2",
     "data.n_train_placements=3",
