@@ -75,6 +75,9 @@ def test_verification_refuses_changed_files_and_other_settings(tiny, tmp_path):
     cfg, path = tiny
     with pytest.raises(DatasetError, match="generated with other settings .*n_steps=80"):
         load_demonstrations(path, MetaWorldDataConfig(**{**TINY, "n_steps": 90}))
+    # how many placements generation may try does not change a finished dataset
+    more_attempts = MetaWorldDataConfig(**{**TINY, "max_attempts": cfg.max_attempts + 7})
+    assert load_demonstrations(path, more_attempts).config.max_attempts == cfg.max_attempts
     import shutil
 
     copy = tmp_path / "copy"

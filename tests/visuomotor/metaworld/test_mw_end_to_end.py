@@ -85,19 +85,22 @@ def test_train_then_evaluate_through_the_entry_points(compose, tmp_path, capsys)
     capsys.readouterr()
 
     # scripts/metaworld_plan_error.py on the same checkpoint and dataset: errors along the plan per split;
-    # the demonstrations' own fitted DMPs are the floor (millimetres), a 5-step policy is far from them
+    # the demonstrations' own fitted DMPs are the floor (millimetres), a 5-step policy is far from them;
+    # the default policy goes through the placement, so the map's plan from the true placement is a row too
     plan_error = _script("metaworld_plan_error")
     assert plan_error.main([str(ckpt), str(data), "--every", "20"]) == 0
     rows = {tuple(line.split()[:2]): line.split()[2:] for line in capsys.readouterr().out.splitlines()[1:]}
-    assert set(rows) == {("train", "plan"), ("val", "plan"), ("train", "fitted"), ("val", "fitted")}
+    assert set(rows) == {(split, row) for split in ("train", "val") for row in ("plan", "map", "fitted")}
     assert all(len(v) == 4 for v in rows.values())  # steps 0, 20, 40, 60 of 80
     assert max(float(v) for v in rows[("train", "fitted")]) < 1.0  # cm
     assert max(float(v) for v in rows[("train", "plan")]) > max(float(v) for v in rows[("train", "fitted")])
-    # --rollouts: the plan from the image in closed loop on validation placements (no placement map here)
+    # --rollouts: the plan from the image and the one from the true placement, closed loop on validation placements
     assert plan_error.main([str(ckpt), str(data), "--rollouts", "2", "--horizon", "20"]) == 0
     last = capsys.readouterr().out.splitlines()[-1]
     assert re.fullmatch(
-        r"reach-v3: closed-loop successes on 2 validation placements \(planned once\): image [0-2] / 2", last
+        r"reach-v3: closed-loop successes on 2 validation placements \(planned once\): "
+        r"image [0-2] / 2, true placement [0-2] / 2",
+        last,
     )
     assert plan_error.main([str(tmp_path / "absent.ckpt"), str(data)]) == 2
     assert "metaworld_plan_error:" in capsys.readouterr().err

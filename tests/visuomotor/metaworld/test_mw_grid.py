@@ -13,7 +13,9 @@ def test_grid_sweeps_mt10_kinds_counts_and_seeds(compose):
     assert params.seed == "0,1,2"
     # one dataset per task whatever the training seed, scored right after training
     assert (
-        cfg.data.name == "metaworld_door-open-v3_n100_s42" and cfg.data.seed == 42 and cfg.data.n_train == 100
+        cfg.data.name == "metaworld_door-open-v3_n100_s42_fovy25"
+        and cfg.data.seed == 42
+        and cfg.data.n_train == 100
     )
     assert (
         cfg.evaluate and cfg.eval._target_.endswith("MetaWorldEvaluator") and cfg.eval.task == "door-open-v3"

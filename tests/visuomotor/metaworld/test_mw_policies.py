@@ -24,7 +24,15 @@ from lfd.visuomotor.protocols import Observation
 
 #: push-v3: the gripper command is -1 (open) at the first step, 0 while the hand approaches the puck
 #: and 0.6 (closed) from about step 25 on, so the DMP's gripper channel has to change during the episode.
-PUSH = {"task": "push-v3", "seed": 0, "n_train": 4, "n_val": 1, "image_size": 32, "n_steps": 120}
+PUSH = {
+    "task": "push-v3",
+    "seed": 0,
+    "n_train": 4,
+    "n_val": 1,
+    "image_size": 32,
+    "n_steps": 120,
+    "camera_fovy": 25,
+}
 #: Gripper command above which the gripper counts as closing.
 CLOSING = 0.3
 
@@ -168,8 +176,19 @@ def _composed(compose, push, kind: str, *more: str):
 
 def test_metaworld_experiment_specialises_each_policy(compose):
     """configs/experiment_model/metaworld_<model>.yaml reach the composed model (global package)."""
-    dmp = compose("train", "experiment=metaworld", "model=cnn_dmp").model
+    cfg = compose("train", "experiment=metaworld", "model=cnn_dmp")
+    dmp = cfg.model
     assert (dmp.loss, dmp.normalise_trajectory, dmp.ee_weight) == ("params", True, 0.0)
+    # the configuration chosen on the MT10 validation placements: through the placement, from the
+    # first frame of a zoomed camera, planning once, the checkpoint of the best validation trajectory
+    assert (dmp.placement_dim, dmp.map_kernel_scale, cfg.data.dmp_frames, cfg.data.camera_fovy) == (
+        6,
+        2.0,
+        1,
+        25,
+    )
+    assert cfg.callbacks.model_checkpoint.monitor == "val/traj_mse" and cfg.eval.dmp_replan_every is None
+    assert cfg.data.name == "metaworld_reach-v3_n50_s42_fovy25" and cfg.data.max_attempts == 20
     for kind in ("velocity", "act", "diffusion"):
         assert compose("train", "experiment=metaworld", f"model={kind}").model.state_noise == 0.01, kind
     act = compose("train", "experiment=metaworld", "model=act").model
@@ -365,8 +384,11 @@ def test_every_policy_subtracting_the_background_sees_the_difference_and_keeps_i
     torch.testing.assert_close(policy.background, datamodule.background)
 
     plain = type(policy)(**{**policy.hparams, "subtract_background": False})
-    state = {k: v for k, v in policy.state_dict().items() if k != "background"}
-    plain.load_state_dict(state)
+    # the same weights; the placement map (CNN -> DMP) is not part of the encoder compared here
+    fitted_map = ("map_centres", "map_coefficients")
+    state = {k: v for k, v in policy.state_dict().items() if k not in ("background", *fitted_map)}
+    missing, unexpected = plain.load_state_dict(state, strict=False)
+    assert set(missing) <= set(fitted_map) and not unexpected
     policy.eval(), plain.eval()
     batch = default_collate([datamodule.datasets["val"][0]])
     image, joints = batch["image"], batch["joints"]

@@ -340,9 +340,15 @@ def compute_stats(train: list[dict[str, np.ndarray]]) -> dict[str, dict[str, lis
     }
 
 
+def _content(config: dict[str, Any]) -> dict[str, Any]:
+    """The settings that make a finished dataset what it is: all but ``max_attempts`` (it only
+    decides when generation gives up; a finished dataset is the same under any value)."""
+    return {k: v for k, v in config.items() if k != "max_attempts"}
+
+
 def verify_demonstrations(path: str | Path, cfg: MetaWorldDataConfig | None = None) -> dict[str, Any]:
     """The manifest of the finished dataset at ``path`` after checking its format, config (when
-    ``cfg`` is given) and every file's SHA-256.
+    ``cfg`` is given; ``max_attempts`` may differ) and every file's SHA-256.
 
     Raises:
         DatasetError: missing, unfinished, another config, or a file changed (one line each).
@@ -357,9 +363,9 @@ def verify_demonstrations(path: str | Path, cfg: MetaWorldDataConfig | None = No
         raise DatasetError(
             f"{path}: format version {manifest.get('format_version')!r}, this lfd reads {FORMAT_VERSION}"
         )
-    if cfg is not None and manifest.get("config") != cfg.to_dict():
-        theirs = manifest.get("config") or {}
-        diff = sorted(k for k, v in cfg.to_dict().items() if theirs.get(k) != v)
+    theirs = manifest.get("config") if isinstance(manifest.get("config"), dict) else {}
+    if cfg is not None and _content(theirs) != _content(cfg.to_dict()):
+        diff = sorted(k for k, v in _content(cfg.to_dict()).items() if theirs.get(k) != v)
         raise DatasetError(
             f"{path}: generated with other settings ({', '.join(f'{k}={theirs.get(k)!r}' for k in diff)}); "
             "choose another data.name or delete the folder"
