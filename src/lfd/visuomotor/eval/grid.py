@@ -246,7 +246,8 @@ def plot_data_efficiency(
         panels["mean over tasks"] = _task_means(summaries, metric, size_key, len(panels))
     cols = min(len(panels), 4)
     rows = math.ceil(len(panels) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False)
+    width = 4.2 if cols > 1 else 5.5
+    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, 3.6 * rows), squeeze=False)
     scale = 100.0 if metric.startswith(("success", "approach")) else 1.0
     for ax, (title, group) in zip(axes.flat, panels.items(), strict=False):
         for policy in dict.fromkeys(s["policy"] for s in group):
