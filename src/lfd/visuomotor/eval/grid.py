@@ -47,7 +47,8 @@ def collect(sweep_dir: str | Path) -> list[dict[str, Any]]:
 
     A row: ``policy``, ``task`` (a Meta-World job's task, None for reaching),
     ``train_objects`` (int or None = all), ``train_episodes`` (the training split's size in
-    demonstrations, from ``timing.json``, or None), ``seed``, the job folder, ``train_s``
+    demonstrations, from ``timing.json``, or None), ``demonstrations`` (``data.train_episodes``,
+    else ``train_episodes``: a Meta-World job's size), ``seed``, the job folder, ``train_s``
     (training wall time), ``steps``, and the policy's entry of ``evaluate/metrics.json``:
     for reaching ``distance_cm`` (mean final distance), ``success_5cm``, ``success_2cm``,
     ``approach_correct``, ``jerk_ratio`` and ``latency_ms`` (median per policy call); for
@@ -84,9 +85,9 @@ def collect(sweep_dir: str | Path) -> list[dict[str, Any]]:
             row.update(
                 train_s=t.get("fit_s"), steps=t.get("global_step"), train_episodes=t.get("train_episodes")
             )
-        if row["task"] is not None:  # a Meta-World job: its size is in demonstrations
-            cap = o.get("data.train_episodes")
-            row["demonstrations"] = int(cap) if cap not in (None, "null") else row.get("train_episodes")
+        # a Meta-World job's size (its task may come from metrics.json below, when not overridden)
+        cap = o.get("data.train_episodes")
+        row["demonstrations"] = int(cap) if cap not in (None, "null") else row.get("train_episodes")
         metrics = job / "evaluate" / "metrics.json"
         if not metrics.is_file():
             row["missing"] = True
