@@ -3,7 +3,8 @@ import os
 import pytest
 import torch
 
-from lfd.training import ACTIVATIONS, checkpoint_kind, find_checkpoints, make_activation
+import lfd.training
+from lfd.training import ACTIVATIONS, checkpoint_kind, find_checkpoints, make_activation, resolve_precision
 
 
 def _checkpoint(path, kind, mtime):
@@ -29,3 +30,17 @@ def test_make_activation_by_name():
     assert all(isinstance(make_activation(name), cls) for name, cls in ACTIVATIONS.items())
     with pytest.raises(ValueError, match="activation: expected one of"):
         make_activation("swish")
+
+
+@pytest.mark.parametrize("native", [True, False])
+def test_bf16_on_a_cpu_without_it_trains_in_float32(monkeypatch, native):
+    monkeypatch.setattr(lfd.training, "cpu_bf16_supported", lambda: native)
+    if native:
+        assert resolve_precision("bf16-mixed", "cpu") == "bf16-mixed"
+    else:
+        with pytest.warns(UserWarning, match="trainer.precision=bf16-mixed: this CPU has no native bfloat16"):
+            assert resolve_precision("bf16-mixed", "cpu") == "32-true"
+    # float32 and float16 stay as asked; a GPU decides its own bf16 support
+    assert resolve_precision("32-true", "cpu") == "32-true"
+    assert resolve_precision("16-mixed", "gpu") == "16-mixed"
+    assert resolve_precision("bf16-mixed", "gpu") == "bf16-mixed"

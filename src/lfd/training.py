@@ -43,12 +43,14 @@ __all__ = [
     "Evaluator",
     "check_state_dict",
     "checkpoint_kind",
+    "cpu_bf16_supported",
     "find_checkpoints",
     "init_arguments",
     "load_checkpoint_module",
     "make_activation",
     "make_optimizer",
     "read_checkpoint",
+    "resolve_precision",
     "save_own_hyperparameters",
 ]
 
@@ -56,6 +58,32 @@ __all__ = [
 ACTIVATIONS = {"silu": nn.SiLU, "gelu": nn.GELU, "relu": nn.ReLU, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid}
 #: Learning-rate schedules of :func:`make_optimizer` (all per optimiser step).
 SCHEDULERS = ("onecycle", "cosine", "none")
+
+
+def cpu_bf16_supported() -> bool:
+    """Whether this CPU runs bfloat16 matrix products and convolutions natively (oneDNN with
+    AVX512-BF16 or AMX). Elsewhere bf16 autocast is emulated, slower than float32."""
+    try:
+        return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    except (AttributeError, RuntimeError):
+        return False
+
+
+def resolve_precision(precision: Any, accelerator: Any) -> Any:
+    """The Lightning ``precision`` to train with: ``precision`` itself, except bfloat16 mixed
+    precision (``"bf16-mixed"``) on a CPU without native bfloat16 (:func:`cpu_bf16_supported`),
+    which becomes ``"32-true"`` with a warning (there it would be slower, not faster).
+    ``accelerator``: the trainer's (``"cpu"``, ``"gpu"``, ``"auto"``; ``"auto"`` means the CPU
+    when CUDA is absent)."""
+    on_cpu = str(accelerator) == "cpu" or (str(accelerator) == "auto" and not torch.cuda.is_available())
+    if on_cpu and str(precision).startswith("bf16") and not cpu_bf16_supported():
+        warnings.warn(
+            f"trainer.precision={precision}: this CPU has no native bfloat16 (AVX512-BF16 or AMX), "
+            "training in float32 instead",
+            stacklevel=2,
+        )
+        return "32-true"
+    return precision
 
 
 def make_activation(name: str) -> nn.Module:

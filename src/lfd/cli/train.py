@@ -21,7 +21,14 @@ from omegaconf import DictConfig, OmegaConf
 from lfd.cli import configs_dir, quiet, run_app, user_errors
 from lfd.cli.config import instantiate_node
 from lfd.io.files import write_json_atomic
-from lfd.training import Adaptable, AdaptationSource, CheckpointError, check_state_dict, read_checkpoint
+from lfd.training import (
+    Adaptable,
+    AdaptationSource,
+    CheckpointError,
+    check_state_dict,
+    read_checkpoint,
+    resolve_precision,
+)
 
 #: ``ckpt_path`` values Lightning resolves itself (no file of that name is read here).
 LIGHTNING_CKPT_NAMES = ("last", "best", "hpc")
@@ -176,7 +183,12 @@ def run(cfg: DictConfig) -> str | None:
     datamodule, model = instantiate_data_and_model(cfg)
     callbacks = _instantiate_group(cfg.get("callbacks"))
     loggers = _instantiate_group(cfg.get("logger"))
-    trainer = hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False)
+    precision = {}
+    if cfg.trainer.get("precision") is not None:  # bf16 on a CPU without it: float32 (one warning)
+        precision["precision"] = resolve_precision(
+            cfg.trainer.precision, cfg.trainer.get("accelerator", "auto")
+        )
+    trainer = hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False, **precision)
     # a model that takes statistics (and demonstrations) from its data gets them as plain objects
     if isinstance(model, Adaptable) and isinstance(datamodule, AdaptationSource):
         model.adapt(datamodule.adaptation_data())

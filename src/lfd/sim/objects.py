@@ -112,6 +112,19 @@ FAMILY_SIZES: dict[str, tuple[tuple[float, float], ...]] = {
     "sphere": ((0.035, 0.06),),
     "box": ((0.035, 0.085), (0.035, 0.085), (0.025, 0.13)),
 }
+#: Size bands just outside :data:`FAMILY_SIZES`, per family and dimension: ``(below, above)``, each
+#: a uniform ``(low, high)`` range (m). An object "outside the ranges" (``sample_object(...,
+#: outside=True)``) has one dimension, chosen at random, drawn from one of its two bands, and the
+#: others from :data:`FAMILY_SIZES`: thinner pens and tins, taller cans, dice and cartons, small
+#: and large balls, the way users' objects leave the generator's ranges one property at a time.
+#: The bands stop where the pre-grasp would be out of the arm's reach or the object would not
+#: stand (a 28 cm can, a 2 cm die).
+OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], tuple[float, float]], ...]] = {
+    "cylinder": (((0.012, 0.02), (0.045, 0.055)), ((0.035, 0.06), (0.24, 0.28))),
+    "capsule": (((0.012, 0.018), (0.035, 0.042)), ((0.02, 0.04), (0.15, 0.18))),
+    "sphere": (((0.02, 0.035), (0.06, 0.07)),),
+    "box": (((0.02, 0.035), (0.085, 0.10)), ((0.02, 0.035), (0.085, 0.10)), ((0.015, 0.025), (0.13, 0.18))),
+}
 #: Mass range (kg) for every family.
 MASS_RANGE = (0.1, 0.5)
 #: Colour draws (HSV): saturation from greys and pastels to full colour, value from near
@@ -123,13 +136,19 @@ SATURATION_RANGE, VALUE_RANGE = (0.1, 1.0), (0.15, 1.0)
 TABLE_RGB, MIN_TABLE_CONTRAST = (0.62, 0.60, 0.56), 0.2
 
 
-def sample_object(rng: np.random.Generator, shape: str, name: str = "") -> ObjectSpec:
+def sample_object(rng: np.random.Generator, shape: str, name: str = "", outside: bool = False) -> ObjectSpec:
     """One random instance of the family ``shape``: size from :data:`FAMILY_SIZES`, a random
     colour (hue uniform, saturation :data:`SATURATION_RANGE`, value :data:`VALUE_RANGE`, at
-    least :data:`MIN_TABLE_CONTRAST` from the table's colour), mass from :data:`MASS_RANGE`."""
+    least :data:`MIN_TABLE_CONTRAST` from the table's colour), mass from :data:`MASS_RANGE`.
+    ``outside``: one dimension, chosen at random, from just outside its range instead
+    (:data:`OUTSIDE_SIZES`, below or above with equal chance)."""
     if shape not in FAMILY_SIZES:
         raise ValueError(f"sample_object: shape must be one of {SHAPES}, got {shape!r}")
     dims = tuple(float(rng.uniform(lo, hi)) for lo, hi in FAMILY_SIZES[shape])
+    if outside:
+        k = int(rng.integers(len(dims)))
+        lo, hi = OUTSIDE_SIZES[shape][k][int(rng.integers(2))]
+        dims = (*dims[:k], float(rng.uniform(lo, hi)), *dims[k + 1 :])
     while True:
         hue, sat, val = rng.uniform(0, 1), rng.uniform(*SATURATION_RANGE), rng.uniform(*VALUE_RANGE)
         rgb = _hsv_to_rgb(float(hue), float(sat), float(val))

@@ -13,7 +13,10 @@ from lfd.sim.objects import SHAPES, PlacementRanges
 #: Version of the on-disk dataset format (``manifest.json``).
 FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
 
-__all__ = ["GeneratorConfig"]
+__all__ = ["VAL_SIZES", "GeneratorConfig"]
+
+#: Where the held-out validation objects' sizes come from (:attr:`GeneratorConfig.val_sizes`).
+VAL_SIZES = ("inside", "outside")
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,10 @@ class GeneratorConfig:
         n_basis: DMP basis functions per joint.
         max_attempts: placements tried per episode before generation fails.
         robot: robot model name for :func:`lfd.robots.load_robot`.
+        val_sizes: the held-out validation objects' sizes: ``"inside"`` the training ranges
+            (:data:`lfd.sim.objects.FAMILY_SIZES`, the default) or ``"outside"`` them (one
+            dimension per object from :data:`lfd.sim.objects.OUTSIDE_SIZES`), so that model
+            selection sees objects the generator never trains on. The test objects stay inside.
     """
 
     seed: int = 0
@@ -76,6 +83,7 @@ class GeneratorConfig:
     n_basis: int = 20
     max_attempts: int = 30
     robot: str = "pr2_right_arm"
+    val_sizes: str = "inside"
 
     def __post_init__(self) -> None:
         # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
@@ -134,6 +142,10 @@ class GeneratorConfig:
             raise ValueError(
                 f"GeneratorConfig.approach_fraction: expected a value in (0, 1), got {self.approach_fraction}"
             )
+        if self.val_sizes not in VAL_SIZES:
+            raise ValueError(
+                f"GeneratorConfig.val_sizes: expected one of {VAL_SIZES}, got {self.val_sizes!r}"
+            )
         for name in ("wrist_camera", "depth"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"GeneratorConfig.{name}: expected a bool, got {getattr(self, name)!r}")
@@ -190,4 +202,4 @@ class GeneratorConfig:
 
 
 #: Options added after :data:`FORMAT_VERSION` 2, with their defaults.
-_LATER_OPTIONS = {"depth": False, "train_families": None}
+_LATER_OPTIONS = {"depth": False, "train_families": None, "val_sizes": "inside"}

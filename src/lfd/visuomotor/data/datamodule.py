@@ -37,7 +37,7 @@ class ReachDataModule(L.LightningDataModule):
     splits in the item layout of ``mode`` (see :class:`~lfd.visuomotor.data.datasets.DMPReachDataset`
     and :class:`~lfd.visuomotor.data.datasets.VelocityReachDataset`).
 
-    Generator arguments (``seed`` ... ``max_attempts``) are those of
+    Generator arguments (``seed`` ... ``robot``, ``val_sizes``) are those of
     :class:`~lfd.visuomotor.data.config.GeneratorConfig` and define the dataset's content; the others
     only change how it is made or served.
 
@@ -93,6 +93,7 @@ class ReachDataModule(L.LightningDataModule):
         n_basis: int = 20,
         max_attempts: int = 30,
         robot: str = "pr2_right_arm",
+        val_sizes: str = "inside",
         batch_size: int = 32,
         num_workers: int = 0,
         augment: bool = False,
@@ -134,6 +135,7 @@ class ReachDataModule(L.LightningDataModule):
             n_basis=n_basis,
             max_attempts=max_attempts,
             robot=robot,
+            val_sizes=val_sizes,
         )
         self.input_depth = bool(depth if input_depth is None else input_depth)
         if self.input_depth and not depth:
