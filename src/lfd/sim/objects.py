@@ -112,17 +112,19 @@ FAMILY_SIZES: dict[str, tuple[tuple[float, float], ...]] = {
     "sphere": ((0.035, 0.06),),
     "box": ((0.035, 0.085), (0.035, 0.085), (0.025, 0.13)),
 }
-#: Size bands just outside :data:`FAMILY_SIZES`, per family and dimension: ``(below, above)``, each
-#: a uniform ``(low, high)`` range (m). An object "outside the ranges" (``sample_object(...,
-#: outside=True)``) has one dimension, chosen at random, drawn from one of its two bands, and the
-#: others from :data:`FAMILY_SIZES`: thinner pens and tins, taller cans, dice and cartons, small
-#: and large balls, the way users' objects leave the generator's ranges one property at a time.
-#: The bands stop where the pre-grasp would be out of the arm's reach or the object would not
-#: stand (a 28 cm can, a 2 cm die).
-OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], tuple[float, float]], ...]] = {
-    "cylinder": (((0.012, 0.02), (0.045, 0.055)), ((0.035, 0.06), (0.24, 0.28))),
+#: Size bands just outside :data:`FAMILY_SIZES`, per family and dimension: the uniform ``(low,
+#: high)`` ranges (m) below and above the training range. An object "outside the ranges"
+#: (``sample_object(..., outside=True)``) has one dimension, chosen at random, drawn from one of
+#: its bands, and the others from :data:`FAMILY_SIZES`: thinner pens and tins, taller cans, dice
+#: and cartons, small and large balls, the way users' objects leave the generator's ranges one
+#: property at a time. The bands stop where the scripted demonstration fails: a round object lower
+#: than about 6 cm cannot be approached from the side (the forearm meets the table: a cylinder 5.5 cm
+#: high or a ball of 2.75 cm radius fails at every placement tried, 6 cm and 3 cm succeed), so the
+#: cylinder's height has no band below and the ball's radius one from 3 cm.
+OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], ...], ...]] = {
+    "cylinder": (((0.012, 0.02), (0.045, 0.055)), ((0.24, 0.28),)),
     "capsule": (((0.012, 0.018), (0.035, 0.042)), ((0.02, 0.04), (0.15, 0.18))),
-    "sphere": (((0.02, 0.035), (0.06, 0.07)),),
+    "sphere": (((0.03, 0.035), (0.06, 0.07)),),
     "box": (((0.02, 0.035), (0.085, 0.10)), ((0.02, 0.035), (0.085, 0.10)), ((0.015, 0.025), (0.13, 0.18))),
 }
 #: Mass range (kg) for every family.
@@ -141,13 +143,14 @@ def sample_object(rng: np.random.Generator, shape: str, name: str = "", outside:
     colour (hue uniform, saturation :data:`SATURATION_RANGE`, value :data:`VALUE_RANGE`, at
     least :data:`MIN_TABLE_CONTRAST` from the table's colour), mass from :data:`MASS_RANGE`.
     ``outside``: one dimension, chosen at random, from just outside its range instead
-    (:data:`OUTSIDE_SIZES`, below or above with equal chance)."""
+    (:data:`OUTSIDE_SIZES`, each of its bands with equal chance)."""
     if shape not in FAMILY_SIZES:
         raise ValueError(f"sample_object: shape must be one of {SHAPES}, got {shape!r}")
     dims = tuple(float(rng.uniform(lo, hi)) for lo, hi in FAMILY_SIZES[shape])
     if outside:
         k = int(rng.integers(len(dims)))
-        lo, hi = OUTSIDE_SIZES[shape][k][int(rng.integers(2))]
+        bands = OUTSIDE_SIZES[shape][k]
+        lo, hi = bands[int(rng.integers(len(bands)))]
         dims = (*dims[:k], float(rng.uniform(lo, hi)), *dims[k + 1 :])
     while True:
         hue, sat, val = rng.uniform(0, 1), rng.uniform(*SATURATION_RANGE), rng.uniform(*VALUE_RANGE)
