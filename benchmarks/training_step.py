@@ -61,7 +61,7 @@ def step_times(model, batches, dtype, warmup: int = 5) -> tuple[float, float]:
         opt.zero_grad()
         loss.backward()
         opt.step()
-        return float(loss)
+        return float(loss.detach())
 
     first = step(batches[0])
     for batch in batches[1:warmup]:
