@@ -42,5 +42,6 @@ def test_bf16_on_a_cpu_without_it_trains_in_float32(monkeypatch, native):
             assert resolve_precision("bf16-mixed", "cpu") == "32-true"
     # float32 and float16 stay as asked; a GPU decides its own bf16 support
     assert resolve_precision("32-true", "cpu") == "32-true"
+    assert resolve_precision(None, "cpu") is None  # no precision key: Lightning's default
     assert resolve_precision("16-mixed", "gpu") == "16-mixed"
     assert resolve_precision("bf16-mixed", "gpu") == "bf16-mixed"

@@ -72,7 +72,8 @@ def cpu_bf16_supported() -> bool:
 def resolve_precision(precision: Any, accelerator: Any) -> Any:
     """The Lightning ``precision`` to train with: ``precision`` itself, except bfloat16 mixed
     precision (``"bf16-mixed"``) on a CPU without native bfloat16 (:func:`cpu_bf16_supported`),
-    which becomes ``"32-true"`` with a warning (there it would be slower, not faster).
+    which becomes ``"32-true"`` with a warning (there it would be slower, not faster); ``None``
+    (Lightning's default) stays ``None``.
     ``accelerator``: the trainer's (``"cpu"``, ``"gpu"``, ``"auto"``; ``"auto"`` means the CPU
     when CUDA is absent)."""
     on_cpu = str(accelerator) == "cpu" or (str(accelerator) == "auto" and not torch.cuda.is_available())

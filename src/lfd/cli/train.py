@@ -183,12 +183,11 @@ def run(cfg: DictConfig) -> str | None:
     datamodule, model = instantiate_data_and_model(cfg)
     callbacks = _instantiate_group(cfg.get("callbacks"))
     loggers = _instantiate_group(cfg.get("logger"))
-    precision = {}
-    if cfg.trainer.get("precision") is not None:  # bf16 on a CPU without it: float32 (one warning)
-        precision["precision"] = resolve_precision(
-            cfg.trainer.precision, cfg.trainer.get("accelerator", "auto")
-        )
-    trainer = hydra.utils.instantiate(cfg.trainer, callbacks=callbacks, logger=loggers or False, **precision)
+    # bf16 on a CPU without it: float32 (one warning); no precision key: Lightning's default (None)
+    precision = resolve_precision(cfg.trainer.get("precision"), cfg.trainer.get("accelerator", "auto"))
+    trainer = hydra.utils.instantiate(
+        cfg.trainer, callbacks=callbacks, logger=loggers or False, precision=precision
+    )
     # a model that takes statistics (and demonstrations) from its data gets them as plain objects
     if isinstance(model, Adaptable) and isinstance(datamodule, AdaptationSource):
         model.adapt(datamodule.adaptation_data())
