@@ -1,11 +1,18 @@
-"""Approach rule: side for round objects, top for boxes, following the placement."""
+"""Approach rule: side for round objects at least 6 cm tall, top for the rest, following the placement."""
 
 import math
 
 import numpy as np
 import pytest
 
-from lfd.sim.approach import SHOULDER_XY, TABLE_Z, box_grasp_yaw, plan_approach
+from lfd.sim.approach import (
+    SHOULDER_XY,
+    SIDE_MIN_HEIGHT,
+    TABLE_Z,
+    approach_mode,
+    box_grasp_yaw,
+    plan_approach,
+)
 from lfd.sim.objects import ObjectSpec, Placement
 
 RED = (1.0, 0.0, 0.0, 1.0)
@@ -70,3 +77,51 @@ def test_box_grasp_yaw_folds_by_quarter_turns():
 def test_invalid_offsets_raise():
     with pytest.raises(ValueError, match="clearance"):
         plan_approach(CYLINDER, Placement(0.5, 0.0, 0.0), clearance=-0.1)
+
+
+@pytest.mark.parametrize(
+    ("spec", "mode"),
+    [
+        (ObjectSpec("cylinder", (0.03, SIDE_MIN_HEIGHT - 1e-4), RED, 0.2), "top"),
+        (ObjectSpec("cylinder", (0.03, SIDE_MIN_HEIGHT), RED, 0.2), "side"),
+        (ObjectSpec("cylinder", (0.045, 0.045), RED, 0.2), "top"),  # a tin
+        (ObjectSpec("cylinder", (0.008, 0.26), RED, 0.2), "side"),  # a pen standing up
+        (ObjectSpec("sphere", (SIDE_MIN_HEIGHT / 2 - 1e-4,), RED, 0.2), "top"),
+        (ObjectSpec("sphere", (SIDE_MIN_HEIGHT / 2,), RED, 0.2), "side"),
+        (ObjectSpec("capsule", (0.01, SIDE_MIN_HEIGHT - 0.02), RED, 0.2), "side"),  # caps make it 6 cm
+        (ObjectSpec("capsule", (0.01, SIDE_MIN_HEIGHT - 0.0201), RED, 0.2), "top"),
+        (ObjectSpec("box", (0.05, 0.05, 0.25), RED, 0.2), "top"),  # tall boxes too
+        (ObjectSpec("box", (0.02, 0.02, 0.02), RED, 0.2), "top"),
+    ],
+)
+def test_approach_mode_is_decided_by_footprint_and_height(spec, mode):
+    """Round footprint and at least SIDE_MIN_HEIGHT tall: side; anything else: top."""
+    assert approach_mode(spec) == mode
+    assert plan_approach(spec, Placement(0.55, 0.0, 0.3)).mode == mode
+
+
+def test_low_round_objects_from_the_top_with_a_fixed_roll():
+    """A low round object's yaw is invisible: the plan is the same for every yaw, the tool
+    points down and the fingers close along the torso x-axis, ``finger_depth`` below the top."""
+    tin = ObjectSpec("cylinder", (0.04, 0.045), RED, 0.2)
+    plans = [plan_approach(tin, Placement(0.6, -0.1, yaw)) for yaw in (-1.5, -0.4, 0.0, 0.7, 1.5)]
+    for plan in plans:
+        assert plan.mode == "top"
+        np.testing.assert_allclose(plan.pregrasp_pose, plans[0].pregrasp_pose)
+        np.testing.assert_allclose(plan.approach_pose, plans[0].approach_pose)
+    plan = plans[0]
+    np.testing.assert_allclose(plan.approach_dir, [0, 0, -1])
+    np.testing.assert_allclose(plan.grasp_pose[:3, 1], [1, 0, 0], atol=1e-12)
+    assert _is_rotation(plan.grasp_pose[:3, :3])
+    np.testing.assert_allclose(plan.grasp_point, [0.6, -0.1, TABLE_Z + 0.045 - 0.02])
+    np.testing.assert_allclose(plan.target_point, [0.6, -0.1, TABLE_Z + 0.045 + 0.03])
+    ball = ObjectSpec("sphere", (0.015,), RED, 0.2)  # finger depth capped at half the height
+    np.testing.assert_allclose(plan_approach(ball, Placement(0.6, 0.0, 0.0)).grasp_point[2], TABLE_Z + 0.015)
+
+
+def test_mode_override():
+    tin = ObjectSpec("cylinder", (0.04, 0.045), RED, 0.2)
+    assert plan_approach(tin, Placement(0.6, 0.0, 0.0), mode="side").mode == "side"
+    assert plan_approach(CYLINDER, Placement(0.6, 0.0, 0.0), mode="top").mode == "top"
+    with pytest.raises(ValueError, match="plan_approach: mode must be"):
+        plan_approach(CYLINDER, Placement(0.6, 0.0, 0.0), mode="front")

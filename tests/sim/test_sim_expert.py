@@ -114,3 +114,38 @@ def test_expert_validation(robot, scene, expert):
         short.run(scene, sample_object(np.random.default_rng(0), SHAPES[0]), Placement(0.6, 0.0, 0.0))
     with pytest.raises(ValueError, match="reason"):
         DemoDiscarded("bad", "x")
+
+
+@pytest.mark.parametrize(
+    ("low", "tall"),
+    [
+        (
+            ObjectSpec("cylinder", (0.03, 0.055), (0.2, 0.2, 0.8, 1.0), 0.2),
+            ObjectSpec("cylinder", (0.03, 0.06), (0.2, 0.2, 0.8, 1.0), 0.2),
+        ),
+        (
+            ObjectSpec("sphere", (0.0275,), (0.2, 0.2, 0.8, 1.0), 0.2),
+            ObjectSpec("sphere", (0.03,), (0.2, 0.2, 0.8, 1.0), 0.2),
+        ),
+    ],
+)
+def test_the_side_top_boundary_is_where_the_side_approach_stops_working(
+    scene, expert, monkeypatch, low, tall
+):
+    """The approach rule's 6 cm boundary, in PyBullet: below it the side approach's forearm
+    touches the table, the rule's top approach reaches; at it the side approach reaches."""
+    import functools
+
+    import lfd.sim.expert as expert_module
+
+    placements = [Placement(0.5, -0.2, 0.0), Placement(0.6, 0.0, 0.5), Placement(0.65, 0.2, -0.8)]
+    for p in placements:
+        assert expert.run(scene, low, p).plan.mode == "top"
+        assert expert.run(scene, tall, p).plan.mode == "side"
+    monkeypatch.setattr(expert_module, "plan_approach", functools.partial(plan_approach, mode="side"))
+    reasons = []
+    for p in placements:
+        with pytest.raises(DemoDiscarded) as info:
+            expert.run(scene, low, p)
+        reasons.append(info.value.reason)
+    assert reasons == ["table_collision"] * len(placements)
