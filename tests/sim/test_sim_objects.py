@@ -5,7 +5,20 @@ import math
 import numpy as np
 import pytest
 
-from lfd.sim.objects import SHAPES, ObjectSpec, PlacementRanges, sample_object, sample_objects
+from lfd.sim.approach import SIDE_MIN_HEIGHT
+from lfd.sim.objects import (
+    FAMILY_SIZES,
+    MASS_RANGE,
+    SATURATION_RANGE,
+    SHAPES,
+    SIZE_SETS,
+    VALUE_RANGE,
+    ObjectSpec,
+    PlacementRanges,
+    _hsv_to_rgb,
+    sample_object,
+    sample_objects,
+)
 from lfd.sim.scene import TABLE_RGBA
 
 
@@ -80,3 +93,56 @@ def test_placement_ranges_sample_within_bounds():
     assert np.abs(pts[:, 2]).max() <= math.pi / 2
     with pytest.raises(ValueError, match="PlacementRanges.x"):
         PlacementRanges(x=(0.7, 0.4))
+
+
+@pytest.mark.parametrize("sizes", sorted(SIZE_SETS))
+def test_size_sets_are_honoured_and_seeded(sizes):
+    """Every draw lies in its set's training ranges, draws repeat with the seed, and the
+    ranges are reached at both ends."""
+    ranges = SIZE_SETS[sizes].inside
+    for shape in SHAPES:
+        a = [sample_object(np.random.default_rng([1, i]), shape, sizes=sizes) for i in range(300)]
+        b = [sample_object(np.random.default_rng([1, i]), shape, sizes=sizes) for i in range(300)]
+        assert a == b
+        dims = np.array([o.dims for o in a])
+        for k, (lo, hi) in enumerate(ranges[shape]):
+            assert lo <= dims[:, k].min() < lo + 0.1 * (hi - lo), (shape, k)
+            assert hi - 0.1 * (hi - lo) < dims[:, k].max() <= hi, (shape, k)
+    with pytest.raises(ValueError, match="sample_object: sizes must be one of"):
+        sample_object(np.random.default_rng(0), "box", sizes="huge")
+
+
+def test_wide_sizes_cover_users_tables_and_the_approach_boundary():
+    """1.5 to 26 cm, pens to plates, and round objects on both sides of the side/top
+    boundary, drawn densely near it."""
+    rng = np.random.default_rng(2)
+    objs = {s: [sample_object(rng, s, sizes="wide") for _ in range(1000)] for s in SHAPES}
+    heights = [o.height for group in objs.values() for o in group]
+    assert min(heights) < 0.02 and max(heights) > 0.25
+    assert min(o.dims[0] for o in objs["cylinder"]) < 0.013  # pen-thin
+    for shape in ("cylinder", "sphere"):
+        h = np.array([o.height for o in objs[shape]])
+        top, side = (h < SIDE_MIN_HEIGHT).mean(), (h >= SIDE_MIN_HEIGHT).mean()
+        assert top > 0.15 and side > 0.5, shape
+        near = (np.abs(h - SIDE_MIN_HEIGHT) < 0.015).mean()
+        lo, hi = SIZE_SETS["wide"].inside[shape][-1]
+        uniform = 0.03 / ((hi - lo) * (2 if shape == "sphere" else 1))
+        assert near > uniform + 0.12, (shape, near, uniform)  # denser than a uniform draw (+0.2 expected)
+    # every box fits the gripper: a horizontal side <= 8.5 cm
+    assert all(min(o.dims[:2]) <= 0.085 for o in objs["box"])
+
+
+def test_classic_sizes_draw_as_before():
+    """The classic set draws exactly what the generator drew before size sets existed (its
+    random stream is unchanged, so every earlier dataset's objects are reproduced)."""
+    rng, ref = np.random.default_rng(9), np.random.default_rng(9)
+    for shape in SHAPES * 3:
+        obj = sample_object(rng, shape)
+        dims = tuple(float(ref.uniform(lo, hi)) for lo, hi in FAMILY_SIZES[shape])
+        while True:  # the colour draw, as sample_object makes it
+            hsv = ref.uniform(0, 1), ref.uniform(*SATURATION_RANGE), ref.uniform(*VALUE_RANGE)
+            rgb = _hsv_to_rgb(*(float(v) for v in hsv))
+            if math.dist(rgb, TABLE_RGBA[:3]) >= 0.2:
+                break
+        ref.uniform(*MASS_RANGE)
+        assert obj.dims == dims and obj.rgba[:3] == rgb

@@ -31,8 +31,10 @@ _EXPORTS = exports(
     {
         "approach": [
             "SHOULDER_XY",
+            "SIDE_MIN_HEIGHT",
             "TABLE_Z",
             "ApproachPlan",
+            "approach_mode",
             "box_grasp_yaw",
             "plan_approach",
             "side_grasp_height",
@@ -53,6 +55,7 @@ _EXPORTS = exports(
             "ObjectSpec",
             "Placement",
             "PlacementRanges",
+            "SIZE_SETS",
             "sample_object",
             "sample_objects",
         ],
@@ -79,7 +82,16 @@ __all__ = sorted(_EXPORTS)
 __getattr__, __dir__ = lazy_getattr(__name__, _EXPORTS)
 
 if TYPE_CHECKING:
-    from .approach import SHOULDER_XY, TABLE_Z, ApproachPlan, box_grasp_yaw, plan_approach, side_grasp_height
+    from .approach import (
+        SHOULDER_XY,
+        SIDE_MIN_HEIGHT,
+        TABLE_Z,
+        ApproachPlan,
+        approach_mode,
+        box_grasp_yaw,
+        plan_approach,
+        side_grasp_height,
+    )
     from .arms import ARMS, KinematicArm, PyBulletArm
     from .camera import Camera, look_at, perspective, project_points
     from .collision import CollisionReport, CollisionWorld, overlapping_link_pairs
@@ -87,6 +99,7 @@ if TYPE_CHECKING:
     from .objects import (
         SHAPE_DIMS,
         SHAPES,
+        SIZE_SETS,
         ObjectSpec,
         Placement,
         PlacementRanges,

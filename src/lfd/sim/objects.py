@@ -127,6 +127,54 @@ OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], ...], ...]] = {
     "sphere": (((0.03, 0.035), (0.06, 0.07)),),
     "box": (((0.02, 0.035), (0.085, 0.10)), ((0.02, 0.035), (0.085, 0.10)), ((0.015, 0.025), (0.13, 0.18))),
 }
+#: The wider ranges of ``sizes="wide"``, what users put on a table (docs/decisions.md): pens
+#: (r 1.2 cm) to 26 cm tall cans, tins and jars from 3 cm high, balls from a 3 cm marble-sized
+#: sphere to 12 cm, dice (2 cm) to 20 cm cartons and 1.5 cm flat blocks. Horizontal sizes stay
+#: within the PR2 gripper's opening (~9 cm); every size was reached by the scripted expert
+#: at 12 random placements (a few IK misses at the tallest, which generation redraws).
+#: Round objects lower than ``lfd.sim.approach.SIDE_MIN_HEIGHT`` (6 cm) are approached from the
+#: top, so cylinders and balls straddle the rule's boundary: :data:`WIDE_BOUNDARY` draws some of
+#: them close to it.
+WIDE_FAMILY_SIZES: dict[str, tuple[tuple[float, float], ...]] = {
+    "cylinder": ((0.012, 0.045), (0.03, 0.26)),
+    "capsule": ((0.015, 0.035), (0.04, 0.16)),
+    "sphere": ((0.015, 0.06),),
+    "box": ((0.02, 0.085), (0.02, 0.085), (0.015, 0.20)),
+}
+#: Bands just outside :data:`WIDE_FAMILY_SIZES` (as :data:`OUTSIDE_SIZES` is for the classic
+#: ranges): out to 30 cm tall, 1.6 cm thin, 1 cm small.
+WIDE_OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], ...], ...]] = {
+    "cylinder": (((0.008, 0.012), (0.045, 0.055)), ((0.02, 0.03), (0.26, 0.30))),
+    "capsule": (((0.010, 0.015), (0.035, 0.042)), ((0.025, 0.04), (0.16, 0.19))),
+    "sphere": (((0.01, 0.015), (0.06, 0.07)),),
+    "box": (((0.012, 0.02), (0.085, 0.10)), ((0.012, 0.02), (0.085, 0.10)), ((0.01, 0.015), (0.20, 0.25))),
+}
+#: Dense cover of the approach rule's boundary with ``sizes="wide"``: per family, the
+#: probability of drawing the dimension that sets the height (index) from a band around
+#: 6 cm high instead of its whole range: cylinders 4.5-7.5 cm high, balls of 2.25-3.75 cm radius.
+WIDE_BOUNDARY: dict[str, tuple[float, int, tuple[float, float]]] = {
+    "cylinder": (0.3, 1, (0.045, 0.075)),
+    "sphere": (0.3, 0, (0.0225, 0.0375)),
+}
+
+
+@dataclass(frozen=True)
+class SizeRanges:
+    """One set of object size ranges: ``inside`` (per family and dimension, the uniform
+    training range, m), ``outside`` (the bands just outside it) and ``boundary`` (per family:
+    probability, dimension index and band of a denser draw)."""
+
+    inside: dict[str, tuple[tuple[float, float], ...]]
+    outside: dict[str, tuple[tuple[tuple[float, float], ...], ...]]
+    boundary: dict[str, tuple[float, int, tuple[float, float]]]
+
+
+#: The size sets a dataset may draw from, by name (``GeneratorConfig.sizes``): ``classic`` (the
+#: original ranges) and ``wide``.
+SIZE_SETS: dict[str, SizeRanges] = {
+    "classic": SizeRanges(FAMILY_SIZES, OUTSIDE_SIZES, {}),
+    "wide": SizeRanges(WIDE_FAMILY_SIZES, WIDE_OUTSIDE_SIZES, WIDE_BOUNDARY),
+}
 #: Mass range (kg) for every family.
 MASS_RANGE = (0.1, 0.5)
 #: Colour draws (HSV): saturation from greys and pastels to full colour, value from near
@@ -138,18 +186,29 @@ SATURATION_RANGE, VALUE_RANGE = (0.1, 1.0), (0.15, 1.0)
 TABLE_RGB, MIN_TABLE_CONTRAST = (0.62, 0.60, 0.56), 0.2
 
 
-def sample_object(rng: np.random.Generator, shape: str, name: str = "", outside: bool = False) -> ObjectSpec:
-    """One random instance of the family ``shape``: size from :data:`FAMILY_SIZES`, a random
+def sample_object(
+    rng: np.random.Generator, shape: str, name: str = "", outside: bool = False, sizes: str = "classic"
+) -> ObjectSpec:
+    """One random instance of the family ``shape``: size from the size set ``sizes``
+    (:data:`SIZE_SETS`: uniform in its ``inside`` ranges, or, with the probability of its
+    ``boundary`` entry, the height-setting dimension from the boundary band), a random
     colour (hue uniform, saturation :data:`SATURATION_RANGE`, value :data:`VALUE_RANGE`, at
     least :data:`MIN_TABLE_CONTRAST` from the table's colour), mass from :data:`MASS_RANGE`.
     ``outside``: one dimension, chosen at random, from just outside its range instead
-    (:data:`OUTSIDE_SIZES`, each of its bands with equal chance)."""
-    if shape not in FAMILY_SIZES:
+    (the set's ``outside`` bands, each with equal chance)."""
+    if shape not in SHAPE_DIMS:
         raise ValueError(f"sample_object: shape must be one of {SHAPES}, got {shape!r}")
-    dims = tuple(float(rng.uniform(lo, hi)) for lo, hi in FAMILY_SIZES[shape])
+    if sizes not in SIZE_SETS:
+        raise ValueError(f"sample_object: sizes must be one of {tuple(SIZE_SETS)}, got {sizes!r}")
+    ranges = SIZE_SETS[sizes]
+    dims = tuple(float(rng.uniform(lo, hi)) for lo, hi in ranges.inside[shape])
+    if shape in ranges.boundary and not outside:
+        chance, k, (lo, hi) = ranges.boundary[shape]
+        if rng.uniform() < chance:
+            dims = (*dims[:k], float(rng.uniform(lo, hi)), *dims[k + 1 :])
     if outside:
         k = int(rng.integers(len(dims)))
-        bands = OUTSIDE_SIZES[shape][k]
+        bands = ranges.outside[shape][k]
         lo, hi = bands[int(rng.integers(len(bands)))]
         dims = (*dims[:k], float(rng.uniform(lo, hi)), *dims[k + 1 :])
     while True:
@@ -163,16 +222,23 @@ def sample_object(rng: np.random.Generator, shape: str, name: str = "", outside:
 
 
 def sample_objects(
-    rng: np.random.Generator, n: int, families: tuple[str, ...] = SHAPES, prefix: str = "obj"
+    rng: np.random.Generator,
+    n: int,
+    families: tuple[str, ...] = SHAPES,
+    prefix: str = "obj",
+    sizes: str = "classic",
 ) -> list[ObjectSpec]:
     """``n`` instances cycling through ``families`` (so each family is represented as
-    evenly as possible), named ``f"{prefix}-{i:02d}-{shape}"``."""
+    evenly as possible), named ``f"{prefix}-{i:02d}-{shape}"``, sizes from ``sizes``
+    (:data:`SIZE_SETS`)."""
     if n < 0:
         raise ValueError(f"sample_objects: n must be >= 0, got {n}")
     if not families:
         raise ValueError("sample_objects: families must not be empty")
     shapes = [families[i % len(families)] for i in range(n)]
-    return [sample_object(rng, shape, f"{prefix}-{i:02d}-{shape}") for i, shape in enumerate(shapes)]
+    return [
+        sample_object(rng, shape, f"{prefix}-{i:02d}-{shape}", sizes=sizes) for i, shape in enumerate(shapes)
+    ]
 
 
 def _hsv_to_rgb(h: float, s: float, v: float) -> tuple[float, float, float]:

@@ -2,7 +2,7 @@
 
 import pytest
 
-from lfd.sim.objects import FAMILY_SIZES, OUTSIDE_SIZES
+from lfd.sim.objects import SIZE_SETS
 from lfd.visuomotor.data import GeneratorConfig, plan_episodes
 
 
@@ -91,11 +91,13 @@ def test_train_families_change_only_the_training_objects():
     ]
 
 
-def test_validation_objects_outside_the_training_sizes():
+@pytest.mark.parametrize("sizes", sorted(SIZE_SETS))
+def test_validation_objects_outside_the_training_sizes(sizes):
     """``val_sizes="outside"``: every validation object has exactly one dimension outside its
     family's training range (in that dimension's band), the training and test objects do not
     change, and a config without the option keeps its old hash."""
     base = GeneratorConfig(
+        sizes=sizes,
         seed=4,
         n_train_objects=4,
         n_train_placements=2,
@@ -107,13 +109,14 @@ def test_validation_objects_outside_the_training_sizes():
     )
     outside = GeneratorConfig(**{**base.to_dict(), "val_sizes": "outside"})
     assert "val_sizes" not in base.to_dict() and base.sha256() != outside.sha256()
+    assert ("sizes" in base.to_dict()) is (sizes != "classic")  # classic configs keep their hash
     assert GeneratorConfig.from_dict(outside.to_dict()) == outside
     plans, out_plans = plan_episodes(base), plan_episodes(outside)
     for group in ("train", "test"):
         assert [p.obj for p in plans if p.group == group] == [p.obj for p in out_plans if p.group == group]
     below = above = 0
     for p in (p for p in out_plans if p.group == "val"):
-        ranges, bands = FAMILY_SIZES[p.obj.shape], OUTSIDE_SIZES[p.obj.shape]
+        ranges, bands = SIZE_SETS[sizes].inside[p.obj.shape], SIZE_SETS[sizes].outside[p.obj.shape]
         out = [k for k, (d, (lo, hi)) in enumerate(zip(p.obj.dims, ranges, strict=True)) if not lo <= d <= hi]
         assert len(out) == 1, (p.obj.name, p.obj.dims)
         d = p.obj.dims[out[0]]
@@ -121,8 +124,13 @@ def test_validation_objects_outside_the_training_sizes():
         below, above = below + (d < ranges[out[0]][0]), above + (d > ranges[out[0]][1])
     assert below >= 10 and above >= 10  # both sides, over 40 objects
     assert all(  # inside: the original draws
-        all(lo <= d <= hi for d, (lo, hi) in zip(p.obj.dims, FAMILY_SIZES[p.obj.shape], strict=True))
+        all(
+            lo <= d <= hi
+            for d, (lo, hi) in zip(p.obj.dims, SIZE_SETS[sizes].inside[p.obj.shape], strict=True)
+        )
         for p in plans
     )
     with pytest.raises(ValueError, match="GeneratorConfig.val_sizes: expected one of"):
         GeneratorConfig(**{**base.to_dict(), "val_sizes": "wider"})
+    with pytest.raises(ValueError, match="GeneratorConfig.sizes: expected one of"):
+        GeneratorConfig(**{**base.to_dict(), "sizes": "huge"})

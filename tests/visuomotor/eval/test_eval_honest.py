@@ -73,6 +73,8 @@ def test_placement_out_of_reach_is_an_error(tmp_path, robot):
 
 
 def test_objects_outside_training_ranges_warn_and_are_marked(tmp_path, capsys):
+    import warnings
+
     objects = (
         OBJECTS
         + "  - {name: jar, shape: cylinder, radius: 0.044, height: 0.05, rgba: [0.9, 0.9, 0.8, 1.0]}\n"
@@ -85,6 +87,10 @@ def test_objects_outside_training_ranges_warn_and_are_marked(tmp_path, capsys):
     assert "outside the training ranges" in capsys.readouterr().out
     assert sc.ood(0, 0) == "" and sc.ood(1, 0) == ""
     assert "height" in sc.ood(2, 0) and "x 0.720 m outside [0.45, 0.7]" in sc.ood(0, 1)
+    with warnings.catch_warnings():  # the wide sizes hold the jar (and the placements stay as they were)
+        warnings.simplefilter("ignore")
+        wide = load_scenario(path, training=GeneratorConfig(sizes="wide"))
+    assert wide.ood(2, 0) == "" and "x 0.720 m" in wide.ood(0, 1)
     narrow = GeneratorConfig(families=("box",))
     with pytest.warns(UserWarning):
         assert "not among the training families" in load_scenario(path, training=narrow).ood(0, 0)
@@ -109,6 +115,19 @@ def test_user_objects_scenario(robot):
             ROOT / "configs" / "scenarios" / "ood_objects.yaml", robot=robot, training=GeneratorConfig()
         )
     assert len(ood.objects) == 6 and all(ood.ood(i, 0) for i in range(6))
+    with pytest.warns(UserWarning):  # the wide sizes hold four of them; the wide OOD set lies outside those
+        ood = load_scenario(
+            ROOT / "configs" / "scenarios" / "ood_objects.yaml",
+            robot=robot,
+            training=GeneratorConfig(sizes="wide"),
+        )
+        wide_ood = load_scenario(
+            ROOT / "configs" / "scenarios" / "ood_wide_objects.yaml",
+            robot=robot,
+            training=GeneratorConfig(sizes="wide"),
+        )
+    assert [o.name for i, o in enumerate(ood.objects) if ood.ood(i, 0)] == ["tuna_tin", "grapefruit"]
+    assert len(wide_ood.objects) == 6 and all(wide_ood.ood(i, 0) for i in range(6))
 
 
 def test_cluster_bootstrap_matches_the_enumerated_distribution():

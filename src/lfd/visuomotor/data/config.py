@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 from lfd.io.files import json_bytes
-from lfd.sim.objects import SHAPES, PlacementRanges
+from lfd.sim.objects import SHAPES, SIZE_SETS, PlacementRanges
 
 #: Version of the on-disk dataset format (``manifest.json``).
 FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
@@ -53,10 +53,13 @@ class GeneratorConfig:
         n_basis: DMP basis functions per joint.
         max_attempts: placements tried per episode before generation fails.
         robot: robot model name for :func:`lfd.robots.load_robot`.
+        sizes: the objects' size set, a name in :data:`lfd.sim.objects.SIZE_SETS`:
+            ``"classic"`` (the default, the original ranges) or ``"wide"`` (what users put on
+            a table, 1.5-26 cm, with dense cover of the approach rule's boundary).
         val_sizes: the held-out validation objects' sizes: ``"inside"`` the training ranges
-            (:data:`lfd.sim.objects.FAMILY_SIZES`, the default) or ``"outside"`` them (one
-            dimension per object from :data:`lfd.sim.objects.OUTSIDE_SIZES`), so that model
-            selection sees objects the generator never trains on. The test objects stay inside.
+            of ``sizes`` (the default) or ``"outside"`` them (one dimension per object from
+            the set's bands just outside), so that model selection sees objects the
+            generator never trains on. The test objects stay inside.
     """
 
     seed: int = 0
@@ -84,6 +87,7 @@ class GeneratorConfig:
     max_attempts: int = 30
     robot: str = "pr2_right_arm"
     val_sizes: str = "inside"
+    sizes: str = "classic"
 
     def __post_init__(self) -> None:
         # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
@@ -142,6 +146,8 @@ class GeneratorConfig:
             raise ValueError(
                 f"GeneratorConfig.approach_fraction: expected a value in (0, 1), got {self.approach_fraction}"
             )
+        if self.sizes not in SIZE_SETS:
+            raise ValueError(f"GeneratorConfig.sizes: expected one of {tuple(SIZE_SETS)}, got {self.sizes!r}")
         if self.val_sizes not in VAL_SIZES:
             raise ValueError(
                 f"GeneratorConfig.val_sizes: expected one of {VAL_SIZES}, got {self.val_sizes!r}"
@@ -202,4 +208,4 @@ class GeneratorConfig:
 
 
 #: Options added after :data:`FORMAT_VERSION` 2, with their defaults.
-_LATER_OPTIONS = {"depth": False, "train_families": None, "val_sizes": "inside"}
+_LATER_OPTIONS = {"depth": False, "train_families": None, "val_sizes": "inside", "sizes": "classic"}

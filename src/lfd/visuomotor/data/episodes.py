@@ -112,8 +112,8 @@ class EpisodePlan:
 def group_objects(cfg: GeneratorConfig, group: str, n: int) -> list[ObjectSpec]:
     """The first ``n`` objects of ``group``, object ``j`` from its own keyed stream (family
     ``families[j % len(families)]``, :meth:`GeneratorConfig.group_families`), named
-    ``f"{group}-{j:02d}-{shape}"``; the validation objects outside the training ranges with
-    ``val_sizes="outside"``."""
+    ``f"{group}-{j:02d}-{shape}"``, sizes from ``cfg.sizes``; the validation objects outside
+    the training ranges with ``val_sizes="outside"``."""
     key, families = GROUP_KEYS[group], cfg.group_families(group)
     shapes = [families[j % len(families)] for j in range(n)]
     outside = group == "val" and cfg.val_sizes == "outside"
@@ -123,6 +123,7 @@ def group_objects(cfg: GeneratorConfig, group: str, n: int) -> list[ObjectSpec]:
             shape,
             f"{group}-{j:02d}-{shape}",
             outside=outside,
+            sizes=cfg.sizes,
         )
         for j, shape in enumerate(shapes)
     ]

@@ -24,7 +24,7 @@ Validation beyond the fields (errors name the file and the entry):
   have no IK solution (``robot`` argument).
 
 An object or placement outside the *training* ranges (``training``: a
-:class:`~lfd.visuomotor.data.GeneratorConfig` -- its families, :data:`~lfd.sim.objects.FAMILY_SIZES`,
+:class:`~lfd.visuomotor.data.GeneratorConfig` -- its families, its size set (:data:`~lfd.sim.objects.SIZE_SETS`),
 its placement ranges) is accepted with a printed warning and marked out of distribution
 (:meth:`Scenario.ood`, the ``ood`` column of ``episodes.csv``).
 
@@ -53,7 +53,7 @@ import numpy as np
 from lfd.io.files import YamlError, read_yaml, show
 from lfd.sim.approach import TABLE_Z, plan_approach
 from lfd.sim.camera import Camera
-from lfd.sim.objects import FAMILY_SIZES, SHAPE_DIMS, ObjectSpec, Placement
+from lfd.sim.objects import SHAPE_DIMS, SIZE_SETS, ObjectSpec, Placement
 from lfd.sim.scene import TABLE_HALF_Y, TABLE_X
 
 #: Mass (kg) of a scenario object that does not give one.
@@ -233,15 +233,16 @@ def object_corners(obj: ObjectSpec, placement: Placement, table_z: float = TABLE
     return np.array(pts)
 
 
-def object_ood_reason(obj: ObjectSpec, families: tuple[str, ...]) -> str:
+def object_ood_reason(obj: ObjectSpec, families: tuple[str, ...], sizes: str = "classic") -> str:
     """Why ``obj`` lies outside the generator's training objects ("" = inside): a shape
-    not among ``families`` or a dimension outside :data:`~lfd.sim.objects.FAMILY_SIZES`."""
+    not among ``families`` or a dimension outside the training ranges of the size set
+    ``sizes`` (:data:`~lfd.sim.objects.SIZE_SETS`)."""
     if obj.shape not in families:
         return f"shape {obj.shape} not among the training families {list(families)}"
     out = [
         f"{label} {value:.3f} m outside [{lo}, {hi}]"
         for label, value, (lo, hi) in zip(
-            SHAPE_DIMS[obj.shape], obj.dims, FAMILY_SIZES[obj.shape], strict=True
+            SHAPE_DIMS[obj.shape], obj.dims, SIZE_SETS[sizes].inside[obj.shape], strict=True
         )
         if not lo <= value <= hi
     ]
@@ -372,7 +373,9 @@ def load_scenario(
         _check_reach(objects, placements, robot, table_z, path)
     object_ood = placement_ood = ()
     if training is not None:
-        object_ood = tuple(object_ood_reason(o, training.group_families("train")) for o in objects)
+        object_ood = tuple(
+            object_ood_reason(o, training.group_families("train"), training.sizes) for o in objects
+        )
         placement_ood = tuple(
             placement_ood_reason(p, training.x_range, training.y_range, training.yaw_range_deg)
             for p in placements
