@@ -129,7 +129,7 @@ OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], ...], ...]] = {
 }
 #: The wider ranges of ``sizes="wide"``, what users put on a table (docs/decisions.md): pens
 #: (r 1.2 cm) to 26 cm tall cans, tins and jars from 3 cm high, balls from a 3 cm marble-sized
-#: sphere to 12 cm, dice (2 cm) to 20 cm cartons and 1.5 cm flat blocks. Horizontal sizes stay
+#: sphere to 12 cm, egg-like to 23 cm capsules, dice (2 cm) to 20 cm cartons and 1.5 cm flat blocks. Horizontal sizes stay
 #: within the PR2 gripper's opening (~9 cm); every size was reached by the scripted expert
 #: at 12 random placements (a few IK misses at the tallest, which generation redraws).
 #: Round objects lower than ``lfd.sim.approach.SIDE_MIN_HEIGHT`` (6 cm) are approached from the
@@ -137,23 +137,26 @@ OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], ...], ...]] = {
 #: them close to it.
 WIDE_FAMILY_SIZES: dict[str, tuple[tuple[float, float], ...]] = {
     "cylinder": ((0.012, 0.045), (0.03, 0.26)),
-    "capsule": ((0.015, 0.035), (0.04, 0.16)),
+    "capsule": ((0.015, 0.035), (0.005, 0.16)),
     "sphere": ((0.015, 0.06),),
     "box": ((0.02, 0.085), (0.02, 0.085), (0.015, 0.20)),
 }
 #: Bands just outside :data:`WIDE_FAMILY_SIZES` (as :data:`OUTSIDE_SIZES` is for the classic
-#: ranges): out to 30 cm tall, 1.6 cm thin, 1 cm small.
+#: ranges): out to 30 cm tall, 1.6 cm thin, 1 cm small. A capsule's straight part has no band
+#: below (its range starts at 5 mm: a ball).
 WIDE_OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], ...], ...]] = {
     "cylinder": (((0.008, 0.012), (0.045, 0.055)), ((0.02, 0.03), (0.26, 0.30))),
-    "capsule": (((0.010, 0.015), (0.035, 0.042)), ((0.025, 0.04), (0.16, 0.19))),
+    "capsule": (((0.010, 0.015), (0.035, 0.042)), ((0.16, 0.19),)),
     "sphere": (((0.01, 0.015), (0.06, 0.07)),),
     "box": (((0.012, 0.02), (0.085, 0.10)), ((0.012, 0.02), (0.085, 0.10)), ((0.01, 0.015), (0.20, 0.25))),
 }
 #: Dense cover of the approach rule's boundary with ``sizes="wide"``: per family, the
 #: probability of drawing the dimension that sets the height (index) from a band around
-#: 6 cm high instead of its whole range: cylinders 4.5-7.5 cm high, balls of 2.25-3.75 cm radius.
+#: 6 cm high instead of its whole range: cylinders 4.5-7.5 cm high, balls of 2.25-3.75 cm radius,
+#: capsules with a straight part of 0.5-4 cm (4-11 cm high, by radius).
 WIDE_BOUNDARY: dict[str, tuple[float, int, tuple[float, float]]] = {
     "cylinder": (0.3, 1, (0.045, 0.075)),
+    "capsule": (0.3, 1, (0.005, 0.04)),
     "sphere": (0.3, 0, (0.0225, 0.0375)),
 }
 
