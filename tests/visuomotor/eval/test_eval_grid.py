@@ -231,3 +231,19 @@ def test_every_policy_gets_the_same_budget(grid):
             budgets[kind] = (cfg.trainer.max_steps, cfg.data.batch_size)
     assert len(set(budgets.values())) == 1, budgets
     assert budgets["act"] == ((4000, 32) if grid else (3200, 32))
+
+
+def test_the_grid_keeps_its_documented_dataset():
+    """+grid=policies generates the dataset its documented tables were made on (classic sizes,
+    300 objects, inside-size validation), whatever experiment=quick trains on."""
+    from hydra import compose, initialize_config_dir
+
+    from lfd.visuomotor.data import GeneratorConfig
+
+    keys = ("sizes", "n_train_objects", "val_sizes", "name")
+    with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
+        grid = compose("train", overrides=["experiment=quick", "+grid=policies"]).data
+        quick = compose("train", overrides=["experiment=quick"]).data
+    assert [grid[k] for k in keys] == ["classic", 300, "inside", "quick96o300d_s42"]
+    assert [quick[k] for k in keys[:3]] == ["wide", 600, "outside"]
+    assert "sizes" not in GeneratorConfig(sizes=grid.sizes).to_dict()  # the old datasets' hash
