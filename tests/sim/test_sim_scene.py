@@ -138,3 +138,39 @@ def test_upright_capsule_stands_through_a_demonstration_unless_pushed(robot, mon
             assert np.linalg.norm(s.object_pose()[:3, 3] - start) > 5e-3
         else:
             assert max(moved) > 0.05, moved
+
+
+def test_lighting_changes_colours_not_depth_and_the_default_is_pybullets(scene, robot):
+    """A default Lighting renders exactly what no Lighting does (PyBullet's own defaults); a random
+    light recolours the table and the object (the backdrop too), leaves the depth alone, and lasts
+    across resets until it is set back."""
+    from lfd.sim.camera import LIGHTING_RANGES, Lighting, sample_lighting
+
+    scene.set_lighting(None)
+    scene.reset(BOX, Placement(0.58, 0.0, 0.0))
+    rgb, depth = scene.render(with_depth=True)
+    scene.set_lighting(Lighting())
+    np.testing.assert_array_equal(scene.render(), rgb)
+    rng = np.random.default_rng(0)
+    lights = [sample_lighting(rng) for _ in range(4)]
+    assert lights == [sample_lighting(r) for r in [np.random.default_rng(0)] * 1 for _ in range(4)]
+    table = (slice(30, 34), slice(20, 28))  # a patch of table in front of the object
+    changed = 0
+    for light in lights:
+        lo, hi = LIGHTING_RANGES["ambient"]
+        assert lo <= light.ambient <= hi and light.direction[2] >= np.sin(np.radians(29.9))
+        scene.set_lighting(light)
+        scene.reset(BOX, Placement(0.58, 0.0, 0.0))
+        lit, lit_depth = scene.render(with_depth=True)
+        np.testing.assert_array_equal(lit_depth, depth)
+        changed += np.abs(lit[table].astype(int) - rgb[table].astype(int)).mean() > 3
+        np.testing.assert_array_equal(Lighting.from_array(light.as_array()).as_array(), light.as_array())
+    assert changed >= 3  # the backdrop's table is relit, not pasted from the default light
+    scene.set_lighting(None)
+    np.testing.assert_array_equal(scene.render(), rgb)
+    with pytest.raises(ValueError, match="Lighting.ambient: expected a value in"):
+        Lighting(ambient=1.5)
+    with pytest.raises(ValueError, match="Lighting.direction"):
+        Lighting(direction=(0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="ReachScene.set_lighting"):
+        scene.set_lighting("bright")

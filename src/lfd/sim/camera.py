@@ -16,8 +16,93 @@ import numpy as np
 from lfd.sim._pybullet import pybullet as p
 from lfd.sim.depth import depth_to_mm, linear_depth, plane_depth_mm
 
-#: Direction towards the light (world frame) used for every rendering.
+#: Direction towards the light (world frame) of the default lighting.
 LIGHT_DIRECTION = (0.4, -0.3, 1.0)
+#: Ranges of :func:`sample_lighting`: the light's elevation above the table (degrees; its
+#: azimuth is uniform), TinyRenderer's ambient and diffuse coefficients (the defaults are 0.6
+#: and 0.35: from a dim room to a bright one) and the largest change of each colour channel of
+#: the light (warm to cool white).
+LIGHTING_RANGES = {"elevation_deg": (30.0, 90.0), "ambient": (0.4, 0.8), "diffuse": (0.2, 0.5), "tint": 0.15}
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """TinyRenderer's directional light.
+
+    Attributes:
+        direction: towards the light (world frame; any length > 0).
+        colour: RGB of the light, each in ``[0, 1]``.
+        ambient, diffuse, specular: shading coefficients, each in ``[0, 1]``.
+
+    The defaults are PyBullet's own (:data:`LIGHT_DIRECTION`, white, 0.6, 0.35, 0.05): a
+    default ``Lighting()`` renders exactly what rendering without one does.
+
+    Raises:
+        ValueError: naming the field when a value is invalid.
+    """
+
+    direction: tuple[float, float, float] = LIGHT_DIRECTION
+    colour: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    ambient: float = 0.6
+    diffuse: float = 0.35
+    specular: float = 0.05
+
+    def __post_init__(self) -> None:
+        direction = tuple(float(v) for v in self.direction)
+        if (
+            len(direction) != 3
+            or not all(math.isfinite(v) for v in direction)
+            or math.hypot(*direction) < 1e-9
+        ):
+            raise ValueError(f"Lighting.direction: expected 3 finite values, not all 0, got {self.direction}")
+        colour = tuple(float(v) for v in self.colour)
+        if len(colour) != 3 or not all(0.0 <= v <= 1.0 for v in colour):
+            raise ValueError(f"Lighting.colour: expected 3 values in [0, 1], got {self.colour}")
+        for name in ("ambient", "diffuse", "specular"):
+            value = float(getattr(self, name))
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"Lighting.{name}: expected a value in [0, 1], got {value}")
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "direction", direction)
+        object.__setattr__(self, "colour", colour)
+
+    def as_array(self) -> np.ndarray:
+        """``(9,)`` float64: direction, colour, ambient, diffuse, specular (the
+        ``lighting`` array of a dataset episode)."""
+        return np.array([*self.direction, *self.colour, self.ambient, self.diffuse, self.specular])
+
+    @classmethod
+    def from_array(cls, a: np.ndarray) -> Lighting:
+        a = np.asarray(a, dtype=np.float64).reshape(-1)
+        if a.shape != (9,):
+            raise ValueError(f"Lighting.from_array: expected 9 values, got {a.shape[0]}")
+        return cls(tuple(a[:3]), tuple(a[3:6]), *a[6:].tolist())
+
+    def pybullet_kwargs(self) -> dict:
+        """The keyword arguments of ``pybullet.getCameraImage`` for this light."""
+        return {
+            "lightDirection": list(self.direction),
+            "lightColor": list(self.colour),
+            "lightAmbientCoeff": self.ambient,
+            "lightDiffuseCoeff": self.diffuse,
+            "lightSpecularCoeff": self.specular,
+        }
+
+
+def sample_lighting(rng: np.random.Generator) -> Lighting:
+    """A random :class:`Lighting` from :data:`LIGHTING_RANGES`: azimuth uniform, elevation,
+    ambient and diffuse uniform in their ranges, each colour channel ``1 - U(0, tint)``, the
+    specular coefficient PyBullet's."""
+    r = LIGHTING_RANGES
+    azimuth = rng.uniform(0.0, 2 * math.pi)
+    elevation = math.radians(rng.uniform(*r["elevation_deg"]))
+    direction = (
+        math.cos(elevation) * math.cos(azimuth),
+        math.cos(elevation) * math.sin(azimuth),
+        math.sin(elevation),
+    )
+    colour = tuple(1.0 - rng.uniform(0.0, r["tint"], size=3))
+    return Lighting(direction, colour, rng.uniform(*r["ambient"]), rng.uniform(*r["diffuse"]))
 
 
 def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
@@ -131,6 +216,7 @@ class Camera:
         *,
         backdrop_depth: np.ndarray | None = None,
         with_depth: bool = False,
+        lighting: Lighting | None = None,
     ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """RGB image ``(height, width, 3)`` uint8 from PyBullet's TinyRenderer, and with
         ``with_depth`` also the depth image ``(height, width)`` uint16 mm (same render call).
@@ -143,6 +229,7 @@ class Camera:
             backdrop_depth: ``(height, width)`` uint16 mm depth of the backdrop, used where
                 nothing of ``client`` was drawn (else ``far``).
             with_depth: return ``(rgb, depth_mm)``.
+            lighting: the light (None: PyBullet's default light from :data:`LIGHT_DIRECTION`).
         """
         view = self.view_matrix @ np.linalg.inv(base_to_world)
         _, _, rgba, depth, _ = p.getCameraImage(
@@ -151,7 +238,8 @@ class Camera:
             viewMatrix=to_pybullet(view),
             projectionMatrix=to_pybullet(self.projection_matrix),
             renderer=p.ER_TINY_RENDERER,
-            lightDirection=list(LIGHT_DIRECTION),
+            # every coefficient, every time: TinyRenderer keeps the last values it was given
+            **(lighting if lighting is not None else Lighting()).pybullet_kwargs(),
             shadow=0,
             flags=p.ER_NO_SEGMENTATION_MASK,
             physicsClientId=client,

@@ -129,9 +129,10 @@ OUTSIDE_SIZES: dict[str, tuple[tuple[tuple[float, float], ...], ...]] = {
 }
 #: The wider ranges of ``sizes="wide"``, what users put on a table (docs/decisions.md): pens
 #: (r 1.2 cm) to 26 cm tall cans, tins and jars from 3 cm high, balls from a 3 cm marble-sized
-#: sphere to 12 cm, egg-like to 23 cm capsules, dice (2 cm) to 20 cm cartons and 1.5 cm flat blocks. Horizontal sizes stay
-#: within the PR2 gripper's opening (~9 cm); every size was reached by the scripted expert
-#: at 12 random placements (a few IK misses at the tallest, which generation redraws).
+#: sphere to 12 cm, egg-like to 23 cm capsules, dice (2 cm) to 20 cm cartons and 1.5 cm flat
+#: blocks. Horizontal sizes stay within the PR2 gripper's opening (~9 cm); every extreme was
+#: reached by the scripted expert at 12 random placements (a few IK misses at the tallest,
+#: which generation redraws).
 #: Round objects lower than ``lfd.sim.approach.SIDE_MIN_HEIGHT`` (6 cm) are approached from the
 #: top, so cylinders and balls straddle the rule's boundary: :data:`WIDE_BOUNDARY` draws some of
 #: them close to it.

@@ -31,7 +31,7 @@ import numpy as np
 
 from lfd.sim._pybullet import pybullet as p
 from lfd.sim.approach import TABLE_Z
-from lfd.sim.camera import Camera
+from lfd.sim.camera import Camera, Lighting
 from lfd.sim.collision import overlapping_link_pairs
 from lfd.sim.joints import ArmJoints
 from lfd.sim.objects import ObjectSpec, Placement
@@ -138,6 +138,7 @@ class ReachScene(ArmJoints):
         self.client = p.connect(p.DIRECT)
         self._backdrop_client = p.connect(p.DIRECT)
         self._add_static_bodies(self._backdrop_client, visible=True)
+        self.lighting: Lighting | None = None
         self._backdrop, self._backdrop_depth = self.camera.render(
             self._backdrop_client, self.base_to_world, with_depth=True
         )
@@ -328,6 +329,20 @@ class ReachScene(ArmJoints):
         return len(pts) > 0
 
     # ------------------------------------------------------------------ images
+    def set_lighting(self, lighting: Lighting | None) -> None:
+        """Render every later image (fixed and wrist camera, the table and floor included) under
+        ``lighting`` (None: PyBullet's default light). Lasts across :meth:`reset`."""
+        if lighting is not None and not isinstance(lighting, Lighting):
+            raise ValueError(
+                f"ReachScene.set_lighting: expected a Lighting or None, got {type(lighting).__name__}"
+            )
+        if lighting == self.lighting:
+            return
+        self.lighting = lighting
+        self._backdrop, self._backdrop_depth = self.camera.render(
+            self._backdrop_client, self.base_to_world, with_depth=True, lighting=lighting
+        )
+
     def render(self, with_depth: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """RGB frame ``(H, W, 3)`` uint8 of the fixed camera; with ``with_depth`` the pair
         ``(rgb, depth)``, depth ``(H, W)`` uint16 mm along the optical axis (one render call;
@@ -338,6 +353,7 @@ class ReachScene(ArmJoints):
             self._backdrop,
             backdrop_depth=self._backdrop_depth,
             with_depth=with_depth,
+            lighting=self.lighting,
         )
 
     def render_wrist(self) -> np.ndarray:
@@ -354,9 +370,8 @@ class ReachScene(ArmJoints):
             height=self.image_size,
             near=0.02,
         )
-        return cam.render(
-            self.client, self.base_to_world, cam.render(self._backdrop_client, self.base_to_world)
-        )
+        backdrop = cam.render(self._backdrop_client, self.base_to_world, lighting=self.lighting)
+        return cam.render(self.client, self.base_to_world, backdrop, lighting=self.lighting)
 
     # ------------------------------------------------------------------ lifetime
     def close(self) -> None:

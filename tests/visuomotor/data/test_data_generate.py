@@ -187,3 +187,34 @@ def test_npz_bytes_are_deterministic():
     }
     assert npz_bytes(arrays) == npz_bytes(dict(arrays))
     assert npz_bytes(arrays) != npz_bytes({**arrays, "x": np.float64(2.6)})
+
+
+def test_random_lighting_is_recorded_keyed_and_leaves_everything_else(reference, tmp_path):
+    """``lighting="random"``: each episode under its own light, recorded in the file and drawn from
+    a keyed stream (the same light for the same group, object and placement, whatever else the
+    config says); the placements, trajectories and depth of the fixed-light dataset are unchanged,
+    its frames are not; a fixed-light config keeps its hash."""
+    from lfd.sim.camera import Lighting
+    from lfd.visuomotor.data.episodes import episode_lighting, plan_episodes
+
+    assert "lighting" not in TINY.to_dict()
+    lit_cfg = GeneratorConfig(**{**TINY.to_dict(), "lighting": "random"})
+    assert lit_cfg.sha256() != TINY.sha256()
+    out = tmp_path / "lit"
+    generate_dataset(lit_cfg, out, num_workers=1, progress=False)
+    lit, plain = load_dataset(out, lit_cfg), load_dataset(reference, TINY)
+    lights = []
+    for a, b, plan in zip(lit.episodes, plain.episodes, plan_episodes(lit_cfg), strict=True):
+        assert "lighting" in a.arrays and "lighting" not in b.arrays
+        light = Lighting.from_array(a.arrays["lighting"])
+        assert light == episode_lighting(lit_cfg, plan)
+        lights.append(light)
+        np.testing.assert_array_equal(a.placement.as_array(), b.placement.as_array())
+        np.testing.assert_allclose(a.arrays["joints"], b.arrays["joints"], atol=1e-9)
+        assert not np.array_equal(a.frames(), b.frames())
+    assert len(set(lights)) == len(lights)
+    more = GeneratorConfig(**{**lit_cfg.to_dict(), "n_test_placements": 3})
+    assert [episode_lighting(more, p) for p in plan_episodes(more)[:6]] == lights[:6]
+    assert episode_lighting(TINY, plan_episodes(TINY)[0]) is None
+    with pytest.raises(ValueError, match="GeneratorConfig.lighting: expected one of"):
+        GeneratorConfig(**{**TINY.to_dict(), "lighting": "dark"})

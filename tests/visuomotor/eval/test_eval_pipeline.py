@@ -242,6 +242,50 @@ def test_scenario_file_evaluation(checkpoints, tiny, workspace):
     assert not (out_dir / "rollouts").exists()
 
 
+def test_random_lighting_evaluation_lights_each_case_the_same_for_every_kind(
+    checkpoints, tiny, workspace, monkeypatch
+):
+    """``eval.lighting=random``: case ``i`` under its own keyed light, the same for every kind;
+    ``dataset`` on a scenario: the default light. metrics.json records the setting."""
+    from lfd.sim.camera import sample_lighting
+    from lfd.sim.scene import ReachScene
+
+    scenario = workspace / "scenario-light.yaml"
+    scenario.write_text(
+        "objects:\n"
+        "  - {name: can, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1.0, 0.5, 0.0, 1.0]}\n"
+        "placements:\n"
+        "  - [0.55, 0.05, 0.3]\n"
+        "  - [0.60, -0.10, 0.0]\n"
+    )
+    seen = []
+    original = ReachScene.set_lighting
+    monkeypatch.setattr(
+        ReachScene, "set_lighting", lambda self, light: (seen.append(light), original(self, light))
+    )
+    for lighting in ("random", "dataset"):
+        seen.clear()
+        cfg = tiny(
+            "evaluate",
+            f"eval.scenario={scenario}",
+            "eval.n_gifs=0",
+            "eval.max_steps=4",
+            f"eval.lighting={lighting}",
+        )
+        metrics = evaluate.evaluate(cfg, workspace / f"eval-light-{lighting}")
+        assert {m["lighting"] for m in metrics.values()} == {lighting}
+        per_kind = [seen[i : i + 3] for i in range(0, len(seen), 3)]  # warm-up, then the 2 cases
+        assert len(per_kind) == len(metrics) == 2 and per_kind[0] == per_kind[1]
+        if lighting == "random":
+            expected = [
+                sample_lighting(np.random.default_rng([evaluator_module.EVAL_LIGHTING_STREAM, i]))
+                for i in (0, 0, 1)
+            ]
+            assert per_kind[0] == expected and expected[0] != expected[2]
+        else:
+            assert per_kind[0] == [None, None, None]
+
+
 def test_evaluator_interface_cannot_pass_the_object_pose():
     """The controllers only ever get an Observation: an image, joints and the clock."""
     from dataclasses import fields

@@ -13,10 +13,12 @@ from lfd.sim.objects import SHAPES, SIZE_SETS, PlacementRanges
 #: Version of the on-disk dataset format (``manifest.json``).
 FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
 
-__all__ = ["VAL_SIZES", "GeneratorConfig"]
+__all__ = ["LIGHTINGS", "VAL_SIZES", "GeneratorConfig"]
 
 #: Where the held-out validation objects' sizes come from (:attr:`GeneratorConfig.val_sizes`).
 VAL_SIZES = ("inside", "outside")
+#: How the episodes are lit (:attr:`GeneratorConfig.lighting`).
+LIGHTINGS = ("fixed", "random")
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,9 @@ class GeneratorConfig:
             of ``sizes`` (the default) or ``"outside"`` them (one dimension per object from
             the set's bands just outside), so that model selection sees objects the
             generator never trains on. The test objects stay inside.
+        lighting: ``"fixed"`` (the default: PyBullet's default light) or ``"random"`` (every
+            episode under its own light, :func:`lfd.sim.camera.sample_lighting`, drawn from a
+            stream keyed like the placements and stored as the episode's ``lighting`` array).
     """
 
     seed: int = 0
@@ -88,6 +93,7 @@ class GeneratorConfig:
     robot: str = "pr2_right_arm"
     val_sizes: str = "inside"
     sizes: str = "classic"
+    lighting: str = "fixed"
 
     def __post_init__(self) -> None:
         # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
@@ -148,6 +154,8 @@ class GeneratorConfig:
             )
         if self.sizes not in SIZE_SETS:
             raise ValueError(f"GeneratorConfig.sizes: expected one of {tuple(SIZE_SETS)}, got {self.sizes!r}")
+        if self.lighting not in LIGHTINGS:
+            raise ValueError(f"GeneratorConfig.lighting: expected one of {LIGHTINGS}, got {self.lighting!r}")
         if self.val_sizes not in VAL_SIZES:
             raise ValueError(
                 f"GeneratorConfig.val_sizes: expected one of {VAL_SIZES}, got {self.val_sizes!r}"
@@ -208,4 +216,10 @@ class GeneratorConfig:
 
 
 #: Options added after :data:`FORMAT_VERSION` 2, with their defaults.
-_LATER_OPTIONS = {"depth": False, "train_families": None, "val_sizes": "inside", "sizes": "classic"}
+_LATER_OPTIONS = {
+    "depth": False,
+    "train_families": None,
+    "val_sizes": "inside",
+    "sizes": "classic",
+    "lighting": "fixed",
+}

@@ -37,7 +37,7 @@ class ReachDataModule(L.LightningDataModule):
     splits in the item layout of ``mode`` (see :class:`~lfd.visuomotor.data.datasets.DMPReachDataset`
     and :class:`~lfd.visuomotor.data.datasets.VelocityReachDataset`).
 
-    Generator arguments (``seed`` ... ``robot``, ``val_sizes``, ``sizes``) are those of
+    Generator arguments (``seed`` ... ``robot``, ``val_sizes``, ``sizes``, ``lighting``) are those of
     :class:`~lfd.visuomotor.data.config.GeneratorConfig` and define the dataset's content; the others
     only change how it is made or served.
 
@@ -95,6 +95,7 @@ class ReachDataModule(L.LightningDataModule):
         robot: str = "pr2_right_arm",
         val_sizes: str = "inside",
         sizes: str = "classic",
+        lighting: str = "fixed",
         batch_size: int = 32,
         num_workers: int = 0,
         augment: bool = False,
@@ -138,6 +139,7 @@ class ReachDataModule(L.LightningDataModule):
             robot=robot,
             val_sizes=val_sizes,
             sizes=sizes,
+            lighting=lighting,
         )
         self.input_depth = bool(depth if input_depth is None else input_depth)
         if self.input_depth and not depth:

@@ -25,6 +25,7 @@ import numpy as np
 
 from lfd.checks import one_line
 from lfd.io.files import DatasetError
+from lfd.sim.camera import Lighting, sample_lighting
 from lfd.sim.expert import DISCARD_REASONS
 from lfd.sim.objects import ObjectSpec, Placement, sample_object
 from lfd.visuomotor.data.config import GeneratorConfig
@@ -59,7 +60,7 @@ EPISODE_KEYS = (
     "discarded",
 )
 # Independent random streams derived from the seed (0, 1: retired streams of format 1).
-SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM = 2, 3, 4
+SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM, LIGHTING_STREAM = 2, 3, 4, 5
 #: Stream key of each object group (see the module docstring).
 GROUP_KEYS = {"train": 0, "val": 1, "test": 2}
 
@@ -148,6 +149,15 @@ def plan_episodes(cfg: GeneratorConfig) -> list[EpisodePlan]:
             for k in range(n_pl):
                 plans.append(EpisodePlan(len(plans), group, j, k, obj, group))
     return plans
+
+
+def episode_lighting(cfg: GeneratorConfig, plan: EpisodePlan) -> Lighting | None:
+    """The light of an episode: None with ``lighting="fixed"``, else drawn from a stream keyed
+    by the seed, the object group, the object and the placement number."""
+    if cfg.lighting == "fixed":
+        return None
+    key = [cfg.seed, LIGHTING_STREAM, GROUP_KEYS[plan.group], plan.object_index, plan.placement_index]
+    return sample_lighting(np.random.default_rng(key))
 
 
 def placement_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:

@@ -34,6 +34,7 @@ from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import (
     EpisodePlan,
     EpisodeRecord,
+    episode_lighting,
     episode_path,
     placement_rng,
     plan_episodes,
@@ -152,6 +153,8 @@ class EpisodeWriter:
         """Generate and write episode ``index``; returns it with its discard counts."""
         plan = self.plans[index]
         rng = placement_rng(self.cfg, plan)
+        lighting = episode_lighting(self.cfg, plan)
+        self.scene.set_lighting(lighting)
         discarded = dict.fromkeys(DISCARD_REASONS, 0)
         for _ in range(self.cfg.max_attempts):
             placement = self.cfg.placement_ranges.sample(rng)
@@ -217,6 +220,8 @@ class EpisodeWriter:
             out["wrist_frames"] = demo.wrist_frames
         if demo.depth is not None:
             out["depth"] = demo.depth
+        if self.scene.lighting is not None:
+            out["lighting"] = self.scene.lighting.as_array()
         return out
 
     def close(self) -> None:

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from lfd.sim.approach import TABLE_Z, ApproachPlan, plan_approach
+from lfd.sim.camera import Lighting
 from lfd.sim.expert import DemoDiscarded, ScriptedExpert
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.visuomotor.eval.scenario import Scenario, load_scenario
@@ -29,6 +30,8 @@ class Case:
         plan: the approach rule's target poses (grasp target point, approach direction).
         demo_ee: ``(T, 3)`` demonstrated tool path, or None if the expert failed here.
         ood: why the case lies outside the training ranges ("" = inside; scenario cases only).
+        lighting: the light its dataset episode was recorded under (None: the default light;
+            scenario cases and datasets made with ``lighting="fixed"``).
     """
 
     object_index: int
@@ -39,6 +42,7 @@ class Case:
     demo_ee: np.ndarray | None
     ood: str = ""
     table_z: float = TABLE_Z
+    lighting: Lighting | None = None
 
     @property
     def object_centre(self) -> np.ndarray:
@@ -118,6 +122,7 @@ def evaluation_cases(
             r.arrays["ee_poses"][:, :3, 3],
             "",
             table_z,
+            Lighting.from_array(r.arrays["lighting"]) if "lighting" in r.arrays else None,
         )
         for r in records
     ]

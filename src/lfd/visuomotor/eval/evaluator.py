@@ -32,7 +32,7 @@ import torch
 
 from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
-from lfd.sim.camera import Camera
+from lfd.sim.camera import Camera, Lighting, sample_lighting
 from lfd.sim.scene import ReachScene
 from lfd.training import CHECKPOINT_GLOB, checkpoint_kind, find_checkpoints
 from lfd.visuomotor.data.datasets import load_dataset
@@ -58,6 +58,12 @@ KIND_LISTS = ("kinds", "colour_tta")
 def train_command(kind: str) -> str:
     """The command that trains a policy of ``kind``, quoted when its checkpoint is missing."""
     return f"python train.py model={kind}"
+
+
+#: ``eval.lighting`` values (:class:`ReachEvalSettings`).
+EVAL_LIGHTINGS = ("dataset", "fixed", "random")
+#: Stream key of ``eval.lighting=random`` (apart from every dataset stream).
+EVAL_LIGHTING_STREAM = 7
 
 
 @dataclass(frozen=True)
@@ -91,6 +97,12 @@ class ReachEvalSettings:
         limit: evaluate only the first ``limit`` cases (None: all).
         torch_threads: torch intra-op threads during the closed-loop runs (a batch of one
             gains nothing from more, and loses much to thread hand-offs on a busy CPU).
+        lighting: the light of each episode: ``"dataset"`` (the default: a dataset case's
+            recorded light, :attr:`~lfd.visuomotor.eval.cases.Case.lighting`; PyBullet's default
+            light for scenario cases and datasets made with ``lighting: fixed``), ``"fixed"``
+            (always the default light) or ``"random"`` (case ``i`` under
+            :func:`lfd.sim.camera.sample_lighting` of ``default_rng([EVAL_LIGHTING_STREAM, i])``,
+            the same for every kind: a robustness check under lights the training never saw).
         episode_reports: writers of the episodes in other layouts, called in order after the
             outputs above (:class:`~lfd.visuomotor.protocols.EpisodeReport`;
             ``configs/eval/reach.yaml``: LeRobot's, :func:`lfd.interop.lerobot.report.write_lerobot_eval`).
@@ -107,6 +119,7 @@ class ReachEvalSettings:
     approach_tol_deg: float = 30.0
     limit: int | None = None
     torch_threads: int = 1
+    lighting: str = "dataset"
     episode_reports: tuple[EpisodeReport, ...] = ()
 
     def __post_init__(self) -> None:
@@ -115,6 +128,8 @@ class ReachEvalSettings:
 
         if self.split not in ("test", "val"):
             raise ValueError(f"eval.split: expected 'test' or 'val', got {self.split!r}")
+        if self.lighting not in EVAL_LIGHTINGS:
+            raise ValueError(f"eval.lighting: expected one of {EVAL_LIGHTINGS}, got {self.lighting!r}")
         for name in KIND_LISTS:
             value = getattr(self, name)
             if value is None and name == "kinds":
@@ -376,6 +391,7 @@ class ReachEvaluator:
                     "cases": source,
                     "steps_per_episode": steps,
                     "colour_tta": kind in self.settings.colour_tta,
+                    "lighting": self.settings.lighting,
                     "chunk_execution": policies[kind].execution
                     if kind in self.settings.chunk_execution
                     else None,
@@ -410,6 +426,7 @@ class ReachEvaluator:
         self._warm_up(scene, cases[0], controller, steps)
         traces = []
         for i, case in enumerate(cases):
+            scene.set_lighting(self.case_lighting(i, case))
             scene.reset(case.obj, case.placement, q=robot.home.numpy())
             trace = run_episode(
                 scene,
@@ -429,9 +446,15 @@ class ReachEvaluator:
             traces.append(trace)
         return traces
 
-    @staticmethod
-    def _warm_up(scene, case: Case, controller: Controller, steps: int) -> None:
+    def case_lighting(self, i: int, case: Case) -> Lighting | None:
+        """The light of case ``i`` under ``eval.lighting`` (:class:`ReachEvalSettings`)."""
+        if self.settings.lighting == "random":
+            return sample_lighting(np.random.default_rng([EVAL_LIGHTING_STREAM, i]))
+        return case.lighting if self.settings.lighting == "dataset" else None
+
+    def _warm_up(self, scene, case: Case, controller: Controller, steps: int) -> None:
         """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
+        scene.set_lighting(self.case_lighting(0, case))
         scene.reset(case.obj, case.placement, q=scene.robot.home.numpy())
         controller.start(steps)
         controller.command(
