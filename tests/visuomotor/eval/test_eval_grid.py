@@ -240,10 +240,10 @@ def test_the_grid_keeps_its_documented_dataset():
 
     from lfd.visuomotor.data import GeneratorConfig
 
-    keys = ("sizes", "n_train_objects", "val_sizes", "name")
+    keys = ("sizes", "n_train_objects", "val_sizes", "lighting", "name")
     with initialize_config_dir(config_dir=str(ROOT / "configs"), version_base="1.3"):
         grid = compose("train", overrides=["experiment=quick", "+grid=policies"]).data
         quick = compose("train", overrides=["experiment=quick"]).data
-    assert [grid[k] for k in keys] == ["classic", 300, "inside", "quick96o300d_s42"]
-    assert [quick[k] for k in keys[:3]] == ["wide", 600, "outside"]
+    assert [grid[k] for k in keys] == ["classic", 300, "inside", "fixed", "quick96o300d_s42"]
+    assert [quick[k] for k in keys[:4]] == ["wide", 600, "outside", "random"]
     assert "sizes" not in GeneratorConfig(sizes=grid.sizes).to_dict()  # the old datasets' hash
