@@ -41,7 +41,15 @@ _EXPORTS = exports(
         ],
         "arms": ["ARMS", "KinematicArm", "PyBulletArm"],
         "collision": ["CollisionReport", "CollisionWorld", "overlapping_link_pairs"],
-        "camera": ["Camera", "look_at", "perspective", "project_points"],
+        "camera": [
+            "LIGHTING_RANGES",
+            "Camera",
+            "Lighting",
+            "look_at",
+            "perspective",
+            "project_points",
+            "sample_lighting",
+        ],
         "expert": [
             "DISCARD_REASONS",
             "DemoDiscarded",
@@ -93,7 +101,15 @@ if TYPE_CHECKING:
         side_grasp_height,
     )
     from .arms import ARMS, KinematicArm, PyBulletArm
-    from .camera import Camera, look_at, perspective, project_points
+    from .camera import (
+        LIGHTING_RANGES,
+        Camera,
+        Lighting,
+        look_at,
+        perspective,
+        project_points,
+        sample_lighting,
+    )
     from .collision import CollisionReport, CollisionWorld, overlapping_link_pairs
     from .expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert, run_demonstration
     from .objects import (
