@@ -1,7 +1,7 @@
 """Slow accuracy test: a small CNN -> DMP training must reach *new* objects.
 
 The quick experiment shrunk to a few minutes of CPU (64 px, 150 training objects x 2
-placements, 600 steps; the quick experiment's CNN -> DMP options, RGB-D input included),
+placements, 1000 steps; the quick experiment's CNN -> DMP options, RGB-D input included),
 trained with ``train.py`` and evaluated closed loop in PyBullet with ``evaluate.py
 eval.split=val`` on the 8 held-out validation objects (2 placements each), exactly as a user
 runs them. The thresholds were set from one measured run (numbers in the assertion messages
@@ -35,7 +35,9 @@ DATA = [
 #: of 16 (0.69); at 64 px the table is not quite 0 in relief (tests/visuomotor/eval/test_eval_depth.py).
 #: Since 2026-12-07 experiment=quick trains in bfloat16 and its validation objects lie just outside
 #: the training sizes (data.val_sizes=outside), so these are new objects of new sizes: 4.2 cm, 10 of
-#: 16 (0.62) on that day, in 51 s.
+#: 16 (0.62) on that day, in 51 s. With the wide sizes and random lighting (later that day) 600 steps
+#: gave 6.2 cm, 7 of 16 (0.44), at the thresholds' edge for a harder problem; 1000 steps give 5.1 cm,
+#: 10 of 16 (0.62), in 77 s.
 #: The thresholds leave a margin for run-to-run spread (~2 cm, docs/evaluation.md).
 MAX_MEAN_DISTANCE_M = 0.065
 MIN_SUCCESS = 0.40
@@ -49,7 +51,7 @@ def test_small_training_reaches_new_objects(tmp_path):
             sys.executable,
             str(ROOT / "train.py"),
             "model=cnn_dmp",
-            "trainer.max_steps=600",
+            "trainer.max_steps=1000",
             f"hydra.run.dir={tmp_path}/train",
             *common,
         ],
