@@ -89,6 +89,10 @@ class Lighting:
         }
 
 
+#: PyBullet's default light (what a render with ``lighting=None`` passes).
+DEFAULT_LIGHTING = Lighting()
+
+
 def sample_lighting(rng: np.random.Generator) -> Lighting:
     """A random :class:`Lighting` from :data:`LIGHTING_RANGES`: azimuth uniform, elevation,
     ambient and diffuse uniform in their ranges, each colour channel ``1 - U(0, tint)``, the
@@ -239,7 +243,7 @@ class Camera:
             projectionMatrix=to_pybullet(self.projection_matrix),
             renderer=p.ER_TINY_RENDERER,
             # every coefficient, every time: TinyRenderer keeps the last values it was given
-            **(lighting if lighting is not None else Lighting()).pybullet_kwargs(),
+            **(lighting if lighting is not None else DEFAULT_LIGHTING).pybullet_kwargs(),
             shadow=0,
             flags=p.ER_NO_SEGMENTATION_MASK,
             physicsClientId=client,

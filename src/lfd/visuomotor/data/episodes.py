@@ -151,21 +151,24 @@ def plan_episodes(cfg: GeneratorConfig) -> list[EpisodePlan]:
     return plans
 
 
+def _episode_rng(cfg: GeneratorConfig, plan: EpisodePlan, stream: int) -> np.random.Generator:
+    """The random stream ``stream`` of an episode: keyed by the seed, the object group, the
+    object and the placement number, not the episode index."""
+    return np.random.default_rng(
+        [cfg.seed, stream, GROUP_KEYS[plan.group], plan.object_index, plan.placement_index]
+    )
+
+
 def episode_lighting(cfg: GeneratorConfig, plan: EpisodePlan) -> Lighting | None:
-    """The light of an episode: None with ``lighting="fixed"``, else drawn from a stream keyed
-    by the seed, the object group, the object and the placement number."""
-    if cfg.lighting == "fixed":
-        return None
-    key = [cfg.seed, LIGHTING_STREAM, GROUP_KEYS[plan.group], plan.object_index, plan.placement_index]
-    return sample_lighting(np.random.default_rng(key))
+    """The light of an episode: None with ``lighting="fixed"``, else drawn from its own keyed
+    stream (:data:`LIGHTING_STREAM`)."""
+    return None if cfg.lighting == "fixed" else sample_lighting(_episode_rng(cfg, plan, LIGHTING_STREAM))
 
 
 def placement_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:
     """The random stream an episode draws its placement (and retries) from: keyed by the
     seed, the object group, the object and the placement number, not the episode index."""
-    return np.random.default_rng(
-        [cfg.seed, PLACEMENT_STREAM, GROUP_KEYS[plan.group], plan.object_index, plan.placement_index]
-    )
+    return _episode_rng(cfg, plan, PLACEMENT_STREAM)
 
 
 def split_keys(cfg: GeneratorConfig) -> dict[str, list[int]]:
