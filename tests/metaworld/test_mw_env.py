@@ -108,6 +108,36 @@ def test_render_is_upright(camera, fovy):
             )
 
 
+@pytest.mark.parametrize(("camera", "fovy"), [("corner", 25), ("corner2", None), ("corner3", None)])
+def test_project_gives_where_a_point_appears_in_the_upright_image(camera, fovy):
+    """``project`` of the goal lands on the green marker's pixels (their centroid, found by colour
+    in the rendered image, upright or turned), and of pick-place's object position on the red
+    puck; points behind the camera get NaN; bad points and a task never reset get one line."""
+    with MetaWorldTask("push-v3", image_size=96, camera=camera, fovy=fovy) as task:
+        with pytest.raises(RuntimeError, match="call reset"):
+            task.project([0.0, 0.6, 0.0])
+        for index in range(3):
+            task.reset(placement_seed(1, "val", index))
+            r, g, b = (task.render()[..., i].astype(int) for i in range(3))
+            rows, cols = np.nonzero((g > 120) & (r < 90) & (b < 90))
+            u, v = task.project(task.env._target_pos)
+            assert rows.size >= 3 and abs(cols.mean() + 0.5 - u) < 1.0 and abs(rows.mean() + 0.5 - v) < 1.0
+        position, rotation, _ = task._camera()
+        behind = position + rotation[:, 2]  # one metre along the camera's +z: behind it
+        assert np.isnan(task.project(np.stack([behind, task.env._target_pos]))[0]).all()
+        assert task.project(np.zeros((2, 5, 3))).shape == (2, 5, 2)
+        for bad in ([0.0, 0.6], [0.0, np.nan, 0.1]):
+            with pytest.raises(ValueError, match=r"points: expected finite \(\.\.\., 3\) m"):
+                task.project(bad)
+    with MetaWorldTask("pick-place-v3", image_size=96, fovy=25) as task:
+        for index in range(3):
+            task.reset(placement_seed(1, "val", index))
+            image = task.render().astype(int)
+            u, v = task.project(task.placement[:3])  # the puck's centre
+            r, g, b = image[int(v), int(u)]
+            assert r > 70 and g < 30 and b < 30, (index, u, v, (r, g, b))
+
+
 def test_narrower_field_of_view_magnifies_the_marker():
     """fovy=30 instead of the corner camera's 45 degrees: the goal marker covers about
     (tan 22.5 / tan 15)^2 = 2.4 times the pixels."""

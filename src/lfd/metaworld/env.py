@@ -220,13 +220,59 @@ class MetaWorldTask:
         so that the world's up points up in the image (Meta-World defines some cameras, e.g.
         ``corner``, rolled upside down: their image is rotated by 180 degrees, never mirrored)."""
         image = self.env.render()
-        if self._upside_down is None:
-            import mujoco
+        return np.ascontiguousarray(image[::-1, ::-1] if self._camera()[2] else image)
 
-            cam = mujoco.mj_name2id(self.env.model, mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
-            # the camera's image "up" axis (its y axis, column 1 of its rotation) in the world
-            self._upside_down = bool(self.env.data.cam_xmat[cam].reshape(3, 3)[2, 1] < 0)
-        return np.ascontiguousarray(image[::-1, ::-1] if self._upside_down else image)
+    def _camera(self) -> tuple[np.ndarray, np.ndarray, bool]:
+        """The camera's position ``(3,)`` m, rotation ``(3, 3)`` (columns: its x, y, z axes in the
+        world) and whether its image is upside down (its "up" axis points down in the world)."""
+        import mujoco
+
+        cam = mujoco.mj_name2id(self.env.model, mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
+        rotation = self.env.data.cam_xmat[cam].reshape(3, 3).copy()
+        if self._upside_down is None:
+            self._upside_down = bool(rotation[2, 1] < 0)
+        return self.env.data.cam_xpos[cam].copy(), rotation, self._upside_down
+
+    def project(self, points) -> np.ndarray:
+        """Where world points appear in :meth:`render`'s upright image.
+
+        Args:
+            points: ``(..., 3)`` m, Meta-World's world frame.
+
+        Returns:
+            ``(..., 2)`` float64 pixel coordinates ``(u, v)``: ``u`` to the right, ``v`` down, in
+            pixels from the image's top-left corner (the top-left pixel's centre is ``(0.5, 0.5)``).
+            Points behind the camera get NaN.
+
+        Raises:
+            RuntimeError: before the first :meth:`reset` (the camera's pose is MuJoCo's after a
+                forward pass).
+            ValueError: ``points`` is not ``(..., 3)`` or not finite.
+        """
+        if self._obs is None:
+            raise RuntimeError("MetaWorldTask.project: call reset() first")
+        p = np.asarray(points, dtype=np.float64)
+        if p.ndim < 1 or p.shape[-1] != 3 or not np.isfinite(p).all():
+            raise ValueError(f"points: expected finite (..., 3) m, got shape {p.shape}")
+        position, rotation, upside_down = self._camera()
+        local = (p - position) @ rotation  # camera frame: x right, y up, looking along -z
+        depth = -local[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            size = float(self.image_size)
+            focal = (size / 2.0) / np.tan(np.radians(self._fovy()) / 2.0)
+            u = size / 2.0 + focal * local[..., 0] / depth
+            v = size / 2.0 - focal * local[..., 1] / depth
+        if upside_down:
+            u, v = size - u, size - v
+        uv = np.stack([u, v], axis=-1)
+        uv[depth <= 0] = np.nan
+        return uv
+
+    def _fovy(self) -> float:
+        import mujoco
+
+        cam = mujoco.mj_name2id(self.env.model, mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
+        return float(self.env.model.cam_fovy[cam])
 
     def action_for(self, target: np.ndarray) -> np.ndarray:
         """Meta-World's action ``(4,)`` float32 that moves the hand's mocap to ``target[:3]`` (m,

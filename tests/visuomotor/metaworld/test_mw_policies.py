@@ -356,6 +356,95 @@ def test_placement_settings_and_batches_are_checked_in_one_line(push):
         policy.losses(batch)
 
 
+# ---------------------------------------------------------------------------- keypoints on the placement
+def test_datamodule_serves_where_the_placement_points_appear_in_the_image(push):
+    """``placement_pixels``: push-v3's goal point lands on the green goal marker of the item's own
+    image (its centroid, found by colour) in the train and validation items; a 3-entry placement
+    gets NaN for its padding point; with ``augment`` (shifted images) no pixels are served."""
+    from types import SimpleNamespace
+
+    from lfd.visuomotor.metaworld.datamodule import placement_pixels
+
+    dm = _datamodule(push, "dmp")
+    for split in ("train", "val"):
+        for item in (dm.datasets[split][i] for i in range(len(dm.datasets[split]))):
+            pixels = item["placement_pixels"].numpy()
+            assert pixels.shape == (4,) and np.isfinite(pixels).all()
+            image = item["image"].permute(1, 2, 0).numpy()
+            r, g, b = image[..., 0], image[..., 1], image[..., 2]
+            rows, cols = np.nonzero((g > 0.45) & (r < 0.35) & (b < 0.35))
+            assert rows.size >= 2
+            assert abs(cols.mean() + 0.5 - pixels[2]) < 1.0 and abs(rows.mean() + 0.5 - pixels[3]) < 1.0
+    config = SimpleNamespace(task="reach-v3", image_size=32, camera="corner", camera_fovy=25, seed=0)
+    episodes = [SimpleNamespace(arrays={"placement": np.array([0.0, 0.7, 0.1])})]
+    pixels = placement_pixels(config, episodes)
+    assert pixels.shape == (1, 4) and np.isfinite(pixels[0, :2]).all() and np.isnan(pixels[0, 2:]).all()
+    root, name = push
+    shifted = MetaWorldDataModule(name=name, root=root, mode="dmp", progress=False, augment=True, **PUSH)
+    shifted.setup("fit")
+    assert "placement_pixels" not in shifted.datasets["train"][0]
+
+
+def test_keypoint_weight_puts_the_first_keypoints_on_the_placement_points(push):
+    """``keypoint_weight``: 300 Adam steps on the 4 push-v3 demonstrations bring the encoder's first
+    two keypoints within a pixel of where the puck and the goal appear (untrained: several pixels);
+    the loss is the placement's plus the weighted keypoint error, NaN targets are left out, and
+    ``keypoint_head="supervised"`` feeds the placement head those two keypoints alone."""
+    dm = _datamodule(push, "dmp")
+    batch = default_collate([dm.datasets["train"][i] for i in range(len(dm.datasets["train"]))])
+    policy = _small_cnn_dmp(dm, placement_dim=6, keypoint_weight=100.0)
+    policy.fit_params_map(batch["placement"], batch["joints"], batch["goal"], batch["weights"], ridge=1e-3)
+    out = policy.losses(batch)
+    assert float(out["keypoint_err_px"].detach()) > 2.0, float(out["keypoint_err_px"].detach())
+    torch.testing.assert_close(out["loss"], out["placement_mse"] + 100.0 * out["keypoint_mse"])
+    optimiser = torch.optim.Adam(policy.parameters(), lr=1e-3)
+    for _ in range(300):
+        out = policy.losses(batch)
+        optimiser.zero_grad()
+        out["loss"].backward()
+        optimiser.step()
+    policy.eval()
+    with torch.no_grad():
+        encoded = policy.encoder(policy.scene_image(batch["image"]))
+    target = policy.encoder.pixel_keypoints(batch["placement_pixels"].view(-1, 2, 2), 32)
+    pixels = (encoded[:, :4].view(-1, 2, 2) - target).norm(dim=-1) * (
+        (32 - 1) // 2
+    )  # a unit: 15 cells of 2 px
+    assert float(pixels.max()) < 1.0, pixels
+    half = dict(batch, placement_pixels=batch["placement_pixels"].clone())
+    half["placement_pixels"][:, 2:] = float("nan")  # the goal point unknown: only the puck's counts
+    expected = ((encoded[:, :2] - target[:, 0]) ** 2).mean()
+    torch.testing.assert_close(policy._keypoint_mse(encoded, half), expected)
+    supervised = _small_cnn_dmp(dm, placement_dim=6, keypoint_weight=1.0, keypoint_head="supervised")
+    assert supervised.head[0].in_features == 4 + 4  # two keypoints' coordinates + the bias input
+
+
+def test_keypoint_settings_are_checked_in_one_line(push):
+    common = dict(robot=None, n_joints=4, channels=[4], hidden=[8], image_size=32, n_steps=120, duration=1.5)
+    for bad in (-1.0, float("nan"), True, "1"):
+        with pytest.raises(ValueError, match=r"^CNNDMPPolicy.keypoint_weight: expected a finite number >= 0"):
+            CNNDMPPolicy(placement_dim=6, keypoint_weight=bad, **common)
+    with pytest.raises(ValueError, match=r"^CNNDMPPolicy.keypoint_weight: needs placement_dim > 0"):
+        CNNDMPPolicy(keypoint_weight=1.0, **common)
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy.keypoint_head: expected one of \('all', 'supervised'\)"
+    ):
+        CNNDMPPolicy(placement_dim=6, keypoint_weight=1.0, keypoint_head="some", **common)
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy.keypoint_head: 'supervised' needs keypoint_weight > 0"
+    ):
+        CNNDMPPolicy(placement_dim=6, keypoint_head="supervised", **common)
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy.keypoint_weight: 2 supervised keypoints, the encoder has 1"
+    ):
+        CNNDMPPolicy(placement_dim=6, keypoint_weight=1.0, **{**common, "channels": [1]})
+    policy = CNNDMPPolicy(placement_dim=6, keypoint_weight=1.0, **common)
+    batch = default_collate([_datamodule(push, "dmp").datasets["train"][i] for i in range(2)])
+    del batch["placement_pixels"]
+    with pytest.raises(ValueError, match=r"batches need 'placement_pixels' of shape \(B, 4\).*got none$"):
+        policy.losses(batch)
+
+
 # ---------------------------------------------------------------------------- background subtraction
 def test_datamodule_background_is_the_median_first_image_of_the_training_episodes(push):
     dm = _datamodule(push, "dmp")

@@ -9,7 +9,10 @@ trains on them unchanged:
   ``goal``, ``weights``, ``y0``, ``tau``, ``t``, ``trajectory`` ``(T, 4)``, ``ee_path`` ``(T, 3)``
   (the hand path), ``index``, ``placement`` ``(PLACEMENT_SIZE,)`` (the episode's placement:
   the task's random reset vector of object and goal positions, m, zero-padded; a training-only
-  label for ``CNNDMPPolicy(placement_dim=...)``).
+  label for ``CNNDMPPolicy(placement_dim=...)``), ``placement_pixels`` ``(PLACEMENT_SIZE // 3 * 2,)``
+  (where each of the placement's 3-D points, object and goal, appears in the first image: pixels
+  ``u, v`` of :meth:`lfd.metaworld.MetaWorldTask.project`; NaN for padding; a training-only label
+  for the policies' ``keypoint_weight``).
 * ``"velocity"`` (one item per step): ``image``, ``joints``, ``velocity`` and ``command`` (the
   state's change per second over the next step), ``t``, ``index``, ``step``.
 """
@@ -56,6 +59,25 @@ def padded_placement(placement, where: str = "the placement") -> np.ndarray:
     return np.pad(p, (0, PLACEMENT_SIZE - p.size))
 
 
+def placement_pixels(config: MetaWorldDataConfig, eps) -> np.ndarray:
+    """``(E, PLACEMENT_SIZE // 3 * 2)`` px: where each 3-D point of the episodes' placements (the
+    object's and the goal's position) appears in their images, ``u, v`` per point
+    (:meth:`lfd.metaworld.MetaWorldTask.project`, the dataset's camera); NaN for the zero padding
+    of a shorter placement. The camera is fixed, so one reset of the task gives its pose."""
+    from lfd.metaworld.env import MetaWorldTask, placement_seed
+
+    out = np.full((len(eps), PLACEMENT_SIZE // 3 * 2), np.nan)
+    with MetaWorldTask(
+        config.task, image_size=config.image_size, camera=config.camera, fovy=config.camera_fovy
+    ) as task:
+        task.reset(placement_seed(config.seed, "train", 0))
+        for i, e in enumerate(eps):
+            p = np.asarray(e.arrays["placement"], dtype=np.float64).ravel()
+            n = p.size // 3
+            out[i, : 2 * n] = task.project(p[: 3 * n].reshape(n, 3)).ravel()
+    return out
+
+
 def placements(eps) -> np.ndarray:
     """``(E, PLACEMENT_SIZE)`` m: the episodes' placements, zero-padded (:func:`padded_placement`).
 
@@ -86,9 +108,18 @@ class MetaWorldDMPDataset(Dataset):
         frames: the item's image is frame 0 (``1``, the default), or a random one of the first
             ``frames`` frames of the episode, drawn per item access (training only: the arm has
             moved a little, the objects not yet; the DMP and the start state stay the episode's).
+        pixels: ``(E, PLACEMENT_SIZE // 3 * 2)`` the split's :func:`placement_pixels`, served as
+            ``placement_pixels`` (None: not served).
     """
 
-    def __init__(self, data: MetaWorldData, split: str, transform=None, frames: int = 1) -> None:
+    def __init__(
+        self,
+        data: MetaWorldData,
+        split: str,
+        transform=None,
+        frames: int = 1,
+        pixels: np.ndarray | None = None,
+    ) -> None:
         eps = data.split(split)
         self.frames = torch.from_numpy(np.stack([e.frames[:frames] for e in eps]))
         self.transform, self.window = transform, frames
@@ -109,6 +140,8 @@ class MetaWorldDMPDataset(Dataset):
             "index": torch.tensor([_index(split, e.index) for e in eps], dtype=torch.int64),
             "placement": torch.from_numpy(placements(eps)).float(),
         }
+        if pixels is not None:
+            self.tensors["placement_pixels"] = torch.from_numpy(np.asarray(pixels)).float()
 
     def __len__(self) -> int:
         return self.frames.shape[0]
@@ -273,10 +306,19 @@ class MetaWorldDataModule(L.LightningDataModule):
             self.data = data
         augment = image_augmentation(self.config.image_size) if self.augment else None
         if self.mode == "dmp":
-            train = MetaWorldDMPDataset(self.data, "train", augment, frames=self.dmp_frames)
+            # the pixel labels are those of the unshifted images: not served with the shifts
+            pixels = {
+                split: None if augment else placement_pixels(self.config, self.data.split(split))
+                for split in ("train", "val")
+            }
+            train = MetaWorldDMPDataset(
+                self.data, "train", augment, frames=self.dmp_frames, pixels=pixels["train"]
+            )
+            val = MetaWorldDMPDataset(self.data, "val", pixels=pixels["val"])
         else:
             train = MetaWorldVelocityDataset(self.data, "train", augment)
-        self.datasets = {"train": train, "val": MODES[self.mode](self.data, "val")}
+            val = MetaWorldVelocityDataset(self.data, "val")
+        self.datasets = {"train": train, "val": val}
 
     @property
     def stats(self) -> dict[str, dict[str, torch.Tensor]]:

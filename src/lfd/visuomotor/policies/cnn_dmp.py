@@ -38,6 +38,8 @@ from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.plots import joint_figure
 
 LOSSES = ("trajectory", "params")
+#: What the placement head sees (``keypoint_head``): every keypoint, or only the supervised ones.
+KEYPOINT_HEADS = ("all", "supervised")
 #: Penalty of the kernel ridge regression of the placement map's correction (``map_kernel_scale``),
 #: in the normalised parameters' units (chosen with the length scale on validation placements).
 KERNEL_RIDGE = 0.1
@@ -100,6 +102,17 @@ class CNNDMPPolicy(KeypointPolicy):
             map's residuals on the training demonstrations, so that the map also follows what
             is not affine in the placement (e.g. when the expert reaches a hole later for a far
             box); 0: the affine map alone. Default 2.0 (chosen on validation placements).
+        keypoint_weight: with ``placement_dim``, the weight of a loss that puts the encoder's first
+            ``ceil(placement_dim / 3)`` keypoints where the placement's 3-D points (an object's and a
+            goal's position) appear in the image: the mean squared distance, in the soft-argmax's
+            ``[-1, 1]`` units, to the batches' ``placement_pixels`` (px; NaN entries, e.g. a shorter
+            placement's padding, are left out). A training-only label, as the placement: from a few
+            dozen images a head that regresses the placement alone learns to tell the training
+            images apart by whatever varies most (a large goal marker) instead of finding a small
+            object; a keypoint told where the object is cannot. 0 (default): no such loss.
+        keypoint_head: ``"all"`` (default): the placement head sees every keypoint; ``"supervised"``:
+            only the ``keypoint_weight`` ones, so that the placement is a smooth function of where
+            the objects are and nothing else (needs ``keypoint_weight > 0``).
         normalise_trajectory: compare trajectories in units of each state dimension's train-split
             standard deviation (the ``joints`` statistics) instead of raw units (rad^2). For states
             with small ranges in their units (Meta-World's hand in metres, a few cm of spread) the
@@ -126,6 +139,8 @@ class CNNDMPPolicy(KeypointPolicy):
         normalise_trajectory: bool = False,
         placement_dim: int = 0,
         map_kernel_scale: float = 2.0,
+        keypoint_weight: float = 0.0,
+        keypoint_head: str = "all",
         n_basis: int = 20,
         alpha_z: float = 25.0,
         **common,
@@ -141,6 +156,22 @@ class CNNDMPPolicy(KeypointPolicy):
             raise ValueError(
                 f"CNNDMPPolicy.map_kernel_scale: expected a finite number >= 0, got {map_kernel_scale!r}"
             )
+        if isinstance(keypoint_weight, bool) or not (
+            isinstance(keypoint_weight, (int, float)) and 0 <= keypoint_weight < float("inf")
+        ):
+            raise ValueError(
+                f"CNNDMPPolicy.keypoint_weight: expected a finite number >= 0, got {keypoint_weight!r}"
+            )
+        if keypoint_weight > 0 and not placement_dim:
+            raise ValueError(
+                "CNNDMPPolicy.keypoint_weight: needs placement_dim > 0 (it supervises the placement's points)"
+            )
+        if keypoint_head not in KEYPOINT_HEADS:
+            raise ValueError(
+                f"CNNDMPPolicy.keypoint_head: expected one of {KEYPOINT_HEADS}, got {keypoint_head!r}"
+            )
+        if keypoint_head == "supervised" and not keypoint_weight > 0:
+            raise ValueError("CNNDMPPolicy.keypoint_head: 'supervised' needs keypoint_weight > 0")
         super().__init__(**common)
         if loss not in LOSSES:
             raise ValueError(f"CNNDMPPolicy.loss: expected one of {LOSSES}, got {loss!r}")
@@ -164,7 +195,18 @@ class CNNDMPPolicy(KeypointPolicy):
             self.register_buffer("map_coefficients", torch.zeros(0, n + n * n_basis))
             # the placement is the scene's: from the image alone (the start state would let the
             # head tell training episodes apart instead of looking at the objects)
-            self._build(placement_dim, {**stats, "placement": (placement_dim,)}, joints_input=False)
+            points = -(-placement_dim // 3)  # the placement's 3-D points (the last one may be padding)
+            if keypoint_weight > 0 and points > self.encoder.out_dim // 2:
+                raise ValueError(
+                    f"CNNDMPPolicy.keypoint_weight: {points} supervised keypoints, the encoder has "
+                    f"{self.encoder.out_dim // 2}"
+                )
+            self._build(
+                placement_dim,
+                {**stats, "placement": (placement_dim,)},
+                joints_input=False,
+                head_keypoints=points if keypoint_head == "supervised" else None,
+            )
         else:
             self._build(n + n * n_basis, stats)
 
@@ -308,6 +350,24 @@ class CNNDMPPolicy(KeypointPolicy):
             )
         return self.normalise("placement", p)
 
+    def _keypoint_mse(self, keypoints: torch.Tensor, batch: dict[str, torch.Tensor]) -> torch.Tensor:
+        """Mean squared distance (soft-argmax units) of the first keypoints from the batch's
+        ``placement_pixels`` ``(B, 2 m)`` px; NaN targets left out. One line if the batch has none."""
+        pixels = batch.get("placement_pixels")
+        m = -(-self.hparams.placement_dim // 3)
+        if pixels is None or pixels.ndim != 2 or pixels.shape[1] != 2 * m:
+            got = "none" if pixels is None else f"shape {tuple(pixels.shape)}"
+            raise ValueError(
+                f"CNNDMPPolicy(keypoint_weight > 0): batches need 'placement_pixels' of shape (B, {2 * m}) "
+                f"(Meta-World's datamodule serves them unless data.augment shifts the images), got {got}"
+            )
+        target = self.encoder.pixel_keypoints(pixels.view(len(pixels), m, 2), batch["image"].shape[-1])
+        target = target.flatten(1).to(keypoints)
+        known = torch.isfinite(target)
+        if not known.any():
+            return keypoints.new_zeros(())
+        return ((keypoints[:, : 2 * m] - torch.nan_to_num(target)) ** 2)[known].mean()
+
     def _split_params(self, out: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Head output ``(B, n + n K)`` -> normalised goal ``(B, n)`` and weights ``(B, n, K)``."""
         n = self.hparams.n_joints
@@ -350,10 +410,14 @@ class CNNDMPPolicy(KeypointPolicy):
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         joints = batch["joints"]
-        params, aux = self.head_outputs(batch["image"], joints, top=batch.get("top"))
-        placement_mse = None
+        supervise = self.through_placement and self.hparams.get("keypoint_weight", 0.0) > 0
+        more = {"with_keypoints": True} if supervise else {}
+        params, aux, *encoded = self.head_outputs(batch["image"], joints, top=batch.get("top"), **more)
+        placement_mse = keypoint_mse = None
         if self.through_placement:
             placement_mse = F.mse_loss(params, self._placement_target(batch))
+            if supervise:
+                keypoint_mse = self._keypoint_mse(encoded[0], batch)
             params = self._params_from_placement(params, joints)
         goal_n, weights_n = self._split_params(params)
         goal_err = F.mse_loss(goal_n, self.normalise("goal", batch["goal"]))
@@ -384,6 +448,12 @@ class CNNDMPPolicy(KeypointPolicy):
                 out["loss"] = out["loss"] + self.hparams.ee_weight * out["ee_mse"]
         if placement_mse is not None:  # the map is fixed (fit_params_map): only the perception learns
             out["placement_mse"] = out["loss"] = placement_mse
+        if keypoint_mse is not None:
+            out["keypoint_mse"] = keypoint_mse
+            out["loss"] = out["loss"] + self.hparams.keypoint_weight * keypoint_mse
+            # root mean square per coordinate in image pixels (one soft-argmax unit: cells - 1 of 2 px)
+            cells = (batch["image"].shape[-1] - 1) // 2 + 1
+            out["keypoint_err_px"] = keypoint_mse.sqrt() * (cells - 1)
         return self.add_aux_losses(out, aux, batch)
 
     def time_weights(self) -> torch.Tensor:

@@ -78,18 +78,22 @@ class KeypointPolicy(VisuomotorPolicy):
         stat_shapes: dict[str, tuple[int, ...]],
         extra_inputs: int = 0,
         joints_input: bool = True,
+        head_keypoints: int | None = None,
     ) -> None:
         """Subclasses call this at the end of ``__init__``: the fully connected head with
         ``output_dim`` outputs (and ``extra_inputs`` more inputs besides keypoints, joints
         and bias, see :meth:`features`; without ``joints_input`` the head does not see the
-        joints), and one persistent (mean, std) buffer pair per statistic."""
+        joints; with ``head_keypoints = m`` it sees only the first ``m`` keypoints' coordinates),
+        and one persistent (mean, std) buffer pair per statistic."""
         hp = self.hparams
         self.output_dim = output_dim
         self.joints_input = joints_input
+        self.head_keypoints = head_keypoints
         self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
         self.n_heads = 2 if hp.mode_heads else 1
+        seen = self.encoder.out_dim if head_keypoints is None else 2 * int(head_keypoints)
         self.head = mlp(
-            self.encoder.out_dim + (hp.n_joints if joints_input else 0) + hp.bias_dim + extra_inputs,
+            seen + (hp.n_joints if joints_input else 0) + hp.bias_dim + extra_inputs,
             hp.hidden,
             self.n_heads * output_dim + self.n_aux,
         )
@@ -103,28 +107,38 @@ class KeypointPolicy(VisuomotorPolicy):
         joints: torch.Tensor,
         extra: torch.Tensor | None = None,
         top: torch.Tensor | None = None,
-    ) -> tuple[torch.Tensor, torch.Tensor]:
+        with_keypoints: bool = False,
+    ) -> tuple[torch.Tensor, ...]:
         """Head outputs for images ``(B, 3, H, W)`` in [0, 1], joints ``(B, n)`` rad and, when
         the head was built with ``extra_inputs``, those inputs ``(B, e)``: the policy's
         ``(B, output_dim)`` and the auxiliary ``(B, n_aux)`` (``n_aux = 0`` without ``aux_weight``).
 
         With ``mode_heads`` the policy's output is that of the head of mode ``top`` (``(B,)``,
         1 = top; training passes the demonstrations' modes) or, when ``top`` is None, of the
-        mode the auxiliary logit predicts; with one head ``top`` is ignored."""
-        out = self._head_raw(image, joints, extra)
+        mode the auxiliary logit predicts; with one head ``top`` is ignored.
+
+        ``with_keypoints``: also return the encoder's output ``(B, encoder.out_dim)`` (keypoints
+        ``[x_0, y_0, ...]`` in the soft-argmax's ``[-1, 1]`` units first), a third element."""
+        out, keypoints = self._head_and_keypoints(image, joints, extra)
         k = self.n_heads * self.output_dim
         main, aux = out[:, :k], out[:, k:]
-        if self.n_heads == 1:
-            return main, aux
-        pick = (aux[:, 0] > 0) if top is None else (top > 0.5)
-        heads = main.view(-1, self.n_heads, self.output_dim)
-        return heads[torch.arange(len(heads), device=heads.device), pick.long()], aux
+        if self.n_heads > 1:
+            pick = (aux[:, 0] > 0) if top is None else (top > 0.5)
+            heads = main.view(-1, self.n_heads, self.output_dim)
+            main = heads[torch.arange(len(heads), device=heads.device), pick.long()]
+        return (main, aux, keypoints) if with_keypoints else (main, aux)
 
     def _head_raw(
         self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None
     ) -> torch.Tensor:
         """Raw head output ``(B, n_heads * output_dim + n_aux)``; with :attr:`colour_tta`
         (outside training) the mean over the 6 orders of the RGB channels."""
+        return self._head_and_keypoints(image, joints, extra)[0]
+
+    def _head_and_keypoints(
+        self, image: torch.Tensor, joints: torch.Tensor, extra: torch.Tensor | None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """:meth:`_head_raw` and the encoder's output (averaged the same way)."""
         tta = self.colour_tta and not self.training
         image = self.scene_image(image)
         b = image.shape[0]
@@ -133,14 +147,16 @@ class KeypointPolicy(VisuomotorPolicy):
             joints = joints.repeat(len(COLOUR_ORDERS), 1)
             extra = None if extra is None else extra.repeat(len(COLOUR_ORDERS), 1)
         keypoints = self.encoder(image)
+        seen = keypoints if self.head_keypoints is None else keypoints[:, : 2 * self.head_keypoints]
         bias = self.bias_input.expand(image.shape[0], -1)
-        parts = (
-            [keypoints, self.normalise("joints", joints), bias] if self.joints_input else [keypoints, bias]
-        )
+        parts = [seen, self.normalise("joints", joints), bias] if self.joints_input else [seen, bias]
         if extra is not None:
             parts.append(extra)
         out = self.head(torch.cat(parts, dim=1))
-        return out.view(len(COLOUR_ORDERS), b, -1).mean(dim=0) if tta else out
+        if tta:
+            mean = lambda x: x.view(len(COLOUR_ORDERS), b, -1).mean(dim=0)  # noqa: E731
+            return mean(out), mean(keypoints)
+        return out, keypoints
 
     @property
     def colour_tta(self) -> bool:

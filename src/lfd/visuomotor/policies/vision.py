@@ -120,6 +120,16 @@ class KeypointEncoder(nn.Module):
         self.global_pool = bool(global_pool)
         self.out_dim = (3 if self.global_pool else 2) * channels[-1]
 
+    @staticmethod
+    def pixel_keypoints(pixels: torch.Tensor, image_size: int) -> torch.Tensor:
+        """Image positions ``(..., 2)`` (``u`` right, ``v`` down, pixels from the image's top-left
+        corner; a pixel's centre at ``+0.5``) of a square ``image_size`` image -> the keypoint
+        coordinates ``(..., 2)`` the soft-argmax gives a feature map peaked there (``[-1, 1]``
+        across the first layer's output cells: cell ``j``, centred on input pixel ``2 j``, is at
+        ``-1 + 2 j / (w - 1)``, ``w`` cells)."""
+        cells = (int(image_size) - 1) // 2 + 1  # the 5x5, stride 2, pad 2 first layer's output size
+        return -1.0 + (pixels - 0.5) / (cells - 1)
+
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         maps = self.convs(image - 0.5)
         keypoints = self.softargmax(maps)
