@@ -417,6 +417,13 @@ def test_keypoint_weight_puts_the_first_keypoints_on_the_placement_points(push):
     torch.testing.assert_close(policy._keypoint_mse(encoded, half), expected)
     supervised = _small_cnn_dmp(dm, placement_dim=6, keypoint_weight=1.0, keypoint_head="supervised")
     assert supervised.head[0].in_features == 4 + 4  # two keypoints' coordinates + the bias input
+    spread = _small_cnn_dmp(dm, placement_dim=6, keypoint_weight=1.0, keypoint_head="supervised_spread")
+    assert spread.head[0].in_features == 4 + 4 + 4  # + the two channels' spreads
+    spread.eval()
+    with torch.no_grad():
+        encoded = spread.encoder(batch["image"])
+        head_input = torch.cat([encoded[:, :4], encoded[:, -4:], spread.bias_input.expand(4, -1)], dim=1)
+        torch.testing.assert_close(spread.features(batch["image"], batch["joints"]), spread.head(head_input))
 
 
 def test_keypoint_settings_are_checked_in_one_line(push):
@@ -427,13 +434,14 @@ def test_keypoint_settings_are_checked_in_one_line(push):
     with pytest.raises(ValueError, match=r"^CNNDMPPolicy.keypoint_weight: needs placement_dim > 0"):
         CNNDMPPolicy(keypoint_weight=1.0, **common)
     with pytest.raises(
-        ValueError, match=r"^CNNDMPPolicy.keypoint_head: expected one of \('all', 'supervised'\)"
+        ValueError, match=r"^CNNDMPPolicy.keypoint_head: expected one of \('all', 'supervised', "
     ):
         CNNDMPPolicy(placement_dim=6, keypoint_weight=1.0, keypoint_head="some", **common)
-    with pytest.raises(
-        ValueError, match=r"^CNNDMPPolicy.keypoint_head: 'supervised' needs keypoint_weight > 0"
-    ):
-        CNNDMPPolicy(placement_dim=6, keypoint_head="supervised", **common)
+    for head in ("supervised", "supervised_spread"):
+        with pytest.raises(
+            ValueError, match=rf"^CNNDMPPolicy.keypoint_head: '{head}' needs keypoint_weight > 0"
+        ):
+            CNNDMPPolicy(placement_dim=6, keypoint_head=head, **common)
     with pytest.raises(
         ValueError, match=r"^CNNDMPPolicy.keypoint_weight: 2 supervised keypoints, the encoder has 1"
     ):

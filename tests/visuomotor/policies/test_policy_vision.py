@@ -57,6 +57,28 @@ def test_keypoint_encoder_shapes_and_range():
     assert out.abs().max() <= 1.0
 
 
+def test_spread_is_the_standard_deviation_of_a_uniform_block_in_cells():
+    """A channel hot and uniform on a block of 2 columns x 4 rows spreads by the standard deviation
+    of 2 and 4 consecutive cells (0.5 and sqrt(5) / 2), wherever the block is; a one-hot by (almost)
+    nothing; the encoder appends the first ``spread_channels`` channels' spreads after the rest."""
+    x = torch.full((2, 2, 24, 30), -1e4)
+    x[0, 0, 10:14, 20:22] = 0.0
+    x[1, 0, 0:4, 3:5] = 0.0
+    x[:, 1, 5, 7] = 0.0
+    spread = SpatialSoftmax(temperature=1.0).spread(x).view(2, 2, 2)
+    torch.testing.assert_close(spread[:, 0], torch.tensor([[0.5, 5**0.5 / 2]]).expand(2, 2))
+    assert float(spread[:, 1].max()) < 0.01
+    enc = KeypointEncoder(channels=(4, 6), global_pool=True)
+    image = torch.rand(3, 3, 32, 32)
+    plain = enc(image)
+    enc.spread_channels = 2
+    out = enc(image)
+    assert enc.out_dim == 3 * 6 + 4 and out.shape == (3, 22)
+    torch.testing.assert_close(out[:, :18], plain)
+    maps = enc.convs(image - 0.5)
+    torch.testing.assert_close(out[:, 18:], enc.softargmax.spread(maps[:, :2]))
+
+
 def test_global_pool_appends_each_channels_maximum():
     torch.manual_seed(0)
     enc = KeypointEncoder(channels=(4, 8), global_pool=True)

@@ -39,7 +39,7 @@ from lfd.visuomotor.policies.plots import joint_figure
 
 LOSSES = ("trajectory", "params")
 #: What the placement head sees (``keypoint_head``): every keypoint, or only the supervised ones.
-KEYPOINT_HEADS = ("all", "supervised")
+KEYPOINT_HEADS = ("all", "supervised", "supervised_spread")
 #: Penalty of the kernel ridge regression of the placement map's correction (``map_kernel_scale``),
 #: in the normalised parameters' units (chosen with the length scale on validation placements).
 KERNEL_RIDGE = 0.1
@@ -112,7 +112,11 @@ class CNNDMPPolicy(KeypointPolicy):
             object; a keypoint told where the object is cannot. 0 (default): no such loss.
         keypoint_head: ``"all"`` (default): the placement head sees every keypoint; ``"supervised"``:
             only the ``keypoint_weight`` ones, so that the placement is a smooth function of where
-            the objects are and nothing else (needs ``keypoint_weight > 0``).
+            the objects are and nothing else; ``"supervised_spread"``: those keypoints and how far
+            their channels' responses spread around them
+            (:meth:`~lfd.visuomotor.policies.vision.SpatialSoftmax.spread`), i.e. the objects'
+            apparent sizes: where a point lies along the camera's line of sight (a goal in the
+            air) shows in them, not in its position in the image. Both need ``keypoint_weight > 0``.
         normalise_trajectory: compare trajectories in units of each state dimension's train-split
             standard deviation (the ``joints`` statistics) instead of raw units (rad^2). For states
             with small ranges in their units (Meta-World's hand in metres, a few cm of spread) the
@@ -170,8 +174,8 @@ class CNNDMPPolicy(KeypointPolicy):
             raise ValueError(
                 f"CNNDMPPolicy.keypoint_head: expected one of {KEYPOINT_HEADS}, got {keypoint_head!r}"
             )
-        if keypoint_head == "supervised" and not keypoint_weight > 0:
-            raise ValueError("CNNDMPPolicy.keypoint_head: 'supervised' needs keypoint_weight > 0")
+        if keypoint_head != "all" and not keypoint_weight > 0:
+            raise ValueError(f"CNNDMPPolicy.keypoint_head: {keypoint_head!r} needs keypoint_weight > 0")
         super().__init__(**common)
         if loss not in LOSSES:
             raise ValueError(f"CNNDMPPolicy.loss: expected one of {LOSSES}, got {loss!r}")
@@ -196,16 +200,18 @@ class CNNDMPPolicy(KeypointPolicy):
             # the placement is the scene's: from the image alone (the start state would let the
             # head tell training episodes apart instead of looking at the objects)
             points = -(-placement_dim // 3)  # the placement's 3-D points (the last one may be padding)
-            if keypoint_weight > 0 and points > self.encoder.out_dim // 2:
+            if keypoint_weight > 0 and points > self.encoder.n_channels:
                 raise ValueError(
                     f"CNNDMPPolicy.keypoint_weight: {points} supervised keypoints, the encoder has "
-                    f"{self.encoder.out_dim // 2}"
+                    f"{self.encoder.n_channels}"
                 )
+            if keypoint_head == "supervised_spread":
+                self.encoder.spread_channels = points
             self._build(
                 placement_dim,
                 {**stats, "placement": (placement_dim,)},
                 joints_input=False,
-                head_keypoints=points if keypoint_head == "supervised" else None,
+                head_keypoints=points if keypoint_head != "all" else None,
             )
         else:
             self._build(n + n * n_basis, stats)

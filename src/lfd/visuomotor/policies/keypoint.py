@@ -83,15 +83,17 @@ class KeypointPolicy(VisuomotorPolicy):
         """Subclasses call this at the end of ``__init__``: the fully connected head with
         ``output_dim`` outputs (and ``extra_inputs`` more inputs besides keypoints, joints
         and bias, see :meth:`features`; without ``joints_input`` the head does not see the
-        joints; with ``head_keypoints = m`` it sees only the first ``m`` keypoints' coordinates),
-        and one persistent (mean, std) buffer pair per statistic."""
+        joints; with ``head_keypoints = m`` it sees only the first ``m`` keypoints' coordinates
+        and the encoder's spreads, :attr:`KeypointEncoder.spread_channels`, if any), and one
+        persistent (mean, std) buffer pair per statistic."""
         hp = self.hparams
         self.output_dim = output_dim
         self.joints_input = joints_input
         self.head_keypoints = head_keypoints
         self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
         self.n_heads = 2 if hp.mode_heads else 1
-        seen = self.encoder.out_dim if head_keypoints is None else 2 * int(head_keypoints)
+        spreads = 2 * self.encoder.spread_channels
+        seen = self.encoder.out_dim if head_keypoints is None else 2 * int(head_keypoints) + spreads
         self.head = mlp(
             seen + (hp.n_joints if joints_input else 0) + hp.bias_dim + extra_inputs,
             hp.hidden,
@@ -147,7 +149,11 @@ class KeypointPolicy(VisuomotorPolicy):
             joints = joints.repeat(len(COLOUR_ORDERS), 1)
             extra = None if extra is None else extra.repeat(len(COLOUR_ORDERS), 1)
         keypoints = self.encoder(image)
-        seen = keypoints if self.head_keypoints is None else keypoints[:, : 2 * self.head_keypoints]
+        if self.head_keypoints is None:
+            seen = keypoints
+        else:
+            spreads = keypoints[:, keypoints.shape[1] - 2 * self.encoder.spread_channels :]
+            seen = torch.cat([keypoints[:, : 2 * self.head_keypoints], spreads], dim=1)
         bias = self.bias_input.expand(image.shape[0], -1)
         parts = [seen, self.normalise("joints", joints), bias] if self.joints_input else [seen, bias]
         if extra is not None:

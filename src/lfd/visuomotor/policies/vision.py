@@ -60,6 +60,20 @@ class SpatialSoftmax(nn.Module):
         ky = (p.sum(dim=3) * ys).sum(dim=-1)  # marginal over columns -> (B, C)
         return torch.stack((kx, ky), dim=-1).flatten(1)
 
+    def spread(self, x: torch.Tensor) -> torch.Tensor:
+        """The standard deviations of each channel's softmax distribution along the columns and
+        rows, ``(B, 2C)`` laid out ``[sx_0, sy_0, ...]``, in cells of the map: how far the
+        response spreads around its keypoint, e.g. the apparent size of an object the channel
+        responds to all over (larger when nearer the camera)."""
+        b, c, h, w = x.shape
+        p = F.softmax(x.flatten(2) / self.temperature, dim=-1).view(b, c, h, w)
+        xs = torch.arange(w, dtype=x.dtype, device=x.device)
+        ys = torch.arange(h, dtype=x.dtype, device=x.device)
+        px, py = p.sum(dim=2), p.sum(dim=3)
+        vx = (px * xs**2).sum(-1) - (px * xs).sum(-1) ** 2
+        vy = (py * ys**2).sum(-1) - (py * ys).sum(-1) ** 2
+        return torch.stack((vx, vy), dim=-1).clamp_min(1e-6).sqrt().flatten(1)
+
 
 class KeypointEncoder(nn.Module):
     """Conv trunk + spatial soft-argmax: image ``(B, in_channels, H, W)`` in [0, 1] -> keypoints ``(B, 2C)``.
@@ -79,7 +93,9 @@ class KeypointEncoder(nn.Module):
         in_channels: 3 (RGB) or 4 (RGB-D, :func:`lfd.sim.depth.rgbd_image`).
 
     Output: ``(B, 2C)`` keypoints ``[x_0, y_0, ...]`` in ``[-1, 1]``, then with
-    ``global_pool`` the ``(B, C)`` maxima (:attr:`out_dim` is the total).
+    ``global_pool`` the ``(B, C)`` maxima, then with :attr:`spread_channels` ``= S`` (an attribute,
+    0 by default: no parameters depend on it) the ``(B, 2S)`` spreads of the first ``S`` channels
+    (:meth:`SpatialSoftmax.spread`) (:attr:`out_dim` is the total).
     """
 
     def __init__(
@@ -118,7 +134,13 @@ class KeypointEncoder(nn.Module):
         self.convs = nn.Sequential(*layers)
         self.softargmax = SpatialSoftmax(temperature)
         self.global_pool = bool(global_pool)
-        self.out_dim = (3 if self.global_pool else 2) * channels[-1]
+        self.n_channels = channels[-1]
+        self.spread_channels = 0
+
+    @property
+    def out_dim(self) -> int:
+        """Size of :meth:`forward`'s output per image."""
+        return (3 if self.global_pool else 2) * self.n_channels + 2 * self.spread_channels
 
     @staticmethod
     def pixel_keypoints(pixels: torch.Tensor, image_size: int) -> torch.Tensor:
@@ -133,9 +155,14 @@ class KeypointEncoder(nn.Module):
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         maps = self.convs(image - 0.5)
         keypoints = self.softargmax(maps)
-        if not self.global_pool:
+        if not self.global_pool and not self.spread_channels:
             return keypoints
-        return torch.cat([keypoints, maps.amax(dim=(2, 3))], dim=1)
+        parts = [keypoints]
+        if self.global_pool:
+            parts.append(maps.amax(dim=(2, 3)))
+        if self.spread_channels:
+            parts.append(self.softargmax.spread(maps[:, : self.spread_channels]))
+        return torch.cat(parts, dim=1)
 
 
 def mlp(in_dim: int, hidden: tuple[int, ...] | list[int], out_dim: int) -> nn.Sequential:
