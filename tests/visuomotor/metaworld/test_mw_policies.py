@@ -85,6 +85,17 @@ def _small_cnn_dmp(dm, **settings) -> CNNDMPPolicy:
     return policy
 
 
+def _overfit(policy, batch: dict[str, torch.Tensor], steps: int) -> dict[str, torch.Tensor]:
+    """``steps`` Adam steps (lr 1e-3) of ``policy.losses`` on one batch; the last step's losses."""
+    optimiser = torch.optim.Adam(policy.parameters(), lr=1e-3)
+    for _ in range(steps):
+        out = policy.losses(batch)
+        optimiser.zero_grad()
+        out["loss"].backward()
+        optimiser.step()
+    return out
+
+
 def _closing_step(gripper: torch.Tensor) -> torch.Tensor:
     """``(B, T)`` gripper commands -> ``(B,)`` the first step above :data:`CLOSING`."""
     return (gripper > CLOSING).float().argmax(dim=-1)
@@ -134,12 +145,7 @@ def test_cnn_dmp_fits_the_gripper_command_and_the_hand_end_point_of_push_demonst
     assert untrained["final_hand_m"] > 0.05
     assert untrained["closing_steps"] > 5
 
-    optimiser = torch.optim.Adam(policy.parameters(), lr=1e-3)
-    for _ in range(600):
-        loss = policy.losses(batch)["loss"]
-        optimiser.zero_grad()
-        loss.backward()
-        optimiser.step()
+    _overfit(policy, batch, 600)
     trained = errors()
     assert trained["gripper_vs_fitted"] < 0.08, trained
     assert trained["gripper_vs_demo"] < floor + 0.01, trained
@@ -311,12 +317,7 @@ def test_cnn_dmp_through_the_placement_fits_push_demonstrations_and_sees_only_th
 
     untrained = errors()
     assert untrained[0] > 0.02 and untrained[1] > 0.05, untrained
-    optimiser = torch.optim.Adam(policy.parameters(), lr=1e-3)
-    for _ in range(600):
-        out = policy.losses(batch)
-        optimiser.zero_grad()
-        out["loss"].backward()
-        optimiser.step()
+    out = _overfit(policy, batch, 600)
     assert out["loss"] is out["placement_mse"]
     torch.testing.assert_close(policy.params_map.weight, frozen)  # only the perception learned
     placement_m, final_hand_m = errors()
@@ -397,12 +398,7 @@ def test_keypoint_weight_puts_the_first_keypoints_on_the_placement_points(push):
     out = policy.losses(batch)
     assert float(out["keypoint_err_px"].detach()) > 2.0, float(out["keypoint_err_px"].detach())
     torch.testing.assert_close(out["loss"], out["placement_mse"] + 100.0 * out["keypoint_mse"])
-    optimiser = torch.optim.Adam(policy.parameters(), lr=1e-3)
-    for _ in range(300):
-        out = policy.losses(batch)
-        optimiser.zero_grad()
-        out["loss"].backward()
-        optimiser.step()
+    out = _overfit(policy, batch, 300)
     policy.eval()
     with torch.no_grad():
         encoded = policy.encoder(policy.scene_image(batch["image"]))
