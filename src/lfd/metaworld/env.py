@@ -140,10 +140,11 @@ class MetaWorldTask:
         )
         quality = env.model.vis.quality
         quality.shadowsize, quality.offsamples = 0, 0  # ~10x faster software rendering, same scene
-        if fovy is not None:
-            import mujoco
+        import mujoco
 
-            env.model.cam_fovy[mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_CAMERA, camera)] = float(fovy)
+        self._camera_id = int(mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_CAMERA, camera))
+        if fovy is not None:
+            env.model.cam_fovy[self._camera_id] = float(fovy)
         self.fovy = None if fovy is None else float(fovy)
         self._enlarge_goal_marker(env)
         self.env = env
@@ -225,9 +226,7 @@ class MetaWorldTask:
     def _camera(self) -> tuple[np.ndarray, np.ndarray, bool]:
         """The camera's position ``(3,)`` m, rotation ``(3, 3)`` (columns: its x, y, z axes in the
         world) and whether its image is upside down (its "up" axis points down in the world)."""
-        import mujoco
-
-        cam = mujoco.mj_name2id(self.env.model, mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
+        cam = self._camera_id
         rotation = self.env.data.cam_xmat[cam].reshape(3, 3).copy()
         if self._upside_down is None:
             self._upside_down = bool(rotation[2, 1] < 0)
@@ -259,7 +258,8 @@ class MetaWorldTask:
         depth = -local[..., 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             size = float(self.image_size)
-            focal = (size / 2.0) / np.tan(np.radians(self._fovy()) / 2.0)
+            fovy = float(self.env.model.cam_fovy[self._camera_id])
+            focal = (size / 2.0) / np.tan(np.radians(fovy) / 2.0)
             u = size / 2.0 + focal * local[..., 0] / depth
             v = size / 2.0 - focal * local[..., 1] / depth
         if upside_down:
@@ -267,12 +267,6 @@ class MetaWorldTask:
         uv = np.stack([u, v], axis=-1)
         uv[depth <= 0] = np.nan
         return uv
-
-    def _fovy(self) -> float:
-        import mujoco
-
-        cam = mujoco.mj_name2id(self.env.model, mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
-        return float(self.env.model.cam_fovy[cam])
 
     def action_for(self, target: np.ndarray) -> np.ndarray:
         """Meta-World's action ``(4,)`` float32 that moves the hand's mocap to ``target[:3]`` (m,

@@ -307,10 +307,11 @@ class MetaWorldDataModule(L.LightningDataModule):
         augment = image_augmentation(self.config.image_size) if self.augment else None
         if self.mode == "dmp":
             # the pixel labels are those of the unshifted images: not served with the shifts
-            pixels = {
-                split: None if augment else placement_pixels(self.config, self.data.split(split))
-                for split in ("train", "val")
-            }
+            pixels = {"train": None, "val": None}
+            if augment is None:  # one task (one camera pose) for both splits
+                n_train = len(self.data.split("train"))
+                both = placement_pixels(self.config, [*self.data.split("train"), *self.data.split("val")])
+                pixels = {"train": both[:n_train], "val": both[n_train:]}
             train = MetaWorldDMPDataset(
                 self.data, "train", augment, frames=self.dmp_frames, pixels=pixels["train"]
             )

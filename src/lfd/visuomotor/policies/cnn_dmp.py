@@ -199,7 +199,7 @@ class CNNDMPPolicy(KeypointPolicy):
             self.register_buffer("map_coefficients", torch.zeros(0, n + n * n_basis))
             # the placement is the scene's: from the image alone (the start state would let the
             # head tell training episodes apart instead of looking at the objects)
-            points = -(-placement_dim // 3)  # the placement's 3-D points (the last one may be padding)
+            points = self.placement_points
             if keypoint_weight > 0 and points > self.encoder.n_channels:
                 raise ValueError(
                     f"CNNDMPPolicy.keypoint_weight: {points} supervised keypoints, the encoder has "
@@ -222,6 +222,12 @@ class CNNDMPPolicy(KeypointPolicy):
         if self.through_placement:
             out = self._params_from_placement(out, joints)
         return self._split_params(out)
+
+    @property
+    def placement_points(self) -> int:
+        """The placement's 3-D points, ``ceil(placement_dim / 3)`` (the last one may be padding):
+        the keypoints that ``keypoint_weight`` supervises."""
+        return -(-int(self.hparams.get("placement_dim", 0)) // 3)
 
     @property
     def through_placement(self) -> bool:
@@ -360,7 +366,7 @@ class CNNDMPPolicy(KeypointPolicy):
         """Mean squared distance (soft-argmax units) of the first keypoints from the batch's
         ``placement_pixels`` ``(B, 2 m)`` px; NaN targets left out. One line if the batch has none."""
         pixels = batch.get("placement_pixels")
-        m = -(-self.hparams.placement_dim // 3)
+        m = self.placement_points
         if pixels is None or pixels.ndim != 2 or pixels.shape[1] != 2 * m:
             got = "none" if pixels is None else f"shape {tuple(pixels.shape)}"
             raise ValueError(
@@ -457,9 +463,10 @@ class CNNDMPPolicy(KeypointPolicy):
         if keypoint_mse is not None:
             out["keypoint_mse"] = keypoint_mse
             out["loss"] = out["loss"] + self.hparams.keypoint_weight * keypoint_mse
-            # root mean square per coordinate in image pixels (one soft-argmax unit: cells - 1 of 2 px)
-            cells = (batch["image"].shape[-1] - 1) // 2 + 1
-            out["keypoint_err_px"] = keypoint_mse.sqrt() * (cells - 1)
+            # root mean square per coordinate, in image pixels
+            out["keypoint_err_px"] = keypoint_mse.sqrt() * self.encoder.pixels_per_unit(
+                batch["image"].shape[-1]
+            )
         return self.add_aux_losses(out, aux, batch)
 
     def time_weights(self) -> torch.Tensor:

@@ -149,8 +149,13 @@ class KeypointEncoder(nn.Module):
         coordinates ``(..., 2)`` the soft-argmax gives a feature map peaked there (``[-1, 1]``
         across the first layer's output cells: cell ``j``, centred on input pixel ``2 j``, is at
         ``-1 + 2 j / (w - 1)``, ``w`` cells)."""
-        cells = (int(image_size) - 1) // 2 + 1  # the 5x5, stride 2, pad 2 first layer's output size
-        return -1.0 + (pixels - 0.5) / (cells - 1)
+        return -1.0 + (pixels - 0.5) / KeypointEncoder.pixels_per_unit(image_size)
+
+    @staticmethod
+    def pixels_per_unit(image_size: int) -> int:
+        """Image pixels per keypoint unit of a square ``image_size`` image: ``w - 1`` for the
+        ``w`` output cells of the 5x5, stride 2, pad 2 first layer (2 px each, over 2 units)."""
+        return (int(image_size) - 1) // 2
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         maps = self.convs(image - 0.5)
