@@ -12,7 +12,11 @@ the object it must grasp on the way.
 With ``--rollouts N`` it also runs the first N validation placements of the task in closed loop
 (planned once, as ``eval.dmp_replan_every=null``) and prints the successes of the plan from the
 image and, for a policy with ``placement_dim``, of the map's plan from the episode's *true*
-placement: whether the misses come from what the network sees or from the map.
+placement: whether the misses come from what the network sees or from the map. A third count,
+"true pixels", plans from the placement that the points' *true pixels* alone give (each point's
+position regressed on its pixel over the training placements, quadratic least squares): the most a
+head that sees only where the points appear (``keypoint_head=supervised``) can expect; below the
+true placement's count where a point's depth along the line of sight matters (a goal in the air).
 
     python scripts/metaworld_plan_error.py outputs/.../last.ckpt data/metaworld_push-v3_n50_s42 [--rollouts 30]
 """
@@ -83,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
             row = 100 * np.median(np.stack(err), axis=0)[:: args.every]
             print(f"{split:5s} {name:6s} " + " ".join(f"{v:4.1f}" for v in row), flush=True)
     if args.rollouts > 0:
-        rollouts(policy, data.config, args.rollouts, args.horizon)
+        rollouts(policy, data.config, args.rollouts, args.horizon, list(data.split("train")))
     return 0
 
 
@@ -98,15 +102,48 @@ class _TruePlacement:
         return self.policy.plan_from_placement(self.placement, joints, n_steps=n_steps)
 
 
-def rollouts(policy, config, n: int, horizon: int) -> None:
-    """Successes of the image's plan and (with ``placement_dim``) the true placement's plan on the
-    first ``n`` validation placements of ``config.task``, ``horizon`` control steps each."""
+def _quadratic(uv: np.ndarray) -> np.ndarray:
+    """``(E, 2)`` pixels -> ``(E, 6)`` the quadratic regression's features."""
+    u, v = uv[:, :1], uv[:, 1:]
+    return np.concatenate([np.ones_like(u), u, v, u * u, u * v, v * v], axis=1)
+
+
+def pixel_regression(config, train_eps) -> callable:
+    """A function ``(p,)`` placement (m) -> ``(p,)`` what the placement's points' pixels alone give:
+    each 3-D point regressed on its pixel (quadratic least squares over ``train_eps``); padding
+    stays zero."""
+    from lfd.visuomotor.metaworld.datamodule import placement_pixels, placements
+
+    x, pixels = placements(train_eps), placement_pixels(config, train_eps)
+    fits = []
+    for k in range(x.shape[1] // 3):
+        uv = pixels[:, 2 * k : 2 * k + 2]
+        if np.isnan(uv).any():
+            continue
+        scale = (uv.mean(0), uv.std(0) + 1e-9)
+        coef = np.linalg.lstsq(_quadratic((uv - scale[0]) / scale[1]), x[:, 3 * k : 3 * k + 3], rcond=None)[0]
+        fits.append((k, scale, coef))
+
+    def estimate(placement: np.ndarray, pixel: np.ndarray) -> np.ndarray:
+        out = np.zeros_like(placement)
+        for k, (mean, std), coef in fits:
+            out[3 * k : 3 * k + 3] = _quadratic((pixel[None, 2 * k : 2 * k + 2] - mean) / std)[0] @ coef
+        return out
+
+    return estimate
+
+
+def rollouts(policy, config, n: int, horizon: int, train_eps=()) -> None:
+    """Successes of the image's plan and (with ``placement_dim``) the true placement's plan and the
+    true pixels' plan (:func:`pixel_regression` on ``train_eps``) on the first ``n`` validation
+    placements of ``config.task``, ``horizon`` control steps each."""
     from lfd.metaworld.env import MetaWorldTask, placement_seed
     from lfd.visuomotor.metaworld.datamodule import padded_placement
     from lfd.visuomotor.policies.control import PlanController
     from lfd.visuomotor.protocols import Observation
 
-    modes = ("image", "true placement") if policy.through_placement else ("image",)
+    modes = ("image", "true placement", "true pixels") if policy.through_placement else ("image",)
+    from_pixels = pixel_regression(config, train_eps) if policy.through_placement else None
     wins = dict.fromkeys(modes, 0)
     with MetaWorldTask(
         config.task, image_size=config.image_size, camera=config.camera, fovy=config.camera_fovy
@@ -116,7 +153,14 @@ def rollouts(policy, config, n: int, horizon: int) -> None:
                 state = task.reset(placement_seed(config.seed, "val", i))
                 planner = policy
                 if mode != "image":
-                    planner = _TruePlacement(policy, padded_placement(task.placement))
+                    placement = padded_placement(task.placement)
+                    if mode == "true pixels":
+                        m = placement.size // 3
+                        pixel = np.full(2 * m, np.nan)
+                        n_points = task.placement.size // 3
+                        pixel[: 2 * n_points] = task.project(placement[: 3 * n_points].reshape(-1, 3)).ravel()
+                        placement = from_pixels(placement, pixel)
+                    planner = _TruePlacement(policy, placement)
                 controller = PlanController(planner, task.control_dt)
                 controller.start(horizon)
                 for step in range(horizon):

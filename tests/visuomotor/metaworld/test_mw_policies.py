@@ -433,7 +433,7 @@ def test_keypoint_settings_are_checked_in_one_line(push):
         ValueError, match=r"^CNNDMPPolicy.keypoint_head: expected one of \('all', 'supervised', "
     ):
         CNNDMPPolicy(placement_dim=6, keypoint_weight=1.0, keypoint_head="some", **common)
-    for head in ("supervised", "supervised_spread"):
+    for head in ("supervised", "supervised_spread", "supervised_depth"):
         with pytest.raises(
             ValueError, match=rf"^CNNDMPPolicy.keypoint_head: '{head}' needs keypoint_weight > 0"
         ):
@@ -447,6 +447,95 @@ def test_keypoint_settings_are_checked_in_one_line(push):
     del batch["placement_pixels"]
     with pytest.raises(ValueError, match=r"batches need 'placement_pixels' of shape \(B, 4\).*got none$"):
         policy.losses(batch)
+
+
+def test_supervised_depth_trains_exactly_as_supervised_where_no_point_needs_a_depth(push):
+    """``keypoint_head="supervised_depth"`` without depth directions (here: 4 demonstrations, too few
+    to fit one) starts from the same parameters as ``"supervised"`` and stays on the same path."""
+    dm = _datamodule(push, "dmp")
+    batch = default_collate([dm.datasets["train"][i] for i in range(len(dm.datasets["train"]))])
+    pair, draws = [], []
+    for head in ("supervised", "supervised_depth"):
+        policy = _small_cnn_dmp(dm, placement_dim=6, keypoint_weight=100.0, keypoint_head=head)
+        draws.append(torch.rand(4))  # what runs after construction draws the same numbers
+        policy.fit_params_map(batch["placement"], batch["joints"], batch["goal"], batch["weights"])
+        pair.append(policy)
+    plain, depth = pair
+    torch.testing.assert_close(draws[0], draws[1], rtol=0, atol=0)
+    rms = depth.fit_depth_directions(batch["placement"], batch["placement_pixels"])
+    assert float(rms.abs().max()) == 0.0 and float(depth.depth_directions.abs().max()) == 0.0
+    shared = plain.state_dict()
+    assert set(shared) < set(depth.state_dict())
+    for name, value in shared.items():
+        torch.testing.assert_close(depth.state_dict()[name], value, rtol=0, atol=0, msg=name)
+    _overfit(plain, batch, 20)
+    _overfit(depth, batch, 20)
+    plain.eval(), depth.eval()
+    with torch.no_grad():
+        torch.testing.assert_close(
+            depth.features(batch["image"], batch["joints"]), plain.features(batch["image"], batch["joints"])
+        )
+
+
+def _look(camera: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """``(3, 3)`` rows: a pinhole camera's right, down and forward unit vectors."""
+    forward = (target - camera) / np.linalg.norm(target - camera)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    return np.stack([right, np.cross(forward, right), forward])
+
+
+def test_fit_depth_directions_finds_the_line_of_sight_of_a_point_in_the_air(push):
+    """A pinhole camera sees a puck on a table (its pixel fixes it: no direction) and a ball at a
+    random depth along random rays (its pixel leaves the depth open): the ball's direction is the
+    mean line of sight, scaled to the depth's spread; the depth head moves the placement along it."""
+    dm = _datamodule(push, "dmp")
+    rng = np.random.default_rng(0)
+    camera, axes = np.array([0.0, -0.6, 0.9]), _look(np.array([0.0, -0.6, 0.9]), np.array([0.0, 0.7, 0.1]))
+    focal, n = 150.0, 80
+
+    def pixel(points: np.ndarray) -> np.ndarray:
+        local = (points - camera) @ axes.T
+        return 16.0 + focal * local[:, :2] / local[:, 2:]
+
+    puck = np.c_[rng.uniform(-0.1, 0.1, n), rng.uniform(0.6, 0.7, n), np.full(n, 0.02)]
+    rays = np.c_[rng.uniform(-0.08, 0.08, (n, 2)), np.ones(n)] @ axes
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    depth = rng.uniform(1.2, 1.4, n)
+    ball = camera + depth[:, None] * rays
+    placement = torch.tensor(np.c_[puck, ball], dtype=torch.float32)
+    pixels = torch.tensor(np.c_[pixel(puck), pixel(ball)], dtype=torch.float32)
+    policy = _small_cnn_dmp(dm, placement_dim=6, keypoint_weight=1.0, keypoint_head="supervised_depth")
+    rms = policy.fit_depth_directions(placement, pixels)
+    assert float(rms[0]) < 0.002 and float(policy.depth_directions[0].abs().max()) == 0.0
+    assert abs(float(rms[1]) - depth.std()) < 0.2 * depth.std(), (float(rms[1]), depth.std())
+    zero = policy.denormalise("placement", torch.zeros(1, 6))
+    step = (policy.denormalise("placement", policy.depth_directions[1:2]) - zero)[0, 3:].double().numpy()
+    assert abs(np.linalg.norm(step) - float(rms[1])) < 1e-4
+    cosine = abs(step @ rays.mean(0)) / np.linalg.norm(step) / np.linalg.norm(rays.mean(0))
+    assert cosine > 0.99, cosine
+    assert (
+        float((policy.denormalise("placement", policy.depth_directions[1:2]) - zero)[0, :3].abs().max())
+        < 1e-6
+    )
+
+    batch = default_collate([dm.datasets["train"][i] for i in range(2)])
+    policy.eval()
+    with torch.no_grad():
+        heads = [head[-1] for head in policy.depth_heads]
+        for head in heads:
+            head.weight.zero_(), head.bias.zero_()
+        base = policy.features(batch["image"], batch["joints"])
+        heads[1].bias.fill_(2.0)
+        shifted = policy.features(batch["image"], batch["joints"])
+        torch.testing.assert_close(shifted, base + 2.0 * policy.depth_directions[1], atol=1e-6, rtol=0)
+        heads[0].bias.fill_(5.0)  # the puck's row is zero: no change
+        torch.testing.assert_close(policy.features(batch["image"], batch["joints"]), shifted)
+    with pytest.raises(
+        ValueError,
+        match=r"^CNNDMPPolicy.fit_depth_directions: expected placement \(E, 6\) and pixels \(E, 4\)",
+    ):
+        policy.fit_depth_directions(placement, pixels[:, :3])
 
 
 # ---------------------------------------------------------------------------- background subtraction
@@ -610,7 +699,7 @@ def test_kernel_correction_is_kept_in_the_checkpoint_and_older_ones_load_affine(
     )
 
     # a checkpoint of the previous release: no correction, no length scale: the affine map alone
-    state = {k: v for k, v in policy.state_dict().items() if not k.startswith("map_")}
+    state = {k: v for k, v in policy.state_dict().items() if not k.startswith(("map_", "depth_"))}
     older = {k: v for k, v in hp.items() if k != "map_kernel_scale"}
     torch.save({"state_dict": state, "hyper_parameters": older}, tmp_path / "older.ckpt")
     affine = load_policy(tmp_path / "older.ckpt")

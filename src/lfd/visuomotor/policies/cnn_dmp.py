@@ -36,10 +36,17 @@ from lfd.visuomotor.policies.base import check_sizes
 from lfd.visuomotor.policies.control import PlanController
 from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.plots import joint_figure
+from lfd.visuomotor.policies.vision import mlp
 
 LOSSES = ("trajectory", "params")
 #: What the placement head sees (``keypoint_head``): every keypoint, or only the supervised ones.
-KEYPOINT_HEADS = ("all", "supervised", "supervised_spread")
+KEYPOINT_HEADS = ("all", "supervised", "supervised_spread", "supervised_depth")
+#: ``keypoint_head="supervised_depth"``: a placement point whose position its pixel leaves
+#: undetermined by more than this (root mean square over the training placements, m) gets a depth
+#: along its line of sight (the same 1 cm below which the placement's entries count as constant).
+DEPTH_MIN_M = 0.01
+#: Hidden units of each point's depth head (``keypoint_head="supervised_depth"``).
+DEPTH_HIDDEN = (32,)
 #: Penalty of the kernel ridge regression of the placement map's correction (``map_kernel_scale``),
 #: in the normalised parameters' units (chosen with the length scale on validation placements).
 KERNEL_RIDGE = 0.1
@@ -116,7 +123,13 @@ class CNNDMPPolicy(KeypointPolicy):
             their channels' responses spread around them
             (:meth:`~lfd.visuomotor.policies.vision.SpatialSoftmax.spread`), i.e. the objects'
             apparent sizes: where a point lies along the camera's line of sight (a goal in the
-            air) shows in them, not in its position in the image. Both need ``keypoint_weight > 0``.
+            air) shows in them, not in its position in the image; ``"supervised_depth"``: the
+            placement from the supervised keypoints alone as with ``"supervised"``, plus, for each
+            point whose position the training placements show is not fixed by its pixel (a goal
+            in the air, :data:`DEPTH_MIN_M`), a learned offset along the direction its pixel leaves
+            open (its line of sight, :meth:`fit_depth_directions`), read from that keypoint and its
+            channel's spread alone; a task whose points all lie on a surface trains exactly as with
+            ``"supervised"``. All but ``"all"`` need ``keypoint_weight > 0``.
         normalise_trajectory: compare trajectories in units of each state dimension's train-split
             standard deviation (the ``joints`` statistics) instead of raw units (rad^2). For states
             with small ranges in their units (Meta-World's hand in metres, a few cm of spread) the
@@ -205,16 +218,42 @@ class CNNDMPPolicy(KeypointPolicy):
                     f"CNNDMPPolicy.keypoint_weight: {points} supervised keypoints, the encoder has "
                     f"{self.encoder.n_channels}"
                 )
-            if keypoint_head == "supervised_spread":
+            if keypoint_head in ("supervised_spread", "supervised_depth"):
                 self.encoder.spread_channels = points
             self._build(
                 placement_dim,
                 {**stats, "placement": (placement_dim,)},
                 joints_input=False,
                 head_keypoints=points if keypoint_head != "all" else None,
+                head_spreads=keypoint_head != "supervised_depth",
             )
+            # each point's offset along its open direction (rows: normalised placement units per unit
+            # of the depth head's output; zero rows until fit_depth_directions: no offset)
+            self.register_buffer("depth_directions", torch.zeros(points, placement_dim))
+            if keypoint_head == "supervised_depth":
+                with torch.random.fork_rng(devices=[]):  # the rest initialises as with "supervised"
+                    self.depth_heads = nn.ModuleList(mlp(4, DEPTH_HIDDEN, 1) for _ in range(points))
         else:
             self._build(n + n * n_basis, stats)
+
+    def refine_head(self, out: torch.Tensor, keypoints: torch.Tensor) -> torch.Tensor:
+        """With ``keypoint_head="supervised_depth"``: each point's depth head, fed its keypoint and
+        its channel's spread ``(B, 4)``, moves the predicted placement along that point's row of
+        :attr:`depth_directions` (zero rows: no change)."""
+        if self.hparams.get("keypoint_head") != "supervised_depth":
+            return out
+        m, p = self.placement_points, self.hparams.placement_dim
+        spreads = keypoints[:, keypoints.shape[1] - 2 * m :]
+        depth = torch.cat(
+            [
+                head(torch.cat([keypoints[:, 2 * k : 2 * k + 2], spreads[:, 2 * k : 2 * k + 2]], dim=1))
+                for k, head in enumerate(self.depth_heads)
+            ],
+            dim=1,
+        )
+        offset = depth @ self.depth_directions.to(depth)
+        blocks = [out[:, h * p : (h + 1) * p] + offset for h in range(self.n_heads)]
+        return torch.cat([*blocks, out[:, self.n_heads * p :]], dim=1)
 
     def predict_params(self, image: torch.Tensor, joints: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Normalised DMP goal ``(B, n)`` and weights ``(B, n, K)``."""
@@ -280,6 +319,15 @@ class CNNDMPPolicy(KeypointPolicy):
                     f"expected (E, {own.shape[1]}) with E <= {MAX_MAP_CENTRES}"
                 )
             self._buffers[name] = torch.zeros(saved.shape, dtype=own.dtype, device=own.device)
+        directions = state.setdefault("depth_directions", self.depth_directions)  # earlier releases: none
+        if not isinstance(directions, torch.Tensor) or directions.shape != self.depth_directions.shape:
+            got = (
+                tuple(directions.shape) if isinstance(directions, torch.Tensor) else type(directions).__name__
+            )
+            raise ValueError(
+                f"CNNDMPPolicy: the checkpoint's depth_directions is {got}, "
+                f"expected {tuple(self.depth_directions.shape)}"
+            )
         if state["map_centres"].shape[0] != state["map_coefficients"].shape[0]:
             raise ValueError(
                 "CNNDMPPolicy: the checkpoint's map_centres and map_coefficients differ in length"
@@ -335,9 +383,65 @@ class CNNDMPPolicy(KeypointPolicy):
             self.map_coefficients = coefficients.to(self.params_map.weight)
         self.params_map.requires_grad_(False)
 
+    def fit_depth_directions(self, placement: torch.Tensor, pixels: torch.Tensor) -> torch.Tensor:
+        """Set :attr:`depth_directions` from the training placements: for each point, the residual of
+        its position (m) regressed on its pixel (quadratic least squares) is, with a fixed camera,
+        spread along the point's line of sight; where the residual's largest principal component
+        has a root mean square above :data:`DEPTH_MIN_M`, the point's row is that component (in
+        normalised placement units, scaled to one root mean square), otherwise zero. The placement
+        statistics must be in the buffers.
+
+        Args:
+            placement: ``(E, placement_dim)`` m; pixels: ``(E, 2 m)`` px, ``[u_0, v_0, ...]`` (NaN:
+                padding, left out; a point with fewer than 8 finite pixels gets no direction).
+
+        Returns:
+            ``(m,)`` each point's residual root mean square (m; 0 where not fitted).
+
+        Raises:
+            ValueError: wrong shapes.
+        """
+        self._need_placement_map("fit_depth_directions")
+        m, p = self.placement_points, self.hparams.placement_dim
+        if placement.ndim != 2 or placement.shape[1] != p or pixels.shape != (len(placement), 2 * m):
+            raise ValueError(
+                f"CNNDMPPolicy.fit_depth_directions: expected placement (E, {p}) and pixels (E, {2 * m}), "
+                f"got {tuple(placement.shape)} and {tuple(pixels.shape)}"
+            )
+        rows = torch.zeros(m, p, dtype=torch.float64)
+        rms = torch.zeros(m, dtype=torch.float64)
+        x, uv_all = placement.detach().double().cpu(), pixels.detach().double().cpu()
+        for k in range(m):
+            cols = slice(3 * k, min(3 * k + 3, p))
+            uv = uv_all[:, 2 * k : 2 * k + 2]
+            ok = torch.isfinite(uv).all(dim=1)
+            if int(ok.sum()) < 8:
+                continue
+            uv = uv[ok]
+            uv = (uv - uv.mean(0)) / uv.std(0).clamp_min(1e-9)
+            design = torch.cat(
+                [torch.ones(len(uv), 1), uv, uv[:, :1] ** 2, uv[:, :1] * uv[:, 1:], uv[:, 1:] ** 2], 1
+            )
+            y = x[ok][:, cols]
+            residual = y - design @ torch.linalg.lstsq(design, y).solution
+            _, s, vt = torch.linalg.svd(residual - residual.mean(0), full_matrices=False)
+            rms[k] = s[0] / len(y) ** 0.5
+            if rms[k] > DEPTH_MIN_M:
+                step = torch.zeros(
+                    1, p, dtype=self.depth_directions.dtype, device=self.depth_directions.device
+                )
+                step[0, cols] = (vt[0] * rms[k]).to(step)
+                zero = torch.zeros_like(step)
+                rows[k] = (
+                    (self.normalise("placement", step) - self.normalise("placement", zero))[0].double().cpu()
+                )
+        self.depth_directions = rows.to(self.depth_directions)
+        return rms
+
     def setup(self, stage: str) -> None:
         """The harness's ``setup`` and, at ``fit`` with ``placement_dim``, :meth:`fit_params_map` on
-        the datamodule's training items."""
+        the datamodule's training items (and, with ``keypoint_head="supervised_depth"``,
+        :meth:`fit_depth_directions` on their ``placement_pixels``)."""
         super().setup(stage)
         if stage != "fit" or not self.through_placement:
             return
@@ -350,6 +454,16 @@ class CNNDMPPolicy(KeypointPolicy):
         items = [train[i] for i in range(len(train))]
         keys = ("placement", "joints", "goal", "weights")
         self.fit_params_map(*(torch.stack([item[k] for item in items]).to(self.device) for k in keys))
+        if self.hparams.get("keypoint_head") == "supervised_depth":
+            if "placement_pixels" not in items[0]:
+                raise ValueError(
+                    "CNNDMPPolicy(keypoint_head='supervised_depth'): the datamodule's training items have "
+                    "no 'placement_pixels'"
+                )
+            self.fit_depth_directions(
+                torch.stack([item["placement"] for item in items]).to(self.device),
+                torch.stack([item["placement_pixels"] for item in items]).to(self.device),
+            )
 
     def _placement_target(self, batch: dict[str, torch.Tensor]) -> torch.Tensor:
         """The batch's normalised ``placement`` ``(B, placement_dim)``; one line if it has none that fits."""

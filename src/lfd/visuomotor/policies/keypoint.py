@@ -79,20 +79,22 @@ class KeypointPolicy(VisuomotorPolicy):
         extra_inputs: int = 0,
         joints_input: bool = True,
         head_keypoints: int | None = None,
+        head_spreads: bool = True,
     ) -> None:
         """Subclasses call this at the end of ``__init__``: the fully connected head with
         ``output_dim`` outputs (and ``extra_inputs`` more inputs besides keypoints, joints
         and bias, see :meth:`features`; without ``joints_input`` the head does not see the
         joints; with ``head_keypoints = m`` it sees only the first ``m`` keypoints' coordinates
-        and the encoder's spreads, :attr:`KeypointEncoder.spread_channels`, if any), and one
-        persistent (mean, std) buffer pair per statistic."""
+        and, with ``head_spreads``, the encoder's spreads, :attr:`KeypointEncoder.spread_channels`,
+        if any), and one persistent (mean, std) buffer pair per statistic."""
         hp = self.hparams
         self.output_dim = output_dim
         self.joints_input = joints_input
         self.head_keypoints = head_keypoints
+        self.head_spreads = head_spreads
         self.n_aux = AUX_DIM if hp.aux_weight > 0 else 0
         self.n_heads = 2 if hp.mode_heads else 1
-        spreads = 2 * self.encoder.spread_channels
+        spreads = 2 * self.encoder.spread_channels if head_spreads else 0
         seen = self.encoder.out_dim if head_keypoints is None else 2 * int(head_keypoints) + spreads
         self.head = mlp(
             seen + (hp.n_joints if joints_input else 0) + hp.bias_dim + extra_inputs,
@@ -152,17 +154,24 @@ class KeypointPolicy(VisuomotorPolicy):
         if self.head_keypoints is None:
             seen = keypoints
         else:
-            spreads = keypoints[:, keypoints.shape[1] - 2 * self.encoder.spread_channels :]
-            seen = torch.cat([keypoints[:, : 2 * self.head_keypoints], spreads], dim=1)
+            seen = keypoints[:, : 2 * self.head_keypoints]
+            if self.head_spreads and self.encoder.spread_channels:
+                spreads = keypoints[:, keypoints.shape[1] - 2 * self.encoder.spread_channels :]
+                seen = torch.cat([seen, spreads], dim=1)
         bias = self.bias_input.expand(image.shape[0], -1)
         parts = [seen, self.normalise("joints", joints), bias] if self.joints_input else [seen, bias]
         if extra is not None:
             parts.append(extra)
-        out = self.head(torch.cat(parts, dim=1))
+        out = self.refine_head(self.head(torch.cat(parts, dim=1)), keypoints)
         if tta:
             mean = lambda x: x.view(len(COLOUR_ORDERS), b, -1).mean(dim=0)  # noqa: E731
             return mean(out), mean(keypoints)
         return out, keypoints
+
+    def refine_head(self, out: torch.Tensor, keypoints: torch.Tensor) -> torch.Tensor:
+        """The raw head output ``(B, n_heads * output_dim + n_aux)`` after a subclass's own use of
+        the encoder's output ``(B, encoder.out_dim)``; here unchanged."""
+        return out
 
     @property
     def colour_tta(self) -> bool:
