@@ -45,8 +45,9 @@ KEYPOINT_HEADS = ("all", "supervised", "supervised_spread", "supervised_depth")
 #: undetermined by more than this (root mean square over the training placements, m) gets a depth
 #: along its line of sight (the same 1 cm below which the placement's entries count as constant).
 DEPTH_MIN_M = 0.01
-#: Hidden units of each point's depth head (``keypoint_head="supervised_depth"``).
-DEPTH_HIDDEN = (32,)
+#: Hidden units of each point's depth head (``keypoint_head="supervised_depth"``): none, a linear
+#: read-out (a hidden layer of 32 learned pick-place-v3's 50 training depths by heart; docs/metaworld.md).
+DEPTH_HIDDEN = ()
 #: Penalty of the kernel ridge regression of the placement map's correction (``map_kernel_scale``),
 #: in the normalised parameters' units (chosen with the length scale on validation placements).
 KERNEL_RIDGE = 0.1
@@ -127,9 +128,10 @@ class CNNDMPPolicy(KeypointPolicy):
             placement from the supervised keypoints alone as with ``"supervised"``, plus, for each
             point whose position the training placements show is not fixed by its pixel (a goal
             in the air, :data:`DEPTH_MIN_M`), a learned offset along the direction its pixel leaves
-            open (its line of sight, :meth:`fit_depth_directions`), read from that keypoint and its
-            channel's spread alone; a task whose points all lie on a surface trains exactly as with
-            ``"supervised"``. All but ``"all"`` need ``keypoint_weight > 0``.
+            open (its line of sight, :meth:`fit_depth_directions`), a linear read-out of that
+            keypoint and its channel's spread alone (:data:`DEPTH_HIDDEN`); a task whose points
+            all lie on a surface trains exactly as with ``"supervised"``. All but ``"all"`` need
+            ``keypoint_weight > 0``.
         normalise_trajectory: compare trajectories in units of each state dimension's train-split
             standard deviation (the ``joints`` statistics) instead of raw units (rad^2). For states
             with small ranges in their units (Meta-World's hand in metres, a few cm of spread) the
