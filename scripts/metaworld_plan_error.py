@@ -102,17 +102,15 @@ class _TruePlacement:
         return self.policy.plan_from_placement(self.placement, joints, n_steps=n_steps)
 
 
-def _quadratic(uv: np.ndarray) -> np.ndarray:
-    """``(E, 2)`` pixels -> ``(E, 6)`` the quadratic regression's features."""
-    u, v = uv[:, :1], uv[:, 1:]
-    return np.concatenate([np.ones_like(u), u, v, u * u, u * v, v * v], axis=1)
-
-
 def pixel_regression(config, train_eps) -> callable:
     """A function ``(p,)`` placement (m) -> ``(p,)`` what the placement's points' pixels alone give:
     each 3-D point regressed on its pixel (quadratic least squares over ``train_eps``); padding
     stays zero."""
     from lfd.visuomotor.metaworld.datamodule import placement_pixels, placements
+    from lfd.visuomotor.policies.cnn_dmp import pixel_design
+
+    def _quadratic(uv: np.ndarray) -> np.ndarray:
+        return pixel_design(torch.from_numpy(np.asarray(uv, dtype=np.float64))).numpy()
 
     x, pixels = placements(train_eps), placement_pixels(config, train_eps)
     fits = []

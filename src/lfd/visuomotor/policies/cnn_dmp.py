@@ -55,6 +55,14 @@ KERNEL_RIDGE = 0.1
 MAX_MAP_CENTRES = 100_000
 
 
+def pixel_design(uv: torch.Tensor) -> torch.Tensor:
+    """``(E, 2)`` pixels (standardised) -> ``(E, 6)`` ``[1, u, v, u^2, u v, v^2]``: the design of the
+    quadratic regression of a placement point's position on its pixel
+    (:meth:`CNNDMPPolicy.fit_depth_directions`, ``scripts/metaworld_plan_error.py``)."""
+    u, v = uv[:, :1], uv[:, 1:]
+    return torch.cat([torch.ones_like(u), u, v, u * u, u * v, v * v], dim=1)
+
+
 @dataclass(frozen=True)
 class DMPPlan:
     """A planned DMP trajectory and the DMP parameters that changing its goal needs (float64).
@@ -421,9 +429,7 @@ class CNNDMPPolicy(KeypointPolicy):
                 continue
             uv = uv[ok]
             uv = (uv - uv.mean(0)) / uv.std(0).clamp_min(1e-9)
-            design = torch.cat(
-                [torch.ones(len(uv), 1), uv, uv[:, :1] ** 2, uv[:, :1] * uv[:, 1:], uv[:, 1:] ** 2], 1
-            )
+            design = pixel_design(uv)
             y = x[ok][:, cols]
             residual = y - design @ torch.linalg.lstsq(design, y).solution
             _, s, vt = torch.linalg.svd(residual - residual.mean(0), full_matrices=False)
