@@ -107,7 +107,7 @@ def pixel_regression(config, train_eps) -> callable:
     each 3-D point regressed on its pixel (quadratic least squares over ``train_eps``); padding
     stays zero."""
     from lfd.visuomotor.metaworld.datamodule import placement_pixels, placements
-    from lfd.visuomotor.policies.cnn_dmp import pixel_design
+    from lfd.visuomotor.policies.line_of_sight import pixel_design
 
     def _quadratic(uv: np.ndarray) -> np.ndarray:
         return pixel_design(torch.from_numpy(np.asarray(uv, dtype=np.float64))).numpy()

@@ -35,32 +35,20 @@ from lfd.dmp.transform import substeps
 from lfd.visuomotor.policies.base import check_sizes
 from lfd.visuomotor.policies.control import PlanController
 from lfd.visuomotor.policies.keypoint import KeypointPolicy
+from lfd.visuomotor.policies.line_of_sight import open_directions
 from lfd.visuomotor.policies.plots import joint_figure
 from lfd.visuomotor.policies.vision import mlp
 
 LOSSES = ("trajectory", "params")
 #: What the placement head sees (``keypoint_head``): every keypoint, or only the supervised ones.
 KEYPOINT_HEADS = ("all", "supervised", "supervised_spread", "supervised_depth")
-#: ``keypoint_head="supervised_depth"``: a placement point whose position its pixel leaves
-#: undetermined by more than this (root mean square over the training placements, m) gets a depth
-#: along its line of sight (the same 1 cm below which the placement's entries count as constant).
-DEPTH_MIN_M = 0.01
-#: Hidden units of each point's depth head (``keypoint_head="supervised_depth"``): none, a linear
-#: read-out (a hidden layer of 32 learned pick-place-v3's 50 training depths by heart; docs/metaworld.md).
+#: Hidden units of the depth heads (``supervised_depth``): none (32 memorised pick-place's; docs/decisions.md).
 DEPTH_HIDDEN = ()
 #: Penalty of the kernel ridge regression of the placement map's correction (``map_kernel_scale``),
 #: in the normalised parameters' units (chosen with the length scale on validation placements).
 KERNEL_RIDGE = 0.1
 #: Most training demonstrations a checkpoint's kernel correction may hold (a bound on what loading allocates).
 MAX_MAP_CENTRES = 100_000
-
-
-def pixel_design(uv: torch.Tensor) -> torch.Tensor:
-    """``(E, 2)`` pixels (standardised) -> ``(E, 6)`` ``[1, u, v, u^2, u v, v^2]``: the design of the
-    quadratic regression of a placement point's position on its pixel
-    (:meth:`CNNDMPPolicy.fit_depth_directions`, ``scripts/metaworld_plan_error.py``)."""
-    u, v = uv[:, :1], uv[:, 1:]
-    return torch.cat([torch.ones_like(u), u, v, u * u, u * v, v * v], dim=1)
 
 
 @dataclass(frozen=True)
@@ -135,9 +123,10 @@ class CNNDMPPolicy(KeypointPolicy):
             air) shows in them, not in its position in the image; ``"supervised_depth"``: the
             placement from the supervised keypoints alone as with ``"supervised"``, plus, for each
             point whose position the training placements show is not fixed by its pixel (a goal
-            in the air, :data:`DEPTH_MIN_M`), a learned offset along the direction its pixel leaves
-            open (its line of sight, :meth:`fit_depth_directions`), a linear read-out of that
-            keypoint and its channel's spread alone (:data:`DEPTH_HIDDEN`); a task whose points
+            in the air, :data:`~lfd.visuomotor.policies.line_of_sight.DEPTH_MIN_M`), a learned
+            offset along the direction its pixel leaves open (its line of sight,
+            :meth:`fit_depth_directions`), a linear read-out of that keypoint and its channel's
+            spread alone (:data:`DEPTH_HIDDEN`); a task whose points
             all lie on a surface trains exactly as with ``"supervised"``. All but ``"all"`` need
             ``keypoint_weight > 0``.
         normalise_trajectory: compare trajectories in units of each state dimension's train-split
@@ -237,8 +226,7 @@ class CNNDMPPolicy(KeypointPolicy):
                 head_keypoints=points if keypoint_head != "all" else None,
                 head_spreads=keypoint_head != "supervised_depth",
             )
-            # each point's offset along its open direction (rows: normalised placement units per unit
-            # of the depth head's output; zero rows until fit_depth_directions: no offset)
+            # each point's open direction, normalised units (zero until fit_depth_directions)
             self.register_buffer("depth_directions", torch.zeros(points, placement_dim))
             if keypoint_head == "supervised_depth":
                 with torch.random.fork_rng(devices=[]):  # the rest initialises as with "supervised"
@@ -394,16 +382,14 @@ class CNNDMPPolicy(KeypointPolicy):
         self.params_map.requires_grad_(False)
 
     def fit_depth_directions(self, placement: torch.Tensor, pixels: torch.Tensor) -> torch.Tensor:
-        """Set :attr:`depth_directions` from the training placements: for each point, the residual of
-        its position (m) regressed on its pixel (quadratic least squares) is, with a fixed camera,
-        spread along the point's line of sight; where the residual's largest principal component
-        has a root mean square above :data:`DEPTH_MIN_M`, the point's row is that component (in
-        normalised placement units, scaled to one root mean square), otherwise zero. The placement
-        statistics must be in the buffers.
+        """Set :attr:`depth_directions` from the training placements: each point's open direction
+        (:func:`~lfd.visuomotor.policies.line_of_sight.open_directions`: its line of sight, scaled
+        to one root mean square, where that exceeds 1 cm), in normalised placement
+        units; zero rows elsewhere. The placement statistics must be in the buffers.
 
         Args:
             placement: ``(E, placement_dim)`` m; pixels: ``(E, 2 m)`` px, ``[u_0, v_0, ...]`` (NaN:
-                padding, left out; a point with fewer than 8 finite pixels gets no direction).
+                padding, left out).
 
         Returns:
             ``(m,)`` each point's residual root mean square (m; 0 where not fitted).
@@ -418,31 +404,9 @@ class CNNDMPPolicy(KeypointPolicy):
                 f"CNNDMPPolicy.fit_depth_directions: expected placement (E, {p}) and pixels (E, {2 * m}), "
                 f"got {tuple(placement.shape)} and {tuple(pixels.shape)}"
             )
-        rows = torch.zeros(m, p, dtype=torch.float64)
-        rms = torch.zeros(m, dtype=torch.float64)
-        x, uv_all = placement.detach().double().cpu(), pixels.detach().double().cpu()
-        for k in range(m):
-            cols = slice(3 * k, min(3 * k + 3, p))
-            uv = uv_all[:, 2 * k : 2 * k + 2]
-            ok = torch.isfinite(uv).all(dim=1)
-            if int(ok.sum()) < 8:
-                continue
-            uv = uv[ok]
-            uv = (uv - uv.mean(0)) / uv.std(0).clamp_min(1e-9)
-            design = pixel_design(uv)
-            y = x[ok][:, cols]
-            residual = y - design @ torch.linalg.lstsq(design, y).solution
-            _, s, vt = torch.linalg.svd(residual - residual.mean(0), full_matrices=False)
-            rms[k] = s[0] / len(y) ** 0.5
-            if rms[k] > DEPTH_MIN_M:
-                step = torch.zeros(
-                    1, p, dtype=self.depth_directions.dtype, device=self.depth_directions.device
-                )
-                step[0, cols] = (vt[0] * rms[k]).to(step)
-                zero = torch.zeros_like(step)
-                rows[k] = (
-                    (self.normalise("placement", step) - self.normalise("placement", zero))[0].double().cpu()
-                )
+        metres, rms = open_directions(placement, pixels)
+        zero = torch.zeros(1, p, dtype=self.depth_directions.dtype, device=self.depth_directions.device)
+        rows = self.normalise("placement", metres.to(zero)) - self.normalise("placement", zero)
         self.depth_directions = rows.to(self.depth_directions)
         return rms
 
