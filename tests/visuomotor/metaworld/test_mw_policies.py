@@ -567,10 +567,10 @@ def test_every_policy_subtracting_the_background_sees_the_difference_and_keeps_i
 
     plain = type(policy)(**{**policy.hparams, "subtract_background": False})
     # the same weights; the placement map (CNN -> DMP) is not part of the encoder compared here
-    fitted_map = ("map_centres", "map_coefficients")
-    state = {k: v for k, v in policy.state_dict().items() if k not in ("background", *fitted_map)}
+    fitted_map = {k for k in policy.state_dict() if k.startswith(("map_", "segmented_map."))}
+    state = {k: v for k, v in policy.state_dict().items() if k not in {"background", *fitted_map}}
     missing, unexpected = plain.load_state_dict(state, strict=False)
-    assert set(missing) <= set(fitted_map) and not unexpected
+    assert set(missing) <= fitted_map and not unexpected
     policy.eval(), plain.eval()
     batch = default_collate([datamodule.datasets["val"][0]])
     image, joints = batch["image"], batch["joints"]
@@ -720,3 +720,61 @@ def test_kernel_correction_is_kept_in_the_checkpoint_and_older_ones_load_affine(
             ValueError, match=r"^CNNDMPPolicy.map_kernel_scale: expected a finite number >= 0"
         ):
             _small_cnn_dmp(dm, placement_dim=6, map_kernel_scale=scale)
+
+
+# ---------------------------------------------------------------------------- the segmented placement map
+def test_segmented_map_plans_push_demonstrations_and_is_kept_in_the_checkpoint(push, tmp_path):
+    """``map_segments``: on push-v3's demonstrations (the gripper closes mid-episode) the policy plans with
+    the segmented map: from a training placement, the plan closes the gripper within a step of that
+    demonstration's closing plus ``switch_delay`` and ends within 1 cm of its hand end point; the map is
+    saved with the checkpoint (same plans after loading); re-planning and bad settings are refused."""
+    from lfd.visuomotor.policies.factory import load_policy
+    from lfd.visuomotor.policies.placement_map import switch_steps
+
+    dm = _datamodule(push, "dmp")
+    batch = default_collate([dm.datasets["train"][i] for i in range(len(dm.datasets["train"]))])
+    policy = _small_cnn_dmp(dm, placement_dim=6, map_segments=True, switch_delay=2)
+    args = (batch["placement"], batch["joints"], batch["goal"], batch["weights"])
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy.fit_params_map: map_segments needs the demonstrations'"
+    ):
+        policy.fit_params_map(*args)
+    policy.fit_params_map(*args, ridge=1e-3, states=batch["trajectory"])
+    assert policy.segmented_map.fitted
+    placement, joints = batch["placement"].numpy(), batch["joints"].numpy()
+    plans = policy.plan_from_placement(placement, joints)
+    states = batch["trajectory"].numpy()
+    closing = switch_steps(states)
+    planned = switch_steps(plans)
+    assert planned is not None and np.abs(planned - (closing + 2)).max() <= 1, (planned, closing)
+    for plan, state in zip(plans, states):
+        assert np.linalg.norm(plan[-1, :3] - state[-1, :3]) < 0.01
+
+    still = batch["trajectory"].clone()
+    still[..., 3] = -1.0  # demonstrations that never switch: the single DMP plans, as without map_segments
+    single = _small_cnn_dmp(dm, placement_dim=6)
+    single.fit_params_map(*args, ridge=1e-3)
+    unsplit = _small_cnn_dmp(dm, placement_dim=6, map_segments=True)
+    unsplit.fit_params_map(*args, ridge=1e-3, states=still)
+    assert not unsplit.segmented_map.fitted
+    np.testing.assert_array_equal(
+        unsplit.plan_from_placement(placement, joints), single.plan_from_placement(placement, joints)
+    )
+
+    path = tmp_path / "segmented.ckpt"
+    torch.save({"state_dict": policy.state_dict(), "hyper_parameters": dict(policy.hparams)}, path)
+    loaded = load_policy(path)
+    np.testing.assert_allclose(loaded.plan_from_placement(placement, joints), plans, atol=1e-9)
+    image = (batch["image"][0].permute(1, 2, 0).numpy() * 255).astype(np.uint8)
+    assert loaded.plan(image, joints[0]).shape == (dm.config.n_steps, 4)
+    with pytest.raises(
+        ValueError, match=r"re-planning \(eval.dmp_replan_every\) needs model.map_segments=false"
+    ):
+        loaded.plan_dmp(image, joints[0])
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy.map_segments: expected a bool \(true needs placement_dim"
+    ):
+        _small_cnn_dmp(dm, map_segments=True)
+    for delay in (-1, 1.5, True):
+        with pytest.raises(ValueError, match=r"^CNNDMPPolicy.switch_delay: expected an integer >= 0"):
+            _small_cnn_dmp(dm, placement_dim=6, map_segments=True, switch_delay=delay)

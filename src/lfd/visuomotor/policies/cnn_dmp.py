@@ -30,12 +30,13 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from lfd.dmp import DMP, DMPLayer, DMPRunner, DMPState
-from lfd.dmp.transform import substeps
+from lfd.dmp import DMPLayer
+from lfd.visuomotor.policies import goal_change
 from lfd.visuomotor.policies.base import check_sizes
 from lfd.visuomotor.policies.control import PlanController
 from lfd.visuomotor.policies.keypoint import KeypointPolicy
 from lfd.visuomotor.policies.line_of_sight import open_directions
+from lfd.visuomotor.policies.placement_map import SegmentedMap, fit_ridge_kernel, gaussian_kernel
 from lfd.visuomotor.policies.plots import joint_figure
 from lfd.visuomotor.policies.vision import mlp
 
@@ -106,6 +107,13 @@ class CNNDMPPolicy(KeypointPolicy):
             map's residuals on the training demonstrations, so that the map also follows what
             is not affine in the placement (e.g. when the expert reaches a hole later for a far
             box); 0: the affine map alone. Default 2.0 (chosen on validation placements).
+        map_segments: with ``placement_dim``, also fit a
+            :class:`~lfd.visuomotor.policies.placement_map.SegmentedMap` (two DMPs split where the
+            demonstrations' gripper switches, same regression) and plan with it when the
+            demonstrations switch consistently; training and its metrics use the single DMP.
+            No re-planning (``replan_every``). Default False.
+        switch_delay: with ``map_segments``, steps the switched command waits at the boundary
+            (the position-controlled hand trails its plan), an integer >= 0. Default 3.
         keypoint_weight: with ``placement_dim``, the weight of a loss that puts the encoder's first
             ``ceil(placement_dim / 3)`` keypoints where the placement's 3-D points (an object's and a
             goal's position) appear in the image: the mean squared distance, in the soft-argmax's
@@ -155,6 +163,8 @@ class CNNDMPPolicy(KeypointPolicy):
         normalise_trajectory: bool = False,
         placement_dim: int = 0,
         map_kernel_scale: float = 2.0,
+        map_segments: bool = False,
+        switch_delay: int = 3,
         keypoint_weight: float = 0.0,
         keypoint_head: str = "all",
         n_basis: int = 20,
@@ -182,6 +192,12 @@ class CNNDMPPolicy(KeypointPolicy):
             raise ValueError(
                 "CNNDMPPolicy.keypoint_weight: needs placement_dim > 0 (it supervises the placement's points)"
             )
+        if not isinstance(map_segments, bool) or (map_segments and not placement_dim):
+            raise ValueError(
+                f"CNNDMPPolicy.map_segments: expected a bool (true needs placement_dim > 0), got {map_segments!r}"
+            )
+        if isinstance(switch_delay, bool) or not isinstance(switch_delay, int) or switch_delay < 0:
+            raise ValueError(f"CNNDMPPolicy.switch_delay: expected an integer >= 0, got {switch_delay!r}")
         if keypoint_head not in KEYPOINT_HEADS:
             raise ValueError(
                 f"CNNDMPPolicy.keypoint_head: expected one of {KEYPOINT_HEADS}, got {keypoint_head!r}"
@@ -209,6 +225,10 @@ class CNNDMPPolicy(KeypointPolicy):
             # of training demonstrations (none until fit_params_map; sized from a checkpoint on load)
             self.register_buffer("map_centres", torch.zeros(0, placement_dim + n))
             self.register_buffer("map_coefficients", torch.zeros(0, n + n * n_basis))
+            if map_segments:  # plans in two DMPs split at the demonstrations' switch (fit_params_map)
+                self.segmented_map = SegmentedMap(
+                    n, n_basis, self.control_dt, map_kernel_scale, KERNEL_RIDGE, switch_delay
+                )
             # the placement is the scene's: from the image alone (the start state would let the
             # head tell training episodes apart instead of looking at the objects)
             points = self.placement_points
@@ -285,8 +305,21 @@ class CNNDMPPolicy(KeypointPolicy):
 
     def _kernel(self, a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
         """Gaussian kernel ``(A, B)`` of the map's inputs ``(A, d)`` and ``(B, d)``."""
-        scale = float(self.hparams.get("map_kernel_scale", 0.0))
-        return torch.exp(-torch.cdist(a, b.to(a.dtype)).square() / (2.0 * scale**2))
+        return gaussian_kernel(a, b, float(self.hparams.get("map_kernel_scale", 0.0)))
+
+    @property
+    def segmented(self) -> bool:
+        """Whether the policy has a segmented map (``map_segments``; fitted or not)."""
+        return hasattr(self, "segmented_map")
+
+    def _segmented_plan(
+        self, placement_n: torch.Tensor, q: torch.Tensor, n_steps: int | None
+    ) -> np.ndarray | None:
+        """The fitted segmented map's plans ``(B, T, n)`` (float64), or None without one."""
+        if not (self.segmented and self.segmented_map.fitted):
+            return None
+        x = torch.cat([placement_n, self.normalise("joints", q)], dim=1)
+        return self.segmented_map.plan(x, q.double().cpu().numpy(), n_steps or self.hparams.n_steps)
 
     def on_load_checkpoint(self, checkpoint: dict) -> None:
         """The harness's hook; then sizes the map's kernel correction to the checkpoint's number of
@@ -317,6 +350,8 @@ class CNNDMPPolicy(KeypointPolicy):
                     f"expected (E, {own.shape[1]}) with E <= {MAX_MAP_CENTRES}"
                 )
             self._buffers[name] = torch.zeros(saved.shape, dtype=own.dtype, device=own.device)
+        if self.segmented:
+            self.segmented_map.resize_for(state, "segmented_map.")
         directions = state.setdefault("depth_directions", self.depth_directions)  # earlier releases: none
         if not isinstance(directions, torch.Tensor) or directions.shape != self.depth_directions.shape:
             got = (
@@ -338,6 +373,7 @@ class CNNDMPPolicy(KeypointPolicy):
         goal: torch.Tensor,
         weights: torch.Tensor,
         ridge: float = 0.1,
+        states: torch.Tensor | None = None,
     ) -> None:
         """Set the affine map of ``placement_dim`` to the ridge regression of the demonstrations'
         normalised DMP parameters on their normalised placements and start states (the training
@@ -348,9 +384,13 @@ class CNNDMPPolicy(KeypointPolicy):
             placement: ``(E, placement_dim)`` m; joints: ``(E, n)`` start states; goal: ``(E, n)``;
                 weights: ``(E, n, K)``: the training demonstrations.
             ridge: the penalty on the map's weights (not its bias), > 0.
+            states: ``(E, T, n)`` the demonstrations' states: with ``map_segments``, the
+                :class:`~lfd.visuomotor.policies.placement_map.SegmentedMap` is fitted on them too
+                (it stays empty when they do not switch consistently: plans use the single DMP).
 
         Raises:
-            ValueError: the policy has no placement map, or ``ridge`` is not a finite number > 0.
+            ValueError: the policy has no placement map, ``ridge`` is not a finite number > 0, or
+                ``map_segments`` without ``states``.
         """
         self._need_placement_map("fit_params_map")
         if not (isinstance(ridge, (int, float)) and np.isfinite(ridge) and ridge > 0):
@@ -362,23 +402,18 @@ class CNNDMPPolicy(KeypointPolicy):
             y = torch.cat(
                 [self.normalise("goal", goal), self.normalise("weights", weights).flatten(1)], dim=1
             ).double()
-            x_mean, y_mean = x.mean(0), y.mean(0)
-            xc = x - x_mean
-            a = torch.linalg.solve(
-                xc.T @ xc + ridge * torch.eye(x.shape[1], dtype=x.dtype), xc.T @ (y - y_mean)
-            )
+            scale = float(self.hparams.get("map_kernel_scale", 0.0))
+            a, bias, centres, coefficients = fit_ridge_kernel(x, y, ridge, scale, KERNEL_RIDGE)
             self.params_map.weight.copy_(a.T)
-            self.params_map.bias.copy_(y_mean - x_mean @ a)
-            centres, coefficients = x[:0], y[:0]
-            if self.hparams.get("map_kernel_scale", 0.0) > 0:
-                residual = y - (x @ a + (y_mean - x_mean @ a))
-                k = self._kernel(x, x)
-                coefficients = torch.linalg.solve(
-                    k + KERNEL_RIDGE * torch.eye(len(k), dtype=k.dtype), residual
-                )
-                centres = x
+            self.params_map.bias.copy_(bias)
             self.map_centres = centres.to(self.params_map.weight)
             self.map_coefficients = coefficients.to(self.params_map.weight)
+            if self.segmented:
+                if states is None:
+                    raise ValueError(
+                        "CNNDMPPolicy.fit_params_map: map_segments needs the demonstrations' states"
+                    )
+                self.segmented_map.fit(x, states.detach().cpu().numpy(), ridge)
         self.params_map.requires_grad_(False)
 
     def fit_depth_directions(self, placement: torch.Tensor, pixels: torch.Tensor) -> torch.Tensor:
@@ -425,7 +460,10 @@ class CNNDMPPolicy(KeypointPolicy):
             )
         items = [train[i] for i in range(len(train))]
         keys = ("placement", "joints", "goal", "weights")
-        self.fit_params_map(*(torch.stack([item[k] for item in items]).to(self.device) for k in keys))
+        states = torch.stack([item["trajectory"] for item in items]) if self.segmented else None
+        self.fit_params_map(
+            *(torch.stack([item[k] for item in items]).to(self.device) for k in keys), states=states
+        )
         if self.hparams.get("keypoint_head") == "supervised_depth":
             if "placement_pixels" not in items[0]:
                 raise ValueError(
@@ -589,7 +627,9 @@ class CNNDMPPolicy(KeypointPolicy):
         ``joints``; ``T = n_steps`` (default: the demonstrations' length; longer plans run the
         same DMP on past its duration, see :meth:`layer`)."""
         img, q, batched = self._observation(image, joints)
-        traj = self.rollout(q, *self.predict_params(img, q), n_steps=n_steps).double().cpu().numpy()
+        traj = self._segmented_plan(self.features(img, q), q, n_steps) if self.segmented else None
+        if traj is None:
+            traj = self.rollout(q, *self.predict_params(img, q), n_steps=n_steps).double().cpu().numpy()
         return traj if batched else traj[0]
 
     @torch.inference_mode()
@@ -606,15 +646,24 @@ class CNNDMPPolicy(KeypointPolicy):
         p = torch.as_tensor(np.asarray(placement), dtype=torch.float32, device=self.device)
         batched = q.ndim == 2
         q, p = q.reshape(-1, self.hparams.n_joints), p.reshape(-1, self.hparams.placement_dim)
-        params = self._split_params(self._params_from_placement(self.normalise("placement", p), q))
-        traj = self.rollout(q, *params, n_steps=n_steps).double().cpu().numpy()
+        traj = self._segmented_plan(self.normalise("placement", p), q, n_steps)
+        if traj is None:
+            params = self._split_params(self._params_from_placement(self.normalise("placement", p), q))
+            traj = self.rollout(q, *params, n_steps=n_steps).double().cpu().numpy()
         return traj if batched else traj[0]
 
     @torch.inference_mode()
     def plan_dmp(self, image, joints, n_steps: int | None = None) -> DMPPlan:
         """:meth:`plan` with the DMP's parameters: the same trajectory (bit for bit) and its start,
         goal and weights, for :meth:`change_goal` (the first planning call of a re-planning
-        :meth:`controller`)."""
+        :meth:`controller`).
+
+        Raises:
+            ValueError: the policy plans in segments (``map_segments``): re-planning changes one DMP."""
+        if self.segmented and self.segmented_map.fitted:
+            raise ValueError(
+                "CNNDMPPolicy: re-planning (eval.dmp_replan_every) needs model.map_segments=false"
+            )
         img, q, batched = self._observation(image, joints)
         goal_n, weights_n = self.predict_params(img, q)
         goal, weights = self.denormalise("goal", goal_n), self.denormalise("weights", weights_n)
@@ -682,23 +731,8 @@ class CNNDMPPolicy(KeypointPolicy):
         return replace(new, trajectory=out, velocity=out_velocity)
 
     def free_response(self, offset, rate, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
-        """The DMP transformation system's homogeneous solution sampled every :attr:`control_dt` s
-        from position ``offset`` ``(n,)`` and velocity ``rate`` ``(n,)`` (per second):
-        ``tau^2 h'' = -alpha_z beta_z h - alpha_z tau h'`` with this policy's gains and ``tau``
-        (exact, through the 2 x 2 system's matrix exponential). Returns positions and velocities,
-        each ``(n_samples, n)`` float64."""
-        from scipy.linalg import expm
-
-        layer = self.layer()
-        gains, tau = layer.gains, float(layer.tau)
-        system = np.array([[0.0, 1.0], [-gains.alpha_z * gains.beta_z / tau**2, -gains.alpha_z / tau]])
-        step = expm(system * self.control_dt)
-        state = np.stack([np.asarray(offset, np.float64), np.asarray(rate, np.float64)])  # (2, n)
-        out = np.empty((2, n_samples, state.shape[1]))
-        for i in range(n_samples):
-            out[:, i] = state
-            state = step @ state
-        return out[0], out[1]
+        """:func:`lfd.visuomotor.policies.goal_change.free_response` of this policy's DMP."""
+        return goal_change.free_response(self.layer(), self.control_dt, offset, rate, n_samples)
 
     def change_goal(self, plan: DMPPlan, step: int, goal) -> DMPPlan:
         """``plan`` with its DMP's goal switched to ``goal`` at sample ``step`` (online goal change,
@@ -741,50 +775,9 @@ class CNNDMPPolicy(KeypointPolicy):
 
     @torch.inference_mode()
     def goal_step_response(self, change, weights, step: int, n_samples: int) -> np.ndarray:
-        """How a goal change ``change`` ``(n,)`` / ``(B, n)`` at sample ``step`` moves samples
-        ``step .. n_samples - 1`` of this policy's DMP: ``(n_samples - step, n)`` /
-        ``(B, n_samples - step, n)`` (the first row zero), float64.
-
-        It is the DMP started at rest at zero at that sample's phase ``s_k``, with goal ``change``
-        and the forcing change of :mod:`lfd.dmp.formulation`:
-
-        * ``"pastor"``: ``- K change s`` (zero weights). As ``s = s_k s'`` with ``s'`` the phase
-          of a DMP started at the switch, this is, per DoF, ``change`` times the DMP from 0 to 1
-          with all weights ``1 - s_k`` from its start: one closed-form rollout of the plan's
-          :meth:`layer` in float64, whatever ``step``.
-        * ``"ijspeert"``: ``f(s) change`` (the same ``weights`` ``(n, K)`` / ``(B, n, K)``),
-          stepped with :class:`lfd.dmp.DMPRunner` on the closed form's sub-steps.
-        """
-        layer, dt, rest = self.layer(n_samples), self.control_dt, n_samples - step
-        change = np.asarray(change, dtype=np.float64)
-        if layer.formulation == "pastor":
-            phase = float(np.exp(-layer.gains.alpha_s * step * dt / layer.tau))
-            one = torch.ones(1, 1, dtype=torch.float64, device=self.device)
-            weights_k = torch.full(
-                (1, 1, layer.n_basis), 1.0 - phase, dtype=torch.float64, device=self.device
-            )
-            unit = layer(torch.zeros_like(one), one, weights_k)[0, :rest, 0].cpu().numpy()
-            return unit[:, None] * change[..., None, :]
-        gains, zero = layer.gains, np.zeros_like(change)
-        dmp = DMP(
-            n_basis=layer.n_basis,
-            alpha_z=gains.alpha_z,
-            beta_z=gains.beta_z,
-            alpha_s=gains.alpha_s,
-            overlap=gains.overlap,
-            formulation=layer.formulation,
-        )
-        runner = DMPRunner(
-            dmp,
-            y0=zero,
-            goal=change,
-            tau=layer.tau,
-            weights=weights,
-            yd0=zero,
-            substeps=substeps(dt / layer.tau),
-        )
-        runner.reset(DMPState(zero, zero, step * dt))
-        return np.stack([zero] + [runner.step(dt).y for _ in range(rest - 1)], axis=-2)
+        """:func:`lfd.visuomotor.policies.goal_change.goal_step_response` of this policy's DMP."""
+        layer = self.layer(n_samples)
+        return goal_change.goal_step_response(layer, self.control_dt, change, weights, step, n_samples)
 
 
 def _central_velocity(trajectory: np.ndarray, dt: float) -> np.ndarray:
