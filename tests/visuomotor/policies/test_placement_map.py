@@ -65,7 +65,7 @@ def test_segmented_map_puts_the_grasp_where_the_object_is_when_it_comes():
     mean, std = objects[fit].mean(0), objects[fit].std(0) + 1e-3
     x = _inputs(objects, mean, std)
     delay = 3
-    segmented = SegmentedMap(4, K, DT, scale=2.0, kernel_ridge=0.1, switch_delay=delay)
+    segmented = SegmentedMap(4, K, DT, scale=2.0, kernel_ridge=0.1, switch_delay=delay, inputs=3)
     assert segmented.fit(x[fit], states[fit], ridge=1e-3) and segmented.fitted
     plans = segmented.plan(x[held], states[held, 0], T)
     assert plans.shape == (10, T, 4)
@@ -83,20 +83,26 @@ def test_segmented_map_puts_the_grasp_where_the_object_is_when_it_comes():
 def test_segmented_map_without_a_switch_stays_empty_and_checkpoint_buffers_are_checked():
     objects, states, _ = _demos(8, 2)
     x = _inputs(objects, objects.mean(0), objects.std(0) + 1e-3)
-    segmented = SegmentedMap(4, K, DT, scale=2.0, kernel_ridge=0.1, switch_delay=0)
+    segmented = SegmentedMap(4, K, DT, scale=2.0, kernel_ridge=0.1, switch_delay=0, inputs=3)
     still = states.copy()
     still[..., 3] = -1.0
     assert not segmented.fit(x, still, ridge=0.1) and not segmented.fitted
 
     assert segmented.fit(x, states, ridge=0.1)
     state = {f"m.{k}": v.clone() for k, v in segmented.state_dict().items()}
-    other = SegmentedMap(4, K, DT, scale=2.0, kernel_ridge=0.1, switch_delay=0)
+    other = SegmentedMap(4, K, DT, scale=2.0, kernel_ridge=0.1, switch_delay=0, inputs=3)
     other.resize_for(state, "m.")
     other.load_state_dict({k[2:]: v for k, v in state.items()})
     np.testing.assert_array_equal(other.plan(x, states[:, 0], T), segmented.plan(x, states[:, 0], T))
     empty: dict = {}
-    SegmentedMap(4, K, DT, 2.0, 0.1, 0).resize_for(empty, "m.")  # an older checkpoint: none saved
+    SegmentedMap(4, K, DT, 2.0, 0.1, 0, inputs=3).resize_for(empty, "m.")  # an older checkpoint: none saved
     assert empty["m.bias"].numel() == 0
-    state["m.mean"] = torch.zeros(3, dtype=torch.float64)
-    with pytest.raises(ValueError, match=r"^CNNDMPPolicy: the checkpoint's m\.\* buffers do not form a map"):
-        other.resize_for(state, "m.")
+    for name, bad in (
+        ("m.mean", torch.zeros(3, dtype=torch.float64)),
+        ("m.slopes", torch.zeros(5, other.size, dtype=torch.float64)),
+        ("m.second_length", torch.tensor(0)),
+    ):
+        with pytest.raises(
+            ValueError, match=r"^CNNDMPPolicy: the checkpoint's m\.\* buffers do not form a map from 3 "
+        ):
+            other.resize_for({**state, name: bad}, "m.")

@@ -227,7 +227,13 @@ class CNNDMPPolicy(KeypointPolicy):
             self.register_buffer("map_coefficients", torch.zeros(0, n + n * n_basis))
             if map_segments:  # plans in two DMPs split at the demonstrations' switch (fit_params_map)
                 self.segmented_map = SegmentedMap(
-                    n, n_basis, self.control_dt, map_kernel_scale, KERNEL_RIDGE, switch_delay
+                    n,
+                    n_basis,
+                    self.control_dt,
+                    map_kernel_scale,
+                    KERNEL_RIDGE,
+                    switch_delay,
+                    placement_dim + n,
                 )
             # the placement is the scene's: from the image alone (the start state would let the
             # head tell training episodes apart instead of looking at the objects)

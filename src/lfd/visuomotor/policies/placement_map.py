@@ -77,6 +77,7 @@ class SegmentedMap(nn.Module):
 
     Args:
         n: state dimensions; n_basis: basis functions per dimension and segment; dt: control period, s.
+        inputs: the normalised inputs' width ``d`` (placement and start state).
         scale, kernel_ridge: the regression's (:func:`fit_ridge_kernel`; ``ridge`` is :meth:`fit`'s).
         switch_delay: steps the switching dimension's new value waits at the boundary, >= 0.
 
@@ -84,10 +85,17 @@ class SegmentedMap(nn.Module):
     """
 
     def __init__(
-        self, n: int, n_basis: int, dt: float, scale: float, kernel_ridge: float, switch_delay: int
+        self,
+        n: int,
+        n_basis: int,
+        dt: float,
+        scale: float,
+        kernel_ridge: float,
+        switch_delay: int,
+        inputs: int,
     ) -> None:
         super().__init__()
-        self.n, self.n_basis, self.dt = n, n_basis, dt
+        self.n, self.n_basis, self.dt, self.inputs = n, n_basis, dt, inputs
         self.scale, self.kernel_ridge, self.switch_delay = scale, kernel_ridge, switch_delay
         self.register_buffer("slopes", torch.zeros(0, 0, dtype=torch.float64))
         for name in ("bias", "mean", "std"):
@@ -161,8 +169,13 @@ class SegmentedMap(nn.Module):
                 )
             shapes[name] = tuple(saved.shape)
         m = shapes["bias"][0] if shapes["bias"] else 0
+        length = state[prefix + "second_length"]
         if m and (
             m != self.size
+            or shapes["slopes"][0] != self.inputs
+            or shapes["centres"][1:] != (self.inputs,)
+            or length.numel() != 1
+            or not 2 <= int(length) <= MAX_CENTRES
             or shapes["mean"] != (m,)
             or shapes["std"] != (m,)
             or shapes["slopes"][1] != m
@@ -171,7 +184,8 @@ class SegmentedMap(nn.Module):
             or shapes["centres"][0] > MAX_CENTRES
         ):
             raise ValueError(
-                f"CNNDMPPolicy: the checkpoint's {prefix}* buffers do not form a map to {self.size} values"
+                f"CNNDMPPolicy: the checkpoint's {prefix}* buffers do not form a map from {self.inputs} "
+                f"to {self.size} values"
             )
         for name, shape in shapes.items():
             self._buffers[name] = torch.zeros(shape, dtype=self._buffers[name].dtype)
