@@ -760,6 +760,13 @@ def test_segmented_map_plans_push_demonstrations_and_is_kept_in_the_checkpoint(p
     np.testing.assert_array_equal(
         unsplit.plan_from_placement(placement, joints), single.plan_from_placement(placement, joints)
     )
+    torch.save(
+        {"state_dict": unsplit.state_dict(), "hyper_parameters": dict(unsplit.hparams)}, tmp_path / "u.ckpt"
+    )
+    np.testing.assert_array_equal(  # the empty map comes back from the checkpoint
+        load_policy(tmp_path / "u.ckpt").plan_from_placement(placement, joints),
+        single.plan_from_placement(placement, joints),
+    )
 
     path = tmp_path / "segmented.ckpt"
     torch.save({"state_dict": policy.state_dict(), "hyper_parameters": dict(policy.hparams)}, path)

@@ -62,12 +62,11 @@ def fit_ridge_kernel(
 
 def switch_steps(states: np.ndarray) -> np.ndarray | None:
     """The step of each demonstration ``(E, T, n)`` where a dimension first jumps by more than
-    :data:`MIN_JUMP` (after :data:`SKIP_STEPS`), or None when some demonstration has no such step or
-    the demonstrations switch a different number of times (nothing to split consistently)."""
+    :data:`MIN_JUMP` (after :data:`SKIP_STEPS`), or None when some demonstration never does (nothing to
+    split consistently). Later switches stay inside the second segment."""
     jumps = np.abs(np.diff(states, axis=1)).max(axis=2) > MIN_JUMP  # (E, T - 1): jump into step t + 1
     jumps[:, : SKIP_STEPS - 1] = False
-    counts = jumps.sum(1)
-    if not counts.all() or (counts != counts[0]).any():
+    if not jumps.any(axis=1).all():
         return None
     return jumps.argmax(1) + 1
 
@@ -123,7 +122,7 @@ class SegmentedMap(nn.Module):
         states = np.asarray(states, dtype=np.float64)
         steps = switch_steps(states)
         if steps is None:
-            self._set(*(torch.zeros((0,) * k, dtype=torch.float64) for k in (2, 1, 1, 1, 2, 2)), 0)
+            self._set(*(torch.zeros((0,) * k, dtype=torch.float64) for k in (2, 1, 2, 2, 1, 1)), 0)
             return False
         t_total = states.shape[1]
         length = t_total - int(steps.min())  # segment 2 of every demonstration, padded with its last state
