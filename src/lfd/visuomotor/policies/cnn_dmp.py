@@ -109,8 +109,9 @@ class CNNDMPPolicy(KeypointPolicy):
             box); 0: the affine map alone. Default 2.0 (chosen on validation placements).
         map_segments: with ``placement_dim``, also fit a
             :class:`~lfd.visuomotor.policies.placement_map.SegmentedMap` (two DMPs split where the
-            demonstrations' gripper switches, same regression) and plan with it when the
-            demonstrations switch consistently; training and its metrics use the single DMP.
+            demonstrations' gripper switches, same regression) and plan with it when every
+            demonstration switches (:attr:`plans_in_segments`); training and its metrics use the
+            single DMP.
             No re-planning (``replan_every``). Default False.
         switch_delay: with ``map_segments``, steps the switched command waits at the boundary
             (the position-controlled hand trails its plan), an integer >= 0. Default 3.
@@ -314,16 +315,12 @@ class CNNDMPPolicy(KeypointPolicy):
         return gaussian_kernel(a, b, float(self.hparams.get("map_kernel_scale", 0.0)))
 
     @property
-    def segmented(self) -> bool:
-        """Whether the policy has a segmented map (``map_segments``; fitted or not)."""
-        return hasattr(self, "segmented_map")
+    def plans_in_segments(self) -> bool:
+        """Whether plans come from the fitted segmented map (its demonstrations switched)."""
+        return hasattr(self, "segmented_map") and self.segmented_map.fitted
 
-    def _segmented_plan(
-        self, placement_n: torch.Tensor, q: torch.Tensor, n_steps: int | None
-    ) -> np.ndarray | None:
-        """The fitted segmented map's plans ``(B, T, n)`` (float64), or None without one."""
-        if not (self.segmented and self.segmented_map.fitted):
-            return None
+    def _segmented_plan(self, placement_n: torch.Tensor, q: torch.Tensor, n_steps: int | None) -> np.ndarray:
+        """The segmented map's plans ``(B, T, n)`` (float64) from the normalised placement."""
         x = torch.cat([placement_n, self.normalise("joints", q)], dim=1)
         return self.segmented_map.plan(x, q.double().cpu().numpy(), n_steps or self.hparams.n_steps)
 
@@ -356,7 +353,7 @@ class CNNDMPPolicy(KeypointPolicy):
                     f"expected (E, {own.shape[1]}) with E <= {MAX_MAP_CENTRES}"
                 )
             self._buffers[name] = torch.zeros(saved.shape, dtype=own.dtype, device=own.device)
-        if self.segmented:
+        if hasattr(self, "segmented_map"):
             self.segmented_map.resize_for(state, "segmented_map.")
         directions = state.setdefault("depth_directions", self.depth_directions)  # earlier releases: none
         if not isinstance(directions, torch.Tensor) or directions.shape != self.depth_directions.shape:
@@ -392,7 +389,7 @@ class CNNDMPPolicy(KeypointPolicy):
             ridge: the penalty on the map's weights (not its bias), > 0.
             states: ``(E, T, n)`` the demonstrations' states: with ``map_segments``, the
                 :class:`~lfd.visuomotor.policies.placement_map.SegmentedMap` is fitted on them too
-                (it stays empty when they do not switch consistently: plans use the single DMP).
+                (it stays empty when some demonstration never switches: plans use the single DMP).
 
         Raises:
             ValueError: the policy has no placement map, ``ridge`` is not a finite number > 0, or
@@ -414,7 +411,7 @@ class CNNDMPPolicy(KeypointPolicy):
             self.params_map.bias.copy_(bias)
             self.map_centres = centres.to(self.params_map.weight)
             self.map_coefficients = coefficients.to(self.params_map.weight)
-            if self.segmented:
+            if hasattr(self, "segmented_map"):
                 if states is None:
                     raise ValueError(
                         "CNNDMPPolicy.fit_params_map: map_segments needs the demonstrations' states"
@@ -466,7 +463,9 @@ class CNNDMPPolicy(KeypointPolicy):
             )
         items = [train[i] for i in range(len(train))]
         keys = ("placement", "joints", "goal", "weights")
-        states = torch.stack([item["trajectory"] for item in items]) if self.segmented else None
+        states = (
+            torch.stack([item["trajectory"] for item in items]) if hasattr(self, "segmented_map") else None
+        )
         self.fit_params_map(
             *(torch.stack([item[k] for item in items]).to(self.device) for k in keys), states=states
         )
@@ -633,8 +632,9 @@ class CNNDMPPolicy(KeypointPolicy):
         ``joints``; ``T = n_steps`` (default: the demonstrations' length; longer plans run the
         same DMP on past its duration, see :meth:`layer`)."""
         img, q, batched = self._observation(image, joints)
-        traj = self._segmented_plan(self.features(img, q), q, n_steps) if self.segmented else None
-        if traj is None:
+        if self.plans_in_segments:
+            traj = self._segmented_plan(self.features(img, q), q, n_steps)
+        else:
             traj = self.rollout(q, *self.predict_params(img, q), n_steps=n_steps).double().cpu().numpy()
         return traj if batched else traj[0]
 
@@ -652,8 +652,9 @@ class CNNDMPPolicy(KeypointPolicy):
         p = torch.as_tensor(np.asarray(placement), dtype=torch.float32, device=self.device)
         batched = q.ndim == 2
         q, p = q.reshape(-1, self.hparams.n_joints), p.reshape(-1, self.hparams.placement_dim)
-        traj = self._segmented_plan(self.normalise("placement", p), q, n_steps)
-        if traj is None:
+        if self.plans_in_segments:
+            traj = self._segmented_plan(self.normalise("placement", p), q, n_steps)
+        else:
             params = self._split_params(self._params_from_placement(self.normalise("placement", p), q))
             traj = self.rollout(q, *params, n_steps=n_steps).double().cpu().numpy()
         return traj if batched else traj[0]
@@ -666,7 +667,7 @@ class CNNDMPPolicy(KeypointPolicy):
 
         Raises:
             ValueError: the policy plans in segments (``map_segments``): re-planning changes one DMP."""
-        if self.segmented and self.segmented_map.fitted:
+        if self.plans_in_segments:
             raise ValueError(
                 "CNNDMPPolicy: re-planning (eval.dmp_replan_every) needs model.map_segments=false"
             )
