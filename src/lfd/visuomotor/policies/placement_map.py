@@ -132,8 +132,7 @@ class SegmentedMap(nn.Module):
             first[-1] = np.where(
                 np.abs(s[c] - s[c - 1]) > MIN_JUMP, s[c - 1], s[c]
             )  # the switch starts segment 2
-            second = s[c:]
-            second = np.concatenate([second, np.repeat(second[-1:], length - len(second), 0)])
+            second = np.pad(s[c:], ((0, length - (len(s) - c)), (0, 0)), mode="edge")  # held at its end
             a = self._dmp().fit(np.arange(c + 1) * self.dt, first)
             b = self._dmp().fit(np.arange(length) * self.dt, second)
             rows.append(np.concatenate([a.goal_, a.weights_.ravel(), [c], b.goal_, b.weights_.ravel()]))
@@ -214,9 +213,8 @@ class SegmentedMap(nn.Module):
                 weights=y[n:one].reshape(n, k),
             )
             g2, w2 = y[one + 1 : one + 1 + n], y[one + 1 + n :].reshape(n, k)
-            start2 = np.where(
-                np.abs(g2 - a[-1]) > MIN_JUMP, g2, a[-1]
-            )  # the switched dimension starts switched
+            switched = np.abs(g2 - a[-1]) > MIN_JUMP  # the switched dimension starts switched
+            start2 = np.where(switched, g2, a[-1])
             length = int(self.second_length)
             b = self._dmp().rollout(
                 t=np.arange(n_steps - c) * self.dt, y0=start2, goal=g2, tau=(length - 1) * self.dt, weights=w2
@@ -224,7 +222,6 @@ class SegmentedMap(nn.Module):
             plan = np.concatenate([a[:-1], b])
             d = min(self.switch_delay, n_steps - c)
             if d:
-                switched = np.abs(start2 - a[-1]) > MIN_JUMP
                 plan[c : c + d, switched] = a[-1, switched]
             out.append(plan)
         return np.stack(out)
