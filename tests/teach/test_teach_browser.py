@@ -24,6 +24,10 @@ from lfd.teach import TeachSession
 from lfd.teach.server import TeachServer
 from lfd.teach.visuals import project_to_pixel
 
+# A browser that stops answering must not hold CI for its whole time limit: after 300 s pytest-timeout
+# prints every thread's stack (which Playwright call waited) and ends the run.
+pytestmark = pytest.mark.timeout(300, method="thread")
+
 FLAGS = [
     "--no-sandbox",
     "--disable-gpu",
@@ -73,13 +77,13 @@ def _open(browser, server):
     page.goto(server.url)
     page.get_by_role("button", name="Clear").wait_for(timeout=45_000)
     # wait until the page reports its camera, then point it at the arm and wait for the echo
-    assert _wait(lambda: server.server.get_clients() and _camera(server).image_width > 0, timeout=45)
+    assert _wait(page, lambda: server.server.get_clients() and _camera(server).image_width > 0, timeout=45)
     cam = _camera(server)
     for _ in range(3):
         cam.position, cam.look_at = (1.3, -1.3, 1.0), (0.35, 0.0, 0.2)
-        if _wait(lambda: np.allclose(_camera(server).position, (1.3, -1.3, 1.0), atol=1e-2), timeout=5):
+        if _wait(page, lambda: np.allclose(_camera(server).position, (1.3, -1.3, 1.0), atol=1e-2), timeout=5):
             break
-    time.sleep(1.0)  # let the frame with the new camera render
+    page.wait_for_timeout(1000)  # let the frame with the new camera render
     return page, _camera(server)
 
 
@@ -102,15 +106,19 @@ def _drag_arrow(page, server, cam, axis: int, distance: float, steps: int = 15) 
         page.mouse.move(*(a + (b - a) * k / steps))
         time.sleep(0.02)
     page.mouse.up()
-    time.sleep(0.3)
+    page.wait_for_timeout(300)
 
 
-def _wait(predicate, timeout: float = 20.0) -> bool:
+def _wait(page, predicate, timeout: float = 20.0) -> bool:
+    """Poll the server-side ``predicate`` until it holds or ``timeout`` s pass. Waits are
+    ``page.wait_for_timeout``, not ``time.sleep``: Playwright's sync API handles the browser's
+    messages only inside its own calls, and a test that sleeps for seconds lets them pile up (only the
+    mouse moves' pacing, a user's hand speed, uses short sleeps)."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         if predicate():
             return True
-        time.sleep(0.1)
+        page.wait_for_timeout(100)
     return predicate()
 
 
@@ -126,49 +134,49 @@ def test_drag_gizmo_records_collides_exports_and_sends(page, served):
         assert page.get_by_role("button", name=label, exact=True).count() == 1
     z0 = s.tool_position[2]
     _drag_arrow(page, served, cam, axis=2, distance=0.12)  # lift the tool
-    assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
+    assert _wait(page, lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
     assert s.tool_position[2] > z0 + 0.05 and s.collisions == 0
     _shot(page, "3d_1_lifted.png")
     _drag_arrow(page, served, cam, axis=1, distance=0.45)  # sideways into the wall
-    assert _wait(lambda: s.collisions >= 1)
+    assert _wait(page, lambda: s.collisions >= 1)
     assert s.counters["refused_collision"] >= 1
     assert abs(s.tool_position[1]) > 0.03  # the arm stopped short of the wall (y = 0, 4 cm thick)
     _shot(page, "3d_2_collision.png")
     n = len(s.recorded)
     page.get_by_role("button", name="Stop").click()
-    assert _wait(lambda: s.recording_state == "done")
+    assert _wait(page, lambda: s.recording_state == "done")
     page.get_by_role("button", name="Export").click()
-    assert _wait(lambda: served.last_export is not None)
+    assert _wait(page, lambda: served.last_export is not None)
     assert all(Path(p).is_file() for p in served.last_export.values())
     assert Path(served.last_export["csv"]).read_text().count("\n") == n + 1
     page.get_by_role("button", name="Send", exact=True).first.click()
-    assert _wait(lambda: s.last_send is not None, timeout=30)
+    assert _wait(page, lambda: s.last_send is not None, timeout=30)
     assert s.last_send.final_error < 0.01
-    assert _wait(lambda: "final error" in served.status.content)
-    time.sleep(0.5)
+    assert _wait(page, lambda: "final error" in served.status.content)
+    page.wait_for_timeout(500)
     _shot(page, "3d_3_sent.png")
     # Clear puts the arm back at the start and the gizmo with it: the next drag starts there
     page.get_by_role("button", name="Clear").click()
-    assert _wait(lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
-    time.sleep(0.5)  # let the page draw the gizmo where the server put it
+    assert _wait(page, lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
+    page.wait_for_timeout(500)  # let the page draw the gizmo where the server put it
     jumps, z0 = s.counters["refused_jump"], s.tool_position[2]
     _drag_arrow(page, served, cam, axis=2, distance=0.08)
-    assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
+    assert _wait(page, lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
     assert s.counters["refused_jump"] == jumps and s.tool_position[2] > z0 + 0.04
-    assert _wait(lambda: np.allclose(served.view.gizmo.position, s.tool_position, atol=1e-6))
+    assert _wait(page, lambda: np.allclose(served.view.gizmo.position, s.tool_position, atol=1e-6))
 
 
 def test_two_d_panel_buttons(page, served):
     s = served.session
     page.get_by_role("button", name="Clear").click()
-    assert _wait(lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
+    assert _wait(page, lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
     page.get_by_role("button", name="2-D panel").click()
-    assert _wait(lambda: s.mode == "2d")
+    assert _wait(page, lambda: s.mode == "2d")
     page.get_by_text("2-D panel", exact=True).last.click()  # open the folder
     # joint slider: drag the first joint's slider thumb to the right with the mouse
     q0 = page.get_by_role("slider").nth(2)  # after the timeline's and the speed's
     q0.wait_for(state="visible")
-    time.sleep(0.5)  # let the panel finish its layout before reading the thumb's position
+    page.wait_for_timeout(500)  # let the panel finish its layout before reading the thumb's position
     # every number box shows its whole value
     widths = page.locator("input.mantine-NumberInput-input").evaluate_all(
         "(els) => els.filter(e => e.clientWidth > 0).map(e => [e.value, e.scrollWidth, e.clientWidth])"
@@ -182,13 +190,13 @@ def test_two_d_panel_buttons(page, served):
         page.mouse.move(x + k, y)  # ~0.04 rad per pixel
         time.sleep(0.05)
     page.mouse.up()
-    if not _wait(lambda: s.counters["panel_moves"] >= 1, timeout=5):
+    if not _wait(page, lambda: s.counters["panel_moves"] >= 1, timeout=5):
         # a drag that started beside the thumb moves nothing: move it as a keyboard user would
         q0.focus()
         for _ in range(5):
             page.keyboard.press("ArrowRight")  # one step (0.01 rad) each
             time.sleep(0.05)
-    assert _wait(lambda: s.counters["panel_moves"] >= 1)
+    assert _wait(page, lambda: s.counters["panel_moves"] >= 1)
     assert s.q[0] > s.start[0] + 0.02
     # x/y/z entry + Move (IK), then Store
     p = s.tool_position + [0.0, 0.0, 0.1]
@@ -198,18 +206,18 @@ def test_two_d_panel_buttons(page, served):
         box = inputs.nth(first + k)
         box.fill(f"{p[k]:.3f}")
         box.press("Tab")
-    assert _wait(lambda: np.allclose(served.xyz.value, np.round(p, 3), atol=1e-6))
+    assert _wait(page, lambda: np.allclose(served.xyz.value, np.round(p, 3), atol=1e-6))
     page.get_by_role("button", name="Move (IK)").click()
-    assert _wait(lambda: np.linalg.norm(s.tool_position - np.round(p, 3)) < 2e-3)
+    assert _wait(page, lambda: np.linalg.norm(s.tool_position - np.round(p, 3)) < 2e-3)
     page.get_by_role("button", name="Store").click()
-    assert _wait(lambda: len(s.waypoints) == 2)
+    assert _wait(page, lambda: len(s.waypoints) == 2)
     _shot(page, "2d_1_stored.png")
     page.get_by_role("button", name="Go Home").click()
-    assert _wait(lambda: np.allclose(s.q, s.start))
+    assert _wait(page, lambda: np.allclose(s.q, s.start))
     page.get_by_role("button", name="Store").click()
-    assert _wait(lambda: len(s.waypoints) == 3)
+    assert _wait(page, lambda: len(s.waypoints) == 3)
     page.get_by_role("button", name="Playback", exact=True).click()
-    assert _wait(lambda: served.playbacks == 1, timeout=30)
+    assert _wait(page, lambda: served.playbacks == 1, timeout=30)
     _shot(page, "2d_2_playback.png")
     assert s.counters["stores"] == 2 and s.counters["refused_stores"] == 0
 
@@ -239,10 +247,10 @@ def test_rotation_ring_turns_the_sawyer_tool(browser, tmp_path):
         for p in pixels[1:]:
             page.mouse.move(*p)
             time.sleep(0.03)
-        time.sleep(0.3)
+        page.wait_for_timeout(300)
         page.mouse.up()
-        assert _wait(lambda: server.last_target is not None and server.last_target[1] is not None)
-        assert _wait(lambda: not server._dragging)
+        assert _wait(page, lambda: server.last_target is not None and server.last_target[1] is not None)
+        assert _wait(page, lambda: not server._dragging)
         commanded = as_rotation(server.last_target[1], order="xyzw")
         frame = session.kin.frames(session.q)[-1]
         turned = np.degrees(rotation_angle(commanded, rot))
@@ -265,17 +273,17 @@ def test_keyframes_added_dragged_and_deleted_in_the_page(page, served):
     s = served.session
     cam = _camera(served)
     page.get_by_role("button", name="Clear").click()
-    assert _wait(lambda: s.recording_state == "idle")
+    assert _wait(page, lambda: s.recording_state == "idle")
     page.get_by_role("button", name="3-D drag").click()
-    assert _wait(lambda: s.mode == "3d")
+    assert _wait(page, lambda: s.mode == "3d")
     page.get_by_role("button", name="Add keyframe").click()
-    assert _wait(lambda: len(s.keyframes) == 1)
+    assert _wait(page, lambda: len(s.keyframes) == 1)
     _drag_arrow(page, served, cam, axis=2, distance=0.10)
-    assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
+    assert _wait(page, lambda: s.recording_state == "recording" and len(s.recorded) >= 5)
     page.get_by_role("button", name="Add keyframe").click()
-    assert _wait(lambda: len(s.keyframes) == 2)
+    assert _wait(page, lambda: len(s.keyframes) == 2)
     page.get_by_role("button", name="Stop").click()
-    assert _wait(lambda: s.recording_state == "done" and served.view.motion_line is not None)
+    assert _wait(page, lambda: s.recording_state == "done" and served.view.motion_line is not None)
     # drag keyframe 1's gizmo (at the start, below the arm's) along its y arrow, away from the wall
     before = s.keyframe_poses()[0][0]
     line = np.array(served.view.motion_line.points).copy()
@@ -288,15 +296,15 @@ def test_keyframes_added_dragged_and_deleted_in_the_page(page, served):
         page.mouse.move(*(a + (b - a) * k / 10))
         time.sleep(0.05)
     page.mouse.up()
-    assert _wait(lambda: np.linalg.norm(s.keyframe_poses()[0][0] - before) > 0.01)
+    assert _wait(page, lambda: np.linalg.norm(s.keyframe_poses()[0][0] - before) > 0.01)
     assert not np.allclose(served.view.motion_line.points, line)  # the motion was refitted
     page.get_by_role("button", name="Add keyframe").click()  # a third one, then delete it (selected)
-    assert _wait(lambda: len(s.keyframes) == 3)
+    assert _wait(page, lambda: len(s.keyframes) == 3)
     page.get_by_role("button", name="Delete keyframe").click()
-    assert _wait(lambda: len(s.keyframes) == 2 and len(served.view.keyframe_handles) == 2)
+    assert _wait(page, lambda: len(s.keyframes) == 2 and len(served.view.keyframe_handles) == 2)
     served.last_export = None
     page.get_by_role("button", name="Export").click()
-    assert _wait(lambda: served.last_export is not None)
+    assert _wait(page, lambda: served.last_export is not None)
     tool = np.array([s.kin.tool_position(q) for q in DMP.load(served.last_export["dmp"]).rollout()])
     for p, _ in s.keyframe_poses():
         assert np.linalg.norm(tool - p, axis=1).min() < 1e-3
@@ -311,13 +319,13 @@ def test_gripper_event_round_trips_through_export_and_reopen_in_the_page(page, s
     with served.lock:  # the time slider at the end (dragging its thumb is the slider test's job)
         served.timeline.value = float(np.floor(s.motion_duration * 100) / 100)
     page.get_by_role("button", name="Close gripper at t").click()
-    assert _wait(lambda: len(s.gripper_events) == 1 and s.gripper_events[0].closed)
+    assert _wait(page, lambda: len(s.gripper_events) == 1 and s.gripper_events[0].closed)
     served.last_export = None
     page.get_by_role("button", name="Export").click()
-    assert _wait(lambda: served.last_export is not None)
+    assert _wait(page, lambda: served.last_export is not None)
     page.get_by_text("Reopen an export", exact=True).click()  # open the folder
     page.get_by_role("button", name="Reopen").click()
-    assert _wait(lambda: served.session is not s and "reopened" in served.status.content)
+    assert _wait(page, lambda: served.session is not s and "reopened" in served.status.content)
     r = served.session
     assert [e.closed for e in r.gripper_events] == [True] and len(r.keyframes) == 2 and r.speed == s.speed
     assert abs(r.gripper_events[0].t - s.gripper_events[0].t) < 1e-6
@@ -332,10 +340,10 @@ def test_a_drag_with_a_long_pause_exports_the_motion_time(page, served):
 
     page.get_by_role("button", name="Clear").click()
     s = served.session  # the reopened session of the test before, or the first one
-    assert _wait(lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
+    assert _wait(page, lambda: s.recording_state == "idle" and np.allclose(s.q, s.start))
     page.get_by_role("button", name="3-D drag").click()
-    assert _wait(lambda: s.mode == "3d")
-    time.sleep(0.5)
+    assert _wait(page, lambda: s.mode == "3d")
+    page.wait_for_timeout(500)
     cam = _camera(served)
     moving = 0.0
     for axis, distance in ((2, 0.06), (0, -0.05)):  # up, then towards the robot
@@ -351,14 +359,14 @@ def test_a_drag_with_a_long_pause_exports_the_motion_time(page, served):
         moving += time.monotonic() - start
         page.mouse.up()
         if axis == 2:
-            assert _wait(lambda: s.recording_state == "recording" and len(s.recorded) >= 10)
-            time.sleep(10.0)  # the user holds still
-    time.sleep(0.5)
+            assert _wait(page, lambda: s.recording_state == "recording" and len(s.recorded) >= 10)
+            page.wait_for_timeout(10000)  # the user holds still
+    page.wait_for_timeout(500)
     page.get_by_role("button", name="Stop").click()
-    assert _wait(lambda: s.recording_state == "done")
+    assert _wait(page, lambda: s.recording_state == "done")
     assert s.recorded_raw.t[-1] > moving + 9.0 and s.collisions == 0
     served.last_export = None
     page.get_by_role("button", name="Export").click()
-    assert _wait(lambda: served.last_export is not None)
+    assert _wait(page, lambda: served.last_export is not None)
     tau = DMP.load(served.last_export["dmp"]).tau_
     assert abs(tau - moving) < 0.1 * moving, (tau, moving)
