@@ -174,3 +174,59 @@ def test_lighting_changes_colours_not_depth_and_the_default_is_pybullets(scene, 
         Lighting(direction=(0.0, 0.0, 0.0))
     with pytest.raises(ValueError, match="ReachScene.set_lighting"):
         scene.set_lighting("bright")
+
+
+def test_camera_jitter_moves_the_view_within_its_ranges_and_the_scene_renders_through_it(scene, robot):
+    """jitter_camera: eye and target within CAMERA_JITTER of the default, the roll about the viewing
+    direction within its degrees, the same draws for the same stream, intrinsics unchanged; a pose
+    array round-trips. The scene renders through a set camera (the backdrop too: no pixel of the old
+    view's table is pasted) and back exactly to the default."""
+    from dataclasses import replace
+
+    from lfd.sim.camera import CAMERA_JITTER, jitter_camera
+
+    base = scene.camera
+    scene.set_camera(base)
+    scene.reset(BOX, Placement(0.58, 0.0, 0.0))
+    rgb = scene.render()
+    cams = [jitter_camera(base, np.random.default_rng([3, k])) for k in range(6)]
+    assert cams == [jitter_camera(base, np.random.default_rng([3, k])) for k in range(6)]
+    assert len({c.pose_array().tobytes() for c in cams}) == 6
+    e_max, t_max = np.zeros(3), np.zeros(3)
+    for cam in cams:
+        e_max = np.maximum(e_max, np.abs(np.subtract(cam.eye, base.eye)))
+        t_max = np.maximum(t_max, np.abs(np.subtract(cam.target, base.target)))
+        assert (cam.fov_deg, cam.width, cam.height, cam.near, cam.far) == (
+            base.fov_deg,
+            base.width,
+            base.height,
+            base.near,
+            base.far,
+        )
+        # roll: the angle between the camera's x axis and the horizontal plane
+        side = cam.view_matrix[0, :3]
+        assert abs(np.degrees(np.arcsin(side[2]))) <= CAMERA_JITTER["roll_deg"] + 1e-6
+        assert cam.with_pose(cam.pose_array()) == cam
+    assert np.all(e_max <= CAMERA_JITTER["eye_m"]) and np.all(t_max <= CAMERA_JITTER["target_m"])
+    assert e_max.max() > 0.5 * CAMERA_JITTER["eye_m"] and t_max.max() > 0.5 * CAMERA_JITTER["target_m"]
+    rolls = [np.degrees(np.arcsin(c.view_matrix[0, 2])) for c in cams]
+    assert max(np.abs(rolls)) > 0.3  # it does roll
+    # a camera 3 cm to the side: the image is what a scene built with that camera renders (the
+    # backdrop of table and floor re-rendered, not pasted from the old view), and back again
+    shifted = replace(base, eye=(base.eye[0], base.eye[1] + 0.03, base.eye[2]))
+    scene.set_camera(shifted)
+    scene.reset(BOX, Placement(0.58, 0.0, 0.0))
+    moved = scene.render()
+    with ReachScene(robot, image_size=base.width, camera=shifted) as fresh:
+        fresh.reset(BOX, Placement(0.58, 0.0, 0.0))
+        np.testing.assert_array_equal(moved, fresh.render())
+    assert (moved != rgb).any(-1).mean() > 0.02  # the view moved (the object, the table edge)
+    scene.set_camera(base)
+    scene.reset(BOX, Placement(0.58, 0.0, 0.0))
+    np.testing.assert_array_equal(scene.render(), rgb)
+    with pytest.raises(ValueError, match="ReachScene.set_camera: expected a Camera"):
+        scene.set_camera("tripod")
+    with pytest.raises(ValueError, match="ReachScene.set_camera: expected a .* camera"):
+        scene.set_camera(replace(base, width=base.width + 8))
+    with pytest.raises(ValueError, match="Camera.with_pose: expected 9 finite values"):
+        base.with_pose(np.zeros(7))

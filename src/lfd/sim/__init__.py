@@ -42,9 +42,11 @@ _EXPORTS = exports(
         "arms": ["ARMS", "KinematicArm", "PyBulletArm"],
         "collision": ["CollisionReport", "CollisionWorld", "overlapping_link_pairs"],
         "camera": [
+            "CAMERA_JITTER",
             "LIGHTING_RANGES",
             "Camera",
             "Lighting",
+            "jitter_camera",
             "look_at",
             "perspective",
             "project_points",
@@ -102,9 +104,11 @@ if TYPE_CHECKING:
     )
     from .arms import ARMS, KinematicArm, PyBulletArm
     from .camera import (
+        CAMERA_JITTER,
         LIGHTING_RANGES,
         Camera,
         Lighting,
+        jitter_camera,
         look_at,
         perspective,
         project_points,

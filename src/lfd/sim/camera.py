@@ -9,7 +9,7 @@ Matrices are ordinary row-major ``(4, 4)`` numpy arrays acting on column vectors
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -23,6 +23,10 @@ LIGHT_DIRECTION = (0.4, -0.3, 1.0)
 #: and 0.35: from a dim room to a bright one) and the largest change of each colour channel of
 #: the light (warm to cool white).
 LIGHTING_RANGES = {"elevation_deg": (30.0, 90.0), "ambient": (0.4, 0.8), "diffuse": (0.2, 0.5), "tint": 0.15}
+#: Ranges of :func:`jitter_camera`: the largest shift of the eye and of the point looked at
+#: along each axis (m) and the largest roll about the viewing direction (degrees). A camera
+#: put back on its mount, or a tripod bumped: a few centimetres, a degree or two of roll.
+CAMERA_JITTER = {"eye_m": 0.02, "target_m": 0.03, "roll_deg": 2.0}
 
 
 @dataclass(frozen=True)
@@ -194,6 +198,26 @@ class Camera:
         if not 0 < self.near < self.far:
             raise ValueError(f"Camera: need 0 < near < far, got near={self.near}, far={self.far}")
 
+    def pose_array(self) -> np.ndarray:
+        """``(9,)`` float64: eye, target, up (the ``camera_pose`` array of a dataset episode
+        whose camera was jittered)."""
+        return np.array([*self.eye, *self.target, *self.up], dtype=np.float64)
+
+    def with_pose(self, pose: np.ndarray) -> Camera:
+        """This camera with eye, target and up from a :meth:`pose_array`.
+
+        Raises:
+            ValueError: ``pose`` is not 9 finite values.
+        """
+        a = np.asarray(pose, dtype=np.float64).reshape(-1)
+        if a.shape != (9,) or not np.all(np.isfinite(a)):
+            raise ValueError(
+                f"Camera.with_pose: expected 9 finite values (eye, target, up), got {a.shape[0]}"
+            )
+        return replace(
+            self, eye=tuple(a[:3].tolist()), target=tuple(a[3:6].tolist()), up=tuple(a[6:].tolist())
+        )
+
     @property
     def view_matrix(self) -> np.ndarray:
         """``(4, 4)`` view matrix acting on torso-frame points."""
@@ -258,6 +282,22 @@ class Camera:
         if backdrop_depth is not None:
             depth_mm = np.where(empty, backdrop_depth, depth_mm)
         return rgb, depth_mm
+
+
+def jitter_camera(camera: Camera, rng: np.random.Generator) -> Camera:
+    """``camera`` moved a little (:data:`CAMERA_JITTER`): eye and target each shifted by
+    ``U(-r, r)`` per axis, the up vector rolled about the new viewing direction by
+    ``U(-roll, roll)`` degrees; intrinsics (field of view, size, clipping) unchanged."""
+    r = CAMERA_JITTER
+    eye = np.asarray(camera.eye, dtype=np.float64) + rng.uniform(-r["eye_m"], r["eye_m"], 3)
+    target = np.asarray(camera.target, dtype=np.float64) + rng.uniform(-r["target_m"], r["target_m"], 3)
+    forward = (target - eye) / np.linalg.norm(target - eye)
+    up = np.asarray(camera.up, dtype=np.float64)
+    up = up - forward * (up @ forward)  # the up vector look_at actually uses
+    up /= np.linalg.norm(up)
+    roll = math.radians(rng.uniform(-r["roll_deg"], r["roll_deg"]))
+    up = up * math.cos(roll) + np.cross(forward, up) * math.sin(roll)  # Rodrigues, up _|_ forward
+    return replace(camera, eye=tuple(eye.tolist()), target=tuple(target.tolist()), up=tuple(up.tolist()))
 
 
 def third_person_camera(width: int = 640, height: int = 480) -> Camera:

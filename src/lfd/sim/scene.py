@@ -343,6 +343,27 @@ class ReachScene(ArmJoints):
             self._backdrop_client, self.base_to_world, with_depth=True, lighting=lighting
         )
 
+    def set_camera(self, camera: Camera) -> None:
+        """Render every later fixed-camera image through ``camera`` (its size must be the
+        scene's). Lasts across :meth:`reset`.
+
+        Raises:
+            ValueError: ``camera`` is not a Camera of the scene's image size.
+        """
+        if not isinstance(camera, Camera):
+            raise ValueError(f"ReachScene.set_camera: expected a Camera, got {type(camera).__name__}")
+        if (camera.width, camera.height) != (self.camera.width, self.camera.height):
+            raise ValueError(
+                f"ReachScene.set_camera: expected a {self.camera.width}x{self.camera.height} camera "
+                f"(the scene's image size), got {camera.width}x{camera.height}"
+            )
+        if camera == self.camera:
+            return
+        self.camera = camera
+        self._backdrop, self._backdrop_depth = self.camera.render(
+            self._backdrop_client, self.base_to_world, with_depth=True, lighting=self.lighting
+        )
+
     def render(self, with_depth: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """RGB frame ``(H, W, 3)`` uint8 of the fixed camera; with ``with_depth`` the pair
         ``(rgb, depth)``, depth ``(H, W)`` uint16 mm along the optical axis (one render call;

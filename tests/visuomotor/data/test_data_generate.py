@@ -189,6 +189,43 @@ def test_npz_bytes_are_deterministic():
     assert npz_bytes(arrays) != npz_bytes({**arrays, "x": np.float64(2.6)})
 
 
+def test_camera_jitter_is_recorded_keyed_and_leaves_the_demonstrations(reference, tmp_path):
+    """``camera_pose="jitter"``: each episode seen through its own camera, its pose recorded in the
+    file (``camera_pose``, and ``camera_view`` is that camera's) and drawn from a keyed stream (the same
+    camera for the same group, object and placement, whatever else the config says); placements and
+    trajectories of the fixed-camera dataset are unchanged, its frames are not; a fixed-camera config
+    keeps its hash."""
+    from lfd.sim.camera import Camera
+    from lfd.visuomotor.data.episodes import episode_camera, plan_episodes
+
+    assert "camera_pose" not in TINY.to_dict()
+    cfg = GeneratorConfig(**{**TINY.to_dict(), "camera_pose": "jitter"})
+    assert cfg.sha256() != TINY.sha256()
+    out = tmp_path / "jitter"
+    generate_dataset(cfg, out, num_workers=1, progress=False)
+    moved, plain = load_dataset(out, cfg), load_dataset(reference, TINY)
+    base = Camera(width=cfg.image_size, height=cfg.image_size)
+    poses = []
+    for a, b, plan in zip(moved.episodes, plain.episodes, plan_episodes(cfg), strict=True):
+        assert "camera_pose" in a.arrays and "camera_pose" not in b.arrays
+        cam = base.with_pose(a.arrays["camera_pose"])
+        assert cam == episode_camera(cfg, plan, base)
+        np.testing.assert_allclose(a.arrays["camera_view"], cam.view_matrix, atol=1e-12)
+        np.testing.assert_allclose(b.arrays["camera_view"], base.view_matrix, atol=1e-12)
+        poses.append(a.arrays["camera_pose"].tobytes())
+        np.testing.assert_array_equal(a.placement.as_array(), b.placement.as_array())
+        np.testing.assert_allclose(a.arrays["joints"], b.arrays["joints"], atol=1e-9)
+        assert not np.array_equal(a.frames(), b.frames())
+    assert len(set(poses)) == len(poses)
+    more = GeneratorConfig(**{**cfg.to_dict(), "n_test_placements": 3})
+    assert [episode_camera(more, p, base).pose_array().tobytes() for p in plan_episodes(more)[:6]] == poses[
+        :6
+    ]
+    assert episode_camera(TINY, plan_episodes(TINY)[0], base) is base
+    with pytest.raises(ValueError, match="GeneratorConfig.camera_pose: expected one of"):
+        GeneratorConfig(**{**TINY.to_dict(), "camera_pose": "handheld"})
+
+
 def test_random_lighting_is_recorded_keyed_and_leaves_everything_else(reference, tmp_path):
     """``lighting="random"``: each episode under its own light, recorded in the file and drawn from
     a keyed stream (the same light for the same group, object and placement, whatever else the

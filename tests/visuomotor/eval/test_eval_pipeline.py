@@ -286,6 +286,52 @@ def test_random_lighting_evaluation_lights_each_case_the_same_for_every_kind(
             assert per_kind[0] == [None, None, None]
 
 
+def test_camera_jitter_evaluation_moves_each_case_the_same_for_every_kind(
+    checkpoints, tiny, workspace, monkeypatch
+):
+    """``eval.camera_pose=jitter``: case ``i`` seen through its own keyed camera, the same for every
+    kind; ``dataset`` on a scenario: the default camera. metrics.json records the setting; a bad value
+    is refused in one line."""
+    from lfd.sim.camera import Camera, jitter_camera
+    from lfd.sim.scene import ReachScene
+
+    scenario = workspace / "scenario-camera.yaml"
+    scenario.write_text(
+        "objects:\n"
+        "  - {name: can, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1.0, 0.5, 0.0, 1.0]}\n"
+        "placements:\n"
+        "  - [0.55, 0.05, 0.3]\n"
+        "  - [0.60, -0.10, 0.0]\n"
+    )
+    seen = []
+    original = ReachScene.set_camera
+    monkeypatch.setattr(ReachScene, "set_camera", lambda self, cam: (seen.append(cam), original(self, cam)))
+    for pose in ("jitter", "dataset"):
+        seen.clear()
+        cfg = tiny(
+            "evaluate",
+            f"eval.scenario={scenario}",
+            "eval.n_gifs=0",
+            "eval.max_steps=4",
+            f"eval.camera_pose={pose}",
+        )
+        metrics = evaluate.evaluate(cfg, workspace / f"eval-camera-{pose}")
+        assert {m["camera_pose"] for m in metrics.values()} == {pose}
+        per_kind = [seen[i : i + 3] for i in range(0, len(seen), 3)]  # warm-up, then the 2 cases
+        assert len(per_kind) == len(metrics) == 2 and per_kind[0] == per_kind[1]
+        base = Camera(width=seen[0].width, height=seen[0].height)
+        if pose == "jitter":
+            expected = [
+                jitter_camera(base, np.random.default_rng([evaluator_module.EVAL_CAMERA_STREAM, i]))
+                for i in (0, 0, 1)
+            ]
+            assert per_kind[0] == expected and expected[0] != expected[2]
+        else:
+            assert per_kind[0] == [base, base, base]
+    with pytest.raises(ValueError, match="eval.camera_pose: expected one of"):
+        evaluator_module.ReachEvalSettings(camera_pose="wobbly")
+
+
 def test_evaluator_interface_cannot_pass_the_object_pose():
     """The controllers only ever get an Observation: an image, joints and the clock."""
     from dataclasses import fields

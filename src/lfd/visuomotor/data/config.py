@@ -13,12 +13,14 @@ from lfd.sim.objects import SHAPES, SIZE_SETS, PlacementRanges
 #: Version of the on-disk dataset format (``manifest.json``).
 FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
 
-__all__ = ["LIGHTINGS", "VAL_SIZES", "GeneratorConfig"]
+__all__ = ["CAMERA_POSES", "LIGHTINGS", "VAL_SIZES", "GeneratorConfig"]
 
 #: Where the held-out validation objects' sizes come from (:attr:`GeneratorConfig.val_sizes`).
 VAL_SIZES = ("inside", "outside")
 #: How the episodes are lit (:attr:`GeneratorConfig.lighting`).
 LIGHTINGS = ("fixed", "random")
+#: Where the fixed camera stands (:attr:`GeneratorConfig.camera_pose`).
+CAMERA_POSES = ("fixed", "jitter")
 
 
 @dataclass(frozen=True)
@@ -65,6 +67,10 @@ class GeneratorConfig:
         lighting: ``"fixed"`` (the default: PyBullet's default light) or ``"random"`` (every
             episode under its own light, :func:`lfd.sim.camera.sample_lighting`, drawn from a
             stream keyed like the placements and stored as the episode's ``lighting`` array).
+        camera_pose: ``"fixed"`` (the default: :class:`lfd.sim.camera.Camera`'s pose) or
+            ``"jitter"`` (every episode's camera moved a little, :func:`lfd.sim.camera.jitter_camera`,
+            from a stream keyed like the placements, stored as the episode's ``camera_pose``
+            array; its ``camera_view`` is that camera's).
     """
 
     seed: int = 0
@@ -94,6 +100,7 @@ class GeneratorConfig:
     val_sizes: str = "inside"
     sizes: str = "classic"
     lighting: str = "fixed"
+    camera_pose: str = "fixed"
 
     def __post_init__(self) -> None:
         # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
@@ -156,6 +163,10 @@ class GeneratorConfig:
             raise ValueError(f"GeneratorConfig.sizes: expected one of {tuple(SIZE_SETS)}, got {self.sizes!r}")
         if self.lighting not in LIGHTINGS:
             raise ValueError(f"GeneratorConfig.lighting: expected one of {LIGHTINGS}, got {self.lighting!r}")
+        if self.camera_pose not in CAMERA_POSES:
+            raise ValueError(
+                f"GeneratorConfig.camera_pose: expected one of {CAMERA_POSES}, got {self.camera_pose!r}"
+            )
         if self.val_sizes not in VAL_SIZES:
             raise ValueError(
                 f"GeneratorConfig.val_sizes: expected one of {VAL_SIZES}, got {self.val_sizes!r}"
@@ -222,4 +233,5 @@ _LATER_OPTIONS = {
     "val_sizes": "inside",
     "sizes": "classic",
     "lighting": "fixed",
+    "camera_pose": "fixed",
 }

@@ -37,7 +37,7 @@ class ReachDataModule(L.LightningDataModule):
     splits in the item layout of ``mode`` (see :class:`~lfd.visuomotor.data.datasets.DMPReachDataset`
     and :class:`~lfd.visuomotor.data.datasets.VelocityReachDataset`).
 
-    Generator arguments (``seed`` ... ``robot``, ``val_sizes``, ``sizes``, ``lighting``) are those of
+    Generator arguments (``seed`` ... ``robot``, ``val_sizes``, ``sizes``, ``lighting``, ``camera_pose``) are those of
     :class:`~lfd.visuomotor.data.config.GeneratorConfig` and define the dataset's content; the others
     only change how it is made or served.
 
@@ -96,6 +96,7 @@ class ReachDataModule(L.LightningDataModule):
         val_sizes: str = "inside",
         sizes: str = "classic",
         lighting: str = "fixed",
+        camera_pose: str = "fixed",
         batch_size: int = 32,
         num_workers: int = 0,
         augment: bool = False,
@@ -140,6 +141,7 @@ class ReachDataModule(L.LightningDataModule):
             val_sizes=val_sizes,
             sizes=sizes,
             lighting=lighting,
+            camera_pose=camera_pose,
         )
         self.input_depth = bool(depth if input_depth is None else input_depth)
         if self.input_depth and not depth:

@@ -25,7 +25,7 @@ import numpy as np
 
 from lfd.checks import one_line
 from lfd.io.files import DatasetError
-from lfd.sim.camera import Lighting, sample_lighting
+from lfd.sim.camera import Camera, Lighting, jitter_camera, sample_lighting
 from lfd.sim.expert import DISCARD_REASONS
 from lfd.sim.objects import ObjectSpec, Placement, sample_object
 from lfd.visuomotor.data.config import GeneratorConfig
@@ -60,7 +60,7 @@ EPISODE_KEYS = (
     "discarded",
 )
 # Independent random streams derived from the seed (0, 1: retired streams of format 1).
-SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM, LIGHTING_STREAM = 2, 3, 4, 5
+SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM, LIGHTING_STREAM, CAMERA_STREAM = 2, 3, 4, 5, 6
 #: Stream key of each object group (see the module docstring).
 GROUP_KEYS = {"train": 0, "val": 1, "test": 2}
 
@@ -163,6 +163,16 @@ def episode_lighting(cfg: GeneratorConfig, plan: EpisodePlan) -> Lighting | None
     """The light of an episode: None with ``lighting="fixed"``, else drawn from its own keyed
     stream (:data:`LIGHTING_STREAM`)."""
     return None if cfg.lighting == "fixed" else sample_lighting(_episode_rng(cfg, plan, LIGHTING_STREAM))
+
+
+def episode_camera(cfg: GeneratorConfig, plan: EpisodePlan, camera: Camera) -> Camera:
+    """The fixed camera of an episode: ``camera`` with ``camera_pose="fixed"``, else ``camera``
+    jittered from the episode's own keyed stream (:data:`CAMERA_STREAM`)."""
+    return (
+        camera
+        if cfg.camera_pose == "fixed"
+        else jitter_camera(camera, _episode_rng(cfg, plan, CAMERA_STREAM))
+    )
 
 
 def placement_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:

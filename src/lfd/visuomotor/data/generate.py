@@ -34,6 +34,7 @@ from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import (
     EpisodePlan,
     EpisodeRecord,
+    episode_camera,
     episode_lighting,
     episode_path,
     placement_rng,
@@ -148,6 +149,7 @@ class EpisodeWriter:
             control_dt=cfg.control_dt,
             substeps=cfg.substeps,
         )
+        self.camera = self.scene.camera  # the camera every episode's pose starts from
 
     def __call__(self, index: int) -> tuple[int, list[int]]:
         """Generate and write episode ``index``; returns it with its discard counts."""
@@ -155,6 +157,7 @@ class EpisodeWriter:
         rng = placement_rng(self.cfg, plan)
         lighting = episode_lighting(self.cfg, plan)
         self.scene.set_lighting(lighting)
+        self.scene.set_camera(episode_camera(self.cfg, plan, self.camera))
         discarded = dict.fromkeys(DISCARD_REASONS, 0)
         for _ in range(self.cfg.max_attempts):
             placement = self.cfg.placement_ranges.sample(rng)
@@ -222,6 +225,8 @@ class EpisodeWriter:
             out["depth"] = demo.depth
         if self.scene.lighting is not None:
             out["lighting"] = self.scene.lighting.as_array()
+        if self.cfg.camera_pose != "fixed":
+            out["camera_pose"] = self.scene.camera.pose_array()
         return out
 
     def close(self) -> None:

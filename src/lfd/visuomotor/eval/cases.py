@@ -32,6 +32,8 @@ class Case:
         ood: why the case lies outside the training ranges ("" = inside; scenario cases only).
         lighting: the light its dataset episode was recorded under (None: the default light;
             scenario cases and datasets made with ``lighting="fixed"``).
+        camera_pose: 9 numbers, the fixed camera's eye, target and up its dataset episode was
+            recorded through (:meth:`lfd.sim.camera.Camera.pose_array`; None: the default pose).
     """
 
     object_index: int
@@ -43,6 +45,7 @@ class Case:
     ood: str = ""
     table_z: float = TABLE_Z
     lighting: Lighting | None = None
+    camera_pose: tuple[float, ...] | None = None
 
     @property
     def object_centre(self) -> np.ndarray:
@@ -123,6 +126,7 @@ def evaluation_cases(
             "",
             table_z,
             Lighting.from_array(r.arrays["lighting"]) if "lighting" in r.arrays else None,
+            tuple(r.arrays["camera_pose"].tolist()) if "camera_pose" in r.arrays else None,
         )
         for r in records
     ]

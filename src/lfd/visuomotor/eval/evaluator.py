@@ -32,7 +32,7 @@ import torch
 
 from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
-from lfd.sim.camera import Camera, Lighting, sample_lighting
+from lfd.sim.camera import Camera, Lighting, jitter_camera, sample_lighting
 from lfd.sim.scene import ReachScene
 from lfd.training import CHECKPOINT_GLOB, checkpoint_kind, find_checkpoints
 from lfd.visuomotor.data.datasets import load_dataset
@@ -64,6 +64,10 @@ def train_command(kind: str) -> str:
 EVAL_LIGHTINGS = ("dataset", "fixed", "random")
 #: Stream key of ``eval.lighting=random`` (apart from every dataset stream).
 EVAL_LIGHTING_STREAM = 7
+#: ``eval.camera_pose`` values (:class:`ReachEvalSettings`).
+EVAL_CAMERA_POSES = ("dataset", "fixed", "jitter")
+#: Stream key of ``eval.camera_pose=jitter`` (apart from every dataset stream).
+EVAL_CAMERA_STREAM = 8
 
 
 @dataclass(frozen=True)
@@ -103,6 +107,12 @@ class ReachEvalSettings:
             (always the default light) or ``"random"`` (case ``i`` under
             :func:`lfd.sim.camera.sample_lighting` of ``default_rng([EVAL_LIGHTING_STREAM, i])``,
             the same for every kind: a robustness check under lights the training never saw).
+        camera_pose: where the fixed camera stands in each episode: ``"dataset"`` (the default:
+            a dataset case's recorded pose, :attr:`~lfd.visuomotor.eval.cases.Case.camera_pose`;
+            the default pose for scenario cases and datasets made with ``camera_pose: fixed``),
+            ``"fixed"`` (always the default pose) or ``"jitter"`` (case ``i``'s camera moved by
+            :func:`lfd.sim.camera.jitter_camera` of ``default_rng([EVAL_CAMERA_STREAM, i])``, the same
+            for every kind: a robustness check against a camera put back a little off).
         episode_reports: writers of the episodes in other layouts, called in order after the
             outputs above (:class:`~lfd.visuomotor.protocols.EpisodeReport`;
             ``configs/eval/reach.yaml``: LeRobot's, :func:`lfd.interop.lerobot.report.write_lerobot_eval`).
@@ -120,6 +130,7 @@ class ReachEvalSettings:
     limit: int | None = None
     torch_threads: int = 1
     lighting: str = "dataset"
+    camera_pose: str = "dataset"
     episode_reports: tuple[EpisodeReport, ...] = ()
 
     def __post_init__(self) -> None:
@@ -130,6 +141,10 @@ class ReachEvalSettings:
             raise ValueError(f"eval.split: expected 'test' or 'val', got {self.split!r}")
         if self.lighting not in EVAL_LIGHTINGS:
             raise ValueError(f"eval.lighting: expected one of {EVAL_LIGHTINGS}, got {self.lighting!r}")
+        if self.camera_pose not in EVAL_CAMERA_POSES:
+            raise ValueError(
+                f"eval.camera_pose: expected one of {EVAL_CAMERA_POSES}, got {self.camera_pose!r}"
+            )
         for name in KIND_LISTS:
             value = getattr(self, name)
             if value is None and name == "kinds":
@@ -392,6 +407,7 @@ class ReachEvaluator:
                     "steps_per_episode": steps,
                     "colour_tta": kind in self.settings.colour_tta,
                     "lighting": self.settings.lighting,
+                    "camera_pose": self.settings.camera_pose,
                     "chunk_execution": policies[kind].execution
                     if kind in self.settings.chunk_execution
                     else None,
@@ -426,7 +442,7 @@ class ReachEvaluator:
         self._warm_up(scene, cases[0], controller, steps)
         traces = []
         for i, case in enumerate(cases):
-            scene.set_lighting(self.case_lighting(i, case))
+            self._stage(scene, i, case)
             scene.reset(case.obj, case.placement, q=robot.home.numpy())
             trace = run_episode(
                 scene,
@@ -452,9 +468,25 @@ class ReachEvaluator:
             return sample_lighting(np.random.default_rng([EVAL_LIGHTING_STREAM, i]))
         return case.lighting if self.settings.lighting == "dataset" else None
 
+    def case_camera(self, i: int, case: Case, camera: Camera) -> Camera:
+        """The fixed camera of case ``i`` under ``eval.camera_pose`` (:class:`ReachEvalSettings`),
+        ``camera`` being the scene's default."""
+        if self.settings.camera_pose == "jitter":
+            return jitter_camera(camera, np.random.default_rng([EVAL_CAMERA_STREAM, i]))
+        if self.settings.camera_pose == "dataset" and case.camera_pose is not None:
+            return camera.with_pose(case.camera_pose)
+        return camera
+
+    def _stage(self, scene, i: int, case: Case) -> None:
+        """Light case ``i`` and stand its camera (before ``scene.reset``)."""
+        scene.set_lighting(self.case_lighting(i, case))
+        scene.set_camera(
+            self.case_camera(i, case, Camera(width=scene.camera.width, height=scene.camera.height))
+        )
+
     def _warm_up(self, scene, case: Case, controller: Controller, steps: int) -> None:
         """One untimed policy call, so one-off costs (allocation, operator caches) stay out of the latencies."""
-        scene.set_lighting(self.case_lighting(0, case))
+        self._stage(scene, 0, case)
         scene.reset(case.obj, case.placement, q=scene.robot.home.numpy())
         controller.start(steps)
         controller.command(
