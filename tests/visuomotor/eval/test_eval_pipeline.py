@@ -242,15 +242,25 @@ def test_scenario_file_evaluation(checkpoints, tiny, workspace):
     assert not (out_dir / "rollouts").exists()
 
 
-def test_random_lighting_evaluation_lights_each_case_the_same_for_every_kind(
-    checkpoints, tiny, workspace, monkeypatch
+#: Per scene setting of the evaluation: the ReachScene setter, the random value, its stream key.
+SCENE_SETTINGS = {
+    "lighting": ("set_lighting", "random", evaluator_module.EVAL_LIGHTING_STREAM),
+    "camera_pose": ("set_camera", "jitter", evaluator_module.EVAL_CAMERA_STREAM),
+}
+
+
+@pytest.mark.parametrize("setting", sorted(SCENE_SETTINGS))
+def test_random_scene_settings_give_each_case_its_own_keyed_draw_the_same_for_every_kind(
+    setting, checkpoints, tiny, workspace, monkeypatch
 ):
-    """``eval.lighting=random``: case ``i`` under its own keyed light, the same for every kind;
-    ``dataset`` on a scenario: the default light. metrics.json records the setting."""
-    from lfd.sim.camera import sample_lighting
+    """``eval.lighting=random`` / ``eval.camera_pose=jitter``: case ``i`` under its own keyed light /
+    seen through its own keyed camera, the same for every kind; ``dataset`` on a scenario: the default
+    light / camera. metrics.json records the setting; a bad value is refused in one line."""
+    from lfd.sim.camera import Camera, jitter_camera, sample_lighting
     from lfd.sim.scene import ReachScene
 
-    scenario = workspace / "scenario-light.yaml"
+    setter, random_value, stream = SCENE_SETTINGS[setting]
+    scenario = workspace / f"scenario-{setting}.yaml"
     scenario.write_text(
         "objects:\n"
         "  - {name: can, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1.0, 0.5, 0.0, 1.0]}\n"
@@ -259,77 +269,34 @@ def test_random_lighting_evaluation_lights_each_case_the_same_for_every_kind(
         "  - [0.60, -0.10, 0.0]\n"
     )
     seen = []
-    original = ReachScene.set_lighting
-    monkeypatch.setattr(
-        ReachScene, "set_lighting", lambda self, light: (seen.append(light), original(self, light))
-    )
-    for lighting in ("random", "dataset"):
+    original = getattr(ReachScene, setter)
+    monkeypatch.setattr(ReachScene, setter, lambda self, value: (seen.append(value), original(self, value)))
+    for value in (random_value, "dataset"):
         seen.clear()
         cfg = tiny(
             "evaluate",
             f"eval.scenario={scenario}",
             "eval.n_gifs=0",
             "eval.max_steps=4",
-            f"eval.lighting={lighting}",
+            f"eval.{setting}={value}",
         )
-        metrics = evaluate.evaluate(cfg, workspace / f"eval-light-{lighting}")
-        assert {m["lighting"] for m in metrics.values()} == {lighting}
+        metrics = evaluate.evaluate(cfg, workspace / f"eval-{setting}-{value}")
+        assert {m[setting] for m in metrics.values()} == {value}
         per_kind = [seen[i : i + 3] for i in range(0, len(seen), 3)]  # warm-up, then the 2 cases
         assert len(per_kind) == len(metrics) == 2 and per_kind[0] == per_kind[1]
-        if lighting == "random":
-            expected = [
-                sample_lighting(np.random.default_rng([evaluator_module.EVAL_LIGHTING_STREAM, i]))
-                for i in (0, 0, 1)
-            ]
-            assert per_kind[0] == expected and expected[0] != expected[2]
+        size = cfg.data.image_size
+        if value == "dataset":
+            default = None if setting == "lighting" else Camera(width=size, height=size)
+            assert per_kind[0] == [default] * 3
+            continue
+        rngs = [np.random.default_rng([stream, i]) for i in (0, 0, 1)]
+        if setting == "lighting":
+            expected = [sample_lighting(rng) for rng in rngs]
         else:
-            assert per_kind[0] == [None, None, None]
-
-
-def test_camera_jitter_evaluation_moves_each_case_the_same_for_every_kind(
-    checkpoints, tiny, workspace, monkeypatch
-):
-    """``eval.camera_pose=jitter``: case ``i`` seen through its own keyed camera, the same for every
-    kind; ``dataset`` on a scenario: the default camera. metrics.json records the setting; a bad value
-    is refused in one line."""
-    from lfd.sim.camera import Camera, jitter_camera
-    from lfd.sim.scene import ReachScene
-
-    scenario = workspace / "scenario-camera.yaml"
-    scenario.write_text(
-        "objects:\n"
-        "  - {name: can, shape: cylinder, radius: 0.035, height: 0.14, rgba: [1.0, 0.5, 0.0, 1.0]}\n"
-        "placements:\n"
-        "  - [0.55, 0.05, 0.3]\n"
-        "  - [0.60, -0.10, 0.0]\n"
-    )
-    seen = []
-    original = ReachScene.set_camera
-    monkeypatch.setattr(ReachScene, "set_camera", lambda self, cam: (seen.append(cam), original(self, cam)))
-    for pose in ("jitter", "dataset"):
-        seen.clear()
-        cfg = tiny(
-            "evaluate",
-            f"eval.scenario={scenario}",
-            "eval.n_gifs=0",
-            "eval.max_steps=4",
-            f"eval.camera_pose={pose}",
-        )
-        metrics = evaluate.evaluate(cfg, workspace / f"eval-camera-{pose}")
-        assert {m["camera_pose"] for m in metrics.values()} == {pose}
-        per_kind = [seen[i : i + 3] for i in range(0, len(seen), 3)]  # warm-up, then the 2 cases
-        assert len(per_kind) == len(metrics) == 2 and per_kind[0] == per_kind[1]
-        base = Camera(width=seen[0].width, height=seen[0].height)
-        if pose == "jitter":
-            expected = [
-                jitter_camera(base, np.random.default_rng([evaluator_module.EVAL_CAMERA_STREAM, i]))
-                for i in (0, 0, 1)
-            ]
-            assert per_kind[0] == expected and expected[0] != expected[2]
-        else:
-            assert per_kind[0] == [base, base, base]
-    with pytest.raises(ValueError, match="eval.camera_pose: expected one of"):
-        evaluator_module.ReachEvalSettings(camera_pose="wobbly")
+            expected = [jitter_camera(Camera(width=size, height=size), rng) for rng in rngs]
+        assert per_kind[0] == expected and expected[0] != expected[2]
+    with pytest.raises(ValueError, match=f"eval.{setting}: expected one of"):
+        evaluator_module.ReachEvalSettings(**{setting: "wobbly"})
 
 
 def test_evaluator_interface_cannot_pass_the_object_pose():
