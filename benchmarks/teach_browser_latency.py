@@ -95,7 +95,10 @@ def main(argv=None) -> int:
 
     chromium = find_chromium()
     if chromium is None:
-        print("teach_browser_latency: Chromium is missing (apt-get install -y chromium, or set LFD_CHROMIUM)")
+        print(
+            "teach_browser_latency: Chromium is missing "
+            "(apt-get install -y chromium-headless-shell, or set LFD_CHROMIUM)"
+        )
         return 2
     session = TeachSession(robot="wam4", scene=ROOT / "configs" / "teach" / "boxes.yaml")
     export = Path(tempfile.mkdtemp(prefix="lfd-teach-bench-"))

@@ -145,12 +145,19 @@ def require(ok: bool, what: str, how: str) -> None:
 
 
 def find_chromium() -> str | None:
-    """Chromium's executable: ``$LFD_CHROMIUM`` when set (an executable file, else None), else ``chromium``
-    or ``chromium-browser`` on the PATH."""
+    """Chromium's executable: ``$LFD_CHROMIUM`` when set (an executable file, else None), else the first
+    of ``chromium-headless-shell``, ``chromium`` and ``chromium-browser`` on the PATH. The headless shell
+    (Debian's ``chromium-headless-shell``) comes first: it is the engine Playwright drives in headless
+    mode by default, without the full browser's window and its UI processes (under the full test suite,
+    the full browser's renderers sometimes spun and left a Playwright call waiting for ever)."""
     given = os.environ.get("LFD_CHROMIUM")
     if given:
         return given if os.path.isfile(given) and os.access(given, os.X_OK) else None
-    return shutil.which("chromium") or shutil.which("chromium-browser")
+    return (
+        shutil.which("chromium-headless-shell")
+        or shutil.which("chromium")
+        or shutil.which("chromium-browser")
+    )
 
 
 @pytest.fixture(scope="session")
@@ -160,8 +167,8 @@ def chromium() -> str:
     given = os.environ.get("LFD_CHROMIUM")
     require(
         path is not None,
-        f"Chromium ({'LFD_CHROMIUM=' + given if given else 'chromium or chromium-browser on the PATH'})",
-        "apt-get install -y chromium, or set LFD_CHROMIUM to a Chromium executable",
+        f"Chromium ({'LFD_CHROMIUM=' + given if given else 'chromium-headless-shell or chromium on the PATH'})",
+        "apt-get install -y chromium-headless-shell, or set LFD_CHROMIUM to a Chromium executable",
     )
     return path
 

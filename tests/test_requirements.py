@@ -42,6 +42,11 @@ def test_chromium_is_found_by_environment_variable_or_path(tmp_path, monkeypatch
     monkeypatch.setenv("LFD_CHROMIUM", str(tmp_path / "nonexistent"))
     monkeypatch.setenv("PATH", str(fake.parent))
     assert find_chromium() is None  # a given path that is not there is not replaced by the PATH's
+    monkeypatch.delenv("LFD_CHROMIUM")
+    for name in ("chromium", "chromium-headless-shell"):  # the headless shell first, then chromium
+        (fake.parent / name).write_text("#!/bin/sh\n")
+        (fake.parent / name).chmod(0o755)
+        assert find_chromium() == str(fake.parent / name)
 
 
 def test_ci_makes_every_requirement_mandatory():

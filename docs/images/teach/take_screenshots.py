@@ -7,7 +7,8 @@ Writes ``1_start.png`` .. ``4_sent.png`` next to this file (palette PNGs, 1200x6
 
     python docs/images/teach/take_screenshots.py
 
-Chromium is ``$LFD_CHROMIUM`` or ``chromium`` on the PATH (Debian: ``apt-get install -y chromium``).
+Chromium is ``$LFD_CHROMIUM`` or ``chromium-headless-shell`` / ``chromium`` on the PATH (Debian:
+``apt-get install -y chromium-headless-shell``).
 """
 
 from __future__ import annotations
@@ -64,7 +65,9 @@ def main() -> int:
 
     chromium = find_chromium()
     if chromium is None:
-        print("take_screenshots: Chromium is missing (apt-get install -y chromium, or set LFD_CHROMIUM)")
+        print(
+            "take_screenshots: Chromium is missing (apt-get install -y chromium-headless-shell, or set LFD_CHROMIUM)"
+        )
         return 2
     session = TeachSession(robot="wam4", scene=ROOT / "configs" / "teach" / "boxes.yaml")
     export = Path(tempfile.mkdtemp(prefix="lfd-teach-docs-"))
