@@ -52,6 +52,7 @@ _EXPORTS = exports(
             "project_points",
             "sample_lighting",
         ],
+        "textures": ["TEXTURE_KINDS", "TEXTURE_RANGES", "TableTexture", "sample_table_texture"],
         "expert": [
             "DISCARD_REASONS",
             "DemoDiscarded",
@@ -127,6 +128,7 @@ if TYPE_CHECKING:
         sample_objects,
     )
     from .scene import ReachScene
+    from .textures import TEXTURE_KINDS, TEXTURE_RANGES, TableTexture, sample_table_texture
     from .tracking import (
         ArmWorld,
         TrackedPath,

@@ -27,6 +27,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from lfd.sim._pybullet import pybullet as p
@@ -35,6 +36,7 @@ from lfd.sim.camera import Camera, Lighting
 from lfd.sim.collision import overlapping_link_pairs
 from lfd.sim.joints import ArmJoints
 from lfd.sim.objects import ObjectSpec, Placement
+from lfd.sim.textures import TableTexture
 
 #: Table extent (m) in the torso frame: x from ``TABLE_X[0]`` to ``TABLE_X[1]``, y symmetric.
 TABLE_X = (0.35, 0.95)
@@ -139,9 +141,8 @@ class ReachScene(ArmJoints):
         self._backdrop_client = p.connect(p.DIRECT)
         self._add_static_bodies(self._backdrop_client, visible=True)
         self.lighting: Lighting | None = None
-        self._backdrop, self._backdrop_depth = self.camera.render(
-            self._backdrop_client, self.base_to_world, with_depth=True
-        )
+        self.table_texture: TableTexture | None = None
+        self._render_backdrop()
         self.robot_id = self.table_id = self.object_id = -1
         self.object_spec: ObjectSpec | None = None
         self.placement: Placement | None = None
@@ -339,9 +340,7 @@ class ReachScene(ArmJoints):
         if lighting == self.lighting:
             return
         self.lighting = lighting
-        self._backdrop, self._backdrop_depth = self.camera.render(
-            self._backdrop_client, self.base_to_world, with_depth=True, lighting=lighting
-        )
+        self._render_backdrop()
 
     def set_camera(self, camera: Camera) -> None:
         """Render every later fixed-camera image through ``camera`` (its size must be the
@@ -360,6 +359,30 @@ class ReachScene(ArmJoints):
         if camera == self.camera:
             return
         self.camera = camera
+        self._render_backdrop()
+
+    def set_table_texture(self, texture: TableTexture | None) -> None:
+        """Draw the table top of every later image (fixed and wrist camera) with ``texture``
+        (None: the plain grey table). Lasts across :meth:`reset`; the depth does not change."""
+        if texture is not None and not isinstance(texture, TableTexture):
+            raise ValueError(
+                f"ReachScene.set_table_texture: expected a TableTexture or None, got {type(texture).__name__}"
+            )
+        if texture == self.table_texture:
+            return
+        self.table_texture = texture
+        c = self._backdrop_client
+        p.resetSimulation(physicsClientId=c)
+        table = self._add_static_bodies(c, visible=True)
+        if texture is not None:
+            path = self._tmpdir / "table.png"
+            cv2.imwrite(str(path), texture.image()[..., ::-1])  # RGB -> OpenCV's BGR
+            tex = p.loadTexture(str(path), physicsClientId=c)
+            p.changeVisualShape(table, -1, textureUniqueId=tex, rgbaColor=[1, 1, 1, 1], physicsClientId=c)
+        self._render_backdrop()
+
+    def _render_backdrop(self) -> None:
+        """Render the backdrop (table and floor) through the camera under the light."""
         self._backdrop, self._backdrop_depth = self.camera.render(
             self._backdrop_client, self.base_to_world, with_depth=True, lighting=self.lighting
         )

@@ -189,69 +189,62 @@ def test_npz_bytes_are_deterministic():
     assert npz_bytes(arrays) != npz_bytes({**arrays, "x": np.float64(2.6)})
 
 
-def test_camera_jitter_is_recorded_keyed_and_leaves_the_demonstrations(reference, tmp_path):
-    """``camera_pose="jitter"``: each episode seen through its own camera, its pose recorded in the
-    file (``camera_pose``, and ``camera_view`` is that camera's) and drawn from a keyed stream (the same
-    camera for the same group, object and placement, whatever else the config says); placements and
-    trajectories of the fixed-camera dataset are unchanged, its frames are not; a fixed-camera config
-    keeps its hash."""
+#: The scene options of a dataset: the value that draws one per episode, and the episode's array.
+SCENE_OPTIONS = {
+    "lighting": ("random", "lighting"),
+    "camera_pose": ("jitter", "camera_pose"),
+    "table_texture": ("random", "table_texture"),
+}
+
+
+def _drawn(setting: str, cfg, plan):
+    """The array episode ``plan`` of ``cfg`` must store for ``setting`` (None: nothing, the default)."""
     from lfd.sim.camera import Camera
-    from lfd.visuomotor.data.episodes import episode_camera, plan_episodes
+    from lfd.visuomotor.data.episodes import episode_camera, episode_lighting, episode_table_texture
 
-    assert "camera_pose" not in TINY.to_dict()
-    cfg = GeneratorConfig(**{**TINY.to_dict(), "camera_pose": "jitter"})
+    if setting == "camera_pose":
+        base = Camera(width=cfg.image_size, height=cfg.image_size)
+        camera = episode_camera(cfg, plan, base)
+        return None if camera is base else camera.pose_array()
+    drawn = (episode_lighting if setting == "lighting" else episode_table_texture)(cfg, plan)
+    return None if drawn is None else drawn.as_array()
+
+
+@pytest.mark.parametrize("setting", sorted(SCENE_OPTIONS))
+def test_random_scene_options_are_recorded_keyed_and_leave_the_demonstrations(setting, reference, tmp_path):
+    """``lighting="random"``, ``camera_pose="jitter"``, ``table_texture="random"``: each episode under
+    its own light / through its own camera / on its own table, recorded in the file and drawn from a
+    keyed stream (the same draw for the same group, object and placement, whatever else the config
+    says); the placements and trajectories of the plain dataset are unchanged, its frames are not; a
+    plain config keeps its hash; a bad value is named. With the jitter, ``camera_view`` is the episode's
+    camera."""
+    from lfd.sim.camera import Camera
+    from lfd.visuomotor.data.episodes import plan_episodes
+
+    value, key = SCENE_OPTIONS[setting]
+    assert setting not in TINY.to_dict()
+    cfg = GeneratorConfig(**{**TINY.to_dict(), setting: value})
     assert cfg.sha256() != TINY.sha256()
-    out = tmp_path / "jitter"
+    out = tmp_path / setting
     generate_dataset(cfg, out, num_workers=1, progress=False)
-    moved, plain = load_dataset(out, cfg), load_dataset(reference, TINY)
-    base = Camera(width=cfg.image_size, height=cfg.image_size)
-    poses = []
-    for a, b, plan in zip(moved.episodes, plain.episodes, plan_episodes(cfg), strict=True):
-        assert "camera_pose" in a.arrays and "camera_pose" not in b.arrays
-        cam = base.with_pose(a.arrays["camera_pose"])
-        assert cam == episode_camera(cfg, plan, base)
-        np.testing.assert_allclose(a.arrays["camera_view"], cam.view_matrix, atol=1e-12)
-        np.testing.assert_allclose(b.arrays["camera_view"], base.view_matrix, atol=1e-12)
-        poses.append(a.arrays["camera_pose"].tobytes())
+    varied, plain = load_dataset(out, cfg), load_dataset(reference, TINY)
+    draws = []
+    for a, b, plan in zip(varied.episodes, plain.episodes, plan_episodes(cfg), strict=True):
+        assert key in a.arrays and key not in b.arrays
+        np.testing.assert_array_equal(a.arrays[key], _drawn(setting, cfg, plan))
+        draws.append(a.arrays[key].tobytes())
         np.testing.assert_array_equal(a.placement.as_array(), b.placement.as_array())
         np.testing.assert_allclose(a.arrays["joints"], b.arrays["joints"], atol=1e-9)
         assert not np.array_equal(a.frames(), b.frames())
-    assert len(set(poses)) == len(poses)
+        if setting == "camera_pose":
+            base = Camera(width=cfg.image_size, height=cfg.image_size)
+            np.testing.assert_allclose(
+                a.arrays["camera_view"], base.with_pose(a.arrays[key]).view_matrix, atol=1e-12
+            )
+            np.testing.assert_allclose(b.arrays["camera_view"], base.view_matrix, atol=1e-12)
+    assert len(set(draws)) == len(draws)
     more = GeneratorConfig(**{**cfg.to_dict(), "n_test_placements": 3})
-    assert [episode_camera(more, p, base).pose_array().tobytes() for p in plan_episodes(more)[:6]] == poses[
-        :6
-    ]
-    assert episode_camera(TINY, plan_episodes(TINY)[0], base) is base
-    with pytest.raises(ValueError, match="GeneratorConfig.camera_pose: expected one of"):
-        GeneratorConfig(**{**TINY.to_dict(), "camera_pose": "handheld"})
-
-
-def test_random_lighting_is_recorded_keyed_and_leaves_everything_else(reference, tmp_path):
-    """``lighting="random"``: each episode under its own light, recorded in the file and drawn from
-    a keyed stream (the same light for the same group, object and placement, whatever else the
-    config says); the placements, trajectories and depth of the fixed-light dataset are unchanged,
-    its frames are not; a fixed-light config keeps its hash."""
-    from lfd.sim.camera import Lighting
-    from lfd.visuomotor.data.episodes import episode_lighting, plan_episodes
-
-    assert "lighting" not in TINY.to_dict()
-    lit_cfg = GeneratorConfig(**{**TINY.to_dict(), "lighting": "random"})
-    assert lit_cfg.sha256() != TINY.sha256()
-    out = tmp_path / "lit"
-    generate_dataset(lit_cfg, out, num_workers=1, progress=False)
-    lit, plain = load_dataset(out, lit_cfg), load_dataset(reference, TINY)
-    lights = []
-    for a, b, plan in zip(lit.episodes, plain.episodes, plan_episodes(lit_cfg), strict=True):
-        assert "lighting" in a.arrays and "lighting" not in b.arrays
-        light = Lighting.from_array(a.arrays["lighting"])
-        assert light == episode_lighting(lit_cfg, plan)
-        lights.append(light)
-        np.testing.assert_array_equal(a.placement.as_array(), b.placement.as_array())
-        np.testing.assert_allclose(a.arrays["joints"], b.arrays["joints"], atol=1e-9)
-        assert not np.array_equal(a.frames(), b.frames())
-    assert len(set(lights)) == len(lights)
-    more = GeneratorConfig(**{**lit_cfg.to_dict(), "n_test_placements": 3})
-    assert [episode_lighting(more, p) for p in plan_episodes(more)[:6]] == lights[:6]
-    assert episode_lighting(TINY, plan_episodes(TINY)[0]) is None
-    with pytest.raises(ValueError, match="GeneratorConfig.lighting: expected one of"):
-        GeneratorConfig(**{**TINY.to_dict(), "lighting": "dark"})
+    assert [_drawn(setting, more, p).tobytes() for p in plan_episodes(more)[:6]] == draws[:6]
+    assert _drawn(setting, TINY, plan_episodes(TINY)[0]) is None
+    with pytest.raises(ValueError, match=f"GeneratorConfig.{setting}: expected one of"):
+        GeneratorConfig(**{**TINY.to_dict(), setting: "wobbly"})

@@ -246,6 +246,7 @@ def test_scenario_file_evaluation(checkpoints, tiny, workspace):
 SCENE_SETTINGS = {
     "lighting": ("set_lighting", "random", evaluator_module.EVAL_LIGHTING_STREAM),
     "camera_pose": ("set_camera", "jitter", evaluator_module.EVAL_CAMERA_STREAM),
+    "table_texture": ("set_table_texture", "random", evaluator_module.EVAL_TEXTURE_STREAM),
 }
 
 
@@ -253,11 +254,13 @@ SCENE_SETTINGS = {
 def test_random_scene_settings_give_each_case_its_own_keyed_draw_the_same_for_every_kind(
     setting, checkpoints, tiny, workspace, monkeypatch
 ):
-    """``eval.lighting=random`` / ``eval.camera_pose=jitter``: case ``i`` under its own keyed light /
-    seen through its own keyed camera, the same for every kind; ``dataset`` on a scenario: the default
-    light / camera. metrics.json records the setting; a bad value is refused in one line."""
+    """``eval.lighting=random`` / ``eval.camera_pose=jitter`` / ``eval.table_texture=random``: case ``i``
+    under its own keyed light / through its own keyed camera / on its own keyed table, the same for every
+    kind; ``dataset`` on a scenario: the default light / camera / plain table. metrics.json records the
+    setting; a bad value is refused in one line."""
     from lfd.sim.camera import Camera, jitter_camera, sample_lighting
     from lfd.sim.scene import ReachScene
+    from lfd.sim.textures import sample_table_texture
 
     setter, random_value, stream = SCENE_SETTINGS[setting]
     scenario = workspace / f"scenario-{setting}.yaml"
@@ -286,14 +289,15 @@ def test_random_scene_settings_give_each_case_its_own_keyed_draw_the_same_for_ev
         assert len(per_kind) == len(metrics) == 2 and per_kind[0] == per_kind[1]
         size = cfg.data.image_size
         if value == "dataset":
-            default = None if setting == "lighting" else Camera(width=size, height=size)
+            default = Camera(width=size, height=size) if setting == "camera_pose" else None
             assert per_kind[0] == [default] * 3
             continue
         rngs = [np.random.default_rng([stream, i]) for i in (0, 0, 1)]
-        if setting == "lighting":
-            expected = [sample_lighting(rng) for rng in rngs]
-        else:
+        if setting == "camera_pose":
             expected = [jitter_camera(Camera(width=size, height=size), rng) for rng in rngs]
+        else:
+            draw = sample_lighting if setting == "lighting" else sample_table_texture
+            expected = [draw(rng) for rng in rngs]
         assert per_kind[0] == expected and expected[0] != expected[2]
     with pytest.raises(ValueError, match=f"eval.{setting}: expected one of"):
         evaluator_module.ReachEvalSettings(**{setting: "wobbly"})

@@ -13,7 +13,7 @@ from lfd.sim.objects import SHAPES, SIZE_SETS, PlacementRanges
 #: Version of the on-disk dataset format (``manifest.json``).
 FORMAT_VERSION = 2  # 2: items drawn from streams keyed by (seed, group, object, placement)
 
-__all__ = ["CAMERA_POSES", "LIGHTINGS", "VAL_SIZES", "GeneratorConfig"]
+__all__ = ["CAMERA_POSES", "LIGHTINGS", "TABLE_TEXTURES", "VAL_SIZES", "GeneratorConfig"]
 
 #: Where the held-out validation objects' sizes come from (:attr:`GeneratorConfig.val_sizes`).
 VAL_SIZES = ("inside", "outside")
@@ -21,6 +21,8 @@ VAL_SIZES = ("inside", "outside")
 LIGHTINGS = ("fixed", "random")
 #: Where the fixed camera stands (:attr:`GeneratorConfig.camera_pose`).
 CAMERA_POSES = ("fixed", "jitter")
+#: How the table top looks (:attr:`GeneratorConfig.table_texture`).
+TABLE_TEXTURES = ("plain", "random")
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,9 @@ class GeneratorConfig:
             ``"jitter"`` (every episode's camera moved a little, :func:`lfd.sim.camera.jitter_camera`,
             from a stream keyed like the placements, stored as the episode's ``camera_pose``
             array; its ``camera_view`` is that camera's).
+        table_texture: ``"plain"`` (the default: the grey table) or ``"random"`` (every episode's
+            table top drawn with its own :func:`lfd.sim.textures.sample_table_texture`, from a
+            stream keyed like the placements, stored as the episode's ``table_texture`` array).
     """
 
     seed: int = 0
@@ -101,6 +106,7 @@ class GeneratorConfig:
     sizes: str = "classic"
     lighting: str = "fixed"
     camera_pose: str = "fixed"
+    table_texture: str = "plain"
 
     def __post_init__(self) -> None:
         # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
@@ -166,6 +172,10 @@ class GeneratorConfig:
         if self.camera_pose not in CAMERA_POSES:
             raise ValueError(
                 f"GeneratorConfig.camera_pose: expected one of {CAMERA_POSES}, got {self.camera_pose!r}"
+            )
+        if self.table_texture not in TABLE_TEXTURES:
+            raise ValueError(
+                f"GeneratorConfig.table_texture: expected one of {TABLE_TEXTURES}, got {self.table_texture!r}"
             )
         if self.val_sizes not in VAL_SIZES:
             raise ValueError(
@@ -234,4 +244,5 @@ _LATER_OPTIONS = {
     "sizes": "classic",
     "lighting": "fixed",
     "camera_pose": "fixed",
+    "table_texture": "plain",
 }

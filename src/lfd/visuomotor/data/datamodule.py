@@ -37,9 +37,9 @@ class ReachDataModule(L.LightningDataModule):
     splits in the item layout of ``mode`` (see :class:`~lfd.visuomotor.data.datasets.DMPReachDataset`
     and :class:`~lfd.visuomotor.data.datasets.VelocityReachDataset`).
 
-    Generator arguments (``seed`` ... ``robot``, ``val_sizes``, ``sizes``, ``lighting``, ``camera_pose``) are those of
-    :class:`~lfd.visuomotor.data.config.GeneratorConfig` and define the dataset's content; the others
-    only change how it is made or served.
+    Generator arguments (``seed`` ... ``robot``, ``val_sizes``, ``sizes``, ``lighting``, ``camera_pose``,
+    ``table_texture``) are those of :class:`~lfd.visuomotor.data.config.GeneratorConfig` and define the
+    dataset's content; the others only change how it is made or served.
 
     Args:
         name: dataset folder name under ``root``.
@@ -97,6 +97,7 @@ class ReachDataModule(L.LightningDataModule):
         sizes: str = "classic",
         lighting: str = "fixed",
         camera_pose: str = "fixed",
+        table_texture: str = "plain",
         batch_size: int = 32,
         num_workers: int = 0,
         augment: bool = False,
@@ -142,6 +143,7 @@ class ReachDataModule(L.LightningDataModule):
             sizes=sizes,
             lighting=lighting,
             camera_pose=camera_pose,
+            table_texture=table_texture,
         )
         self.input_depth = bool(depth if input_depth is None else input_depth)
         if self.input_depth and not depth:

@@ -28,6 +28,7 @@ from lfd.io.files import DatasetError
 from lfd.sim.camera import Camera, Lighting, jitter_camera, sample_lighting
 from lfd.sim.expert import DISCARD_REASONS
 from lfd.sim.objects import ObjectSpec, Placement, sample_object
+from lfd.sim.textures import TableTexture, sample_table_texture
 from lfd.visuomotor.data.config import GeneratorConfig
 
 SPLITS = ("train", "val", "test")
@@ -60,7 +61,14 @@ EPISODE_KEYS = (
     "discarded",
 )
 # Independent random streams derived from the seed (0, 1: retired streams of format 1).
-SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM, LIGHTING_STREAM, CAMERA_STREAM = 2, 3, 4, 5, 6
+SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM, LIGHTING_STREAM, CAMERA_STREAM, TEXTURE_STREAM = (
+    2,
+    3,
+    4,
+    5,
+    6,
+    7,
+)
 #: Stream key of each object group (see the module docstring).
 GROUP_KEYS = {"train": 0, "val": 1, "test": 2}
 
@@ -173,6 +181,14 @@ def episode_camera(cfg: GeneratorConfig, plan: EpisodePlan, camera: Camera) -> C
         if cfg.camera_pose == "fixed"
         else jitter_camera(camera, _episode_rng(cfg, plan, CAMERA_STREAM))
     )
+
+
+def episode_table_texture(cfg: GeneratorConfig, plan: EpisodePlan) -> TableTexture | None:
+    """The table top of an episode: None (the plain table) with ``table_texture="plain"``, else
+    drawn from its own keyed stream (:data:`TEXTURE_STREAM`)."""
+    if cfg.table_texture == "plain":
+        return None
+    return sample_table_texture(_episode_rng(cfg, plan, TEXTURE_STREAM))
 
 
 def placement_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:

@@ -37,6 +37,7 @@ from lfd.visuomotor.data.episodes import (
     episode_camera,
     episode_lighting,
     episode_path,
+    episode_table_texture,
     placement_rng,
     plan_episodes,
 )
@@ -158,6 +159,7 @@ class EpisodeWriter:
         lighting = episode_lighting(self.cfg, plan)
         self.scene.set_lighting(lighting)
         self.scene.set_camera(episode_camera(self.cfg, plan, self.camera))
+        self.scene.set_table_texture(episode_table_texture(self.cfg, plan))
         discarded = dict.fromkeys(DISCARD_REASONS, 0)
         for _ in range(self.cfg.max_attempts):
             placement = self.cfg.placement_ranges.sample(rng)
@@ -227,6 +229,8 @@ class EpisodeWriter:
             out["lighting"] = self.scene.lighting.as_array()
         if self.cfg.camera_pose != "fixed":
             out["camera_pose"] = self.scene.camera.pose_array()
+        if self.scene.table_texture is not None:
+            out["table_texture"] = self.scene.table_texture.as_array()
         return out
 
     def close(self) -> None:

@@ -14,6 +14,7 @@ from lfd.sim.approach import TABLE_Z, ApproachPlan, plan_approach
 from lfd.sim.camera import Lighting
 from lfd.sim.expert import DemoDiscarded, ScriptedExpert
 from lfd.sim.objects import ObjectSpec, Placement
+from lfd.sim.textures import TableTexture
 from lfd.visuomotor.eval.scenario import Scenario, load_scenario
 
 __all__ = ["Case", "evaluation_cases"]
@@ -34,6 +35,7 @@ class Case:
             scenario cases and datasets made with ``lighting="fixed"``).
         camera_pose: 9 numbers, the fixed camera's eye, target and up its dataset episode was
             recorded through (:meth:`lfd.sim.camera.Camera.pose_array`; None: the default pose).
+        table_texture: the table top its dataset episode was recorded with (None: the plain table).
     """
 
     object_index: int
@@ -46,6 +48,7 @@ class Case:
     table_z: float = TABLE_Z
     lighting: Lighting | None = None
     camera_pose: tuple[float, ...] | None = None
+    table_texture: TableTexture | None = None
 
     @property
     def object_centre(self) -> np.ndarray:
@@ -127,6 +130,7 @@ def evaluation_cases(
             table_z,
             Lighting.from_array(r.arrays["lighting"]) if "lighting" in r.arrays else None,
             tuple(r.arrays["camera_pose"].tolist()) if "camera_pose" in r.arrays else None,
+            TableTexture.from_array(r.arrays["table_texture"]) if "table_texture" in r.arrays else None,
         )
         for r in records
     ]

@@ -34,6 +34,7 @@ from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
 from lfd.sim.camera import Camera, Lighting, jitter_camera, sample_lighting
 from lfd.sim.scene import ReachScene
+from lfd.sim.textures import TableTexture, sample_table_texture
 from lfd.training import CHECKPOINT_GLOB, checkpoint_kind, find_checkpoints
 from lfd.visuomotor.data.datasets import load_dataset
 from lfd.visuomotor.data.fingerprint import training_overlap
@@ -68,6 +69,10 @@ EVAL_LIGHTING_STREAM = 7
 EVAL_CAMERA_POSES = ("dataset", "fixed", "jitter")
 #: Stream key of ``eval.camera_pose=jitter`` (apart from every dataset stream).
 EVAL_CAMERA_STREAM = 8
+#: ``eval.table_texture`` values (:class:`ReachEvalSettings`).
+EVAL_TABLE_TEXTURES = ("dataset", "plain", "random")
+#: Stream key of ``eval.table_texture=random`` (apart from every dataset stream).
+EVAL_TEXTURE_STREAM = 9
 
 
 @dataclass(frozen=True)
@@ -113,6 +118,12 @@ class ReachEvalSettings:
             ``"fixed"`` (always the default pose) or ``"jitter"`` (case ``i``'s camera moved by
             :func:`lfd.sim.camera.jitter_camera` of ``default_rng([EVAL_CAMERA_STREAM, i])``, the same
             for every kind: a robustness check against a camera put back a little off).
+        table_texture: the table top of each episode: ``"dataset"`` (the default: a dataset case's
+            recorded table, :attr:`~lfd.visuomotor.eval.cases.Case.table_texture`; the plain table for
+            scenario cases and datasets made with ``table_texture: plain``), ``"plain"`` (always the
+            plain table) or ``"random"`` (case ``i``'s table drawn by
+            :func:`lfd.sim.textures.sample_table_texture` of ``default_rng([EVAL_TEXTURE_STREAM, i])``,
+            the same for every kind: a robustness check on tables the training never saw).
         episode_reports: writers of the episodes in other layouts, called in order after the
             outputs above (:class:`~lfd.visuomotor.protocols.EpisodeReport`;
             ``configs/eval/reach.yaml``: LeRobot's, :func:`lfd.interop.lerobot.report.write_lerobot_eval`).
@@ -131,6 +142,7 @@ class ReachEvalSettings:
     torch_threads: int = 1
     lighting: str = "dataset"
     camera_pose: str = "dataset"
+    table_texture: str = "dataset"
     episode_reports: tuple[EpisodeReport, ...] = ()
 
     def __post_init__(self) -> None:
@@ -141,6 +153,10 @@ class ReachEvalSettings:
             raise ValueError(f"eval.split: expected 'test' or 'val', got {self.split!r}")
         if self.lighting not in EVAL_LIGHTINGS:
             raise ValueError(f"eval.lighting: expected one of {EVAL_LIGHTINGS}, got {self.lighting!r}")
+        if self.table_texture not in EVAL_TABLE_TEXTURES:
+            raise ValueError(
+                f"eval.table_texture: expected one of {EVAL_TABLE_TEXTURES}, got {self.table_texture!r}"
+            )
         if self.camera_pose not in EVAL_CAMERA_POSES:
             raise ValueError(
                 f"eval.camera_pose: expected one of {EVAL_CAMERA_POSES}, got {self.camera_pose!r}"
@@ -408,6 +424,7 @@ class ReachEvaluator:
                     "colour_tta": kind in self.settings.colour_tta,
                     "lighting": self.settings.lighting,
                     "camera_pose": self.settings.camera_pose,
+                    "table_texture": self.settings.table_texture,
                     "chunk_execution": policies[kind].execution
                     if kind in self.settings.chunk_execution
                     else None,
@@ -477,9 +494,16 @@ class ReachEvaluator:
             return camera.with_pose(case.camera_pose)
         return camera
 
+    def case_table_texture(self, i: int, case: Case) -> TableTexture | None:
+        """The table top of case ``i`` under ``eval.table_texture`` (:class:`ReachEvalSettings`)."""
+        if self.settings.table_texture == "random":
+            return sample_table_texture(np.random.default_rng([EVAL_TEXTURE_STREAM, i]))
+        return case.table_texture if self.settings.table_texture == "dataset" else None
+
     def _stage(self, scene, i: int, case: Case) -> None:
-        """Light case ``i`` and stand its camera (before ``scene.reset``)."""
+        """Light case ``i``, stand its camera and dress its table (before ``scene.reset``)."""
         scene.set_lighting(self.case_lighting(i, case))
+        scene.set_table_texture(self.case_table_texture(i, case))
         scene.set_camera(
             self.case_camera(i, case, Camera(width=scene.camera.width, height=scene.camera.height))
         )
