@@ -77,6 +77,11 @@ def test_the_scene_draws_the_table_with_its_texture_not_the_depth_and_back_to_pl
         table = (slice(30, 34), slice(20, 28))  # a patch of table in front of the object
         assert np.abs(tex_rgb[table].astype(int) - rgb[table].astype(int)).mean() > 20
         assert tex_rgb[table][..., 2].mean() > tex_rgb[table][..., 0].mean()  # blue, the grey table is not
+        for colour in ((0.9, 0.1, 0.1), (0.1, 0.9, 0.1), (0.9, 0.1, 0.1)):  # each texture its own, in turn
+            scene.set_table_texture(TableTexture("plain", colour))
+            scene.reset(BOX, Placement(0.58, 0.0, 0.0))
+            patch = scene.render()[table].reshape(-1, 3).mean(axis=0)
+            assert np.argmax(patch) == np.argmax(colour), (colour, patch)
         scene.set_table_texture(None)
         scene.reset(BOX, Placement(0.58, 0.0, 0.0))
         np.testing.assert_array_equal(scene.render(), rgb)

@@ -21,6 +21,7 @@ The fixed camera's backdrop is rendered once per scene.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import shutil
 import tempfile
@@ -375,8 +376,10 @@ class ReachScene(ArmJoints):
         p.resetSimulation(physicsClientId=c)
         table = self._add_static_bodies(c, visible=True)
         if texture is not None:
-            path = self._tmpdir / "table.png"
-            cv2.imwrite(str(path), texture.image()[..., ::-1])  # RGB -> OpenCV's BGR
+            # one file per texture: PyBullet caches textures by file name, even across resetSimulation
+            path = self._tmpdir / f"table-{hashlib.sha1(texture.as_array().tobytes()).hexdigest()[:16]}.png"
+            if not path.exists():
+                cv2.imwrite(str(path), texture.image()[..., ::-1])  # RGB -> OpenCV's BGR
             tex = p.loadTexture(str(path), physicsClientId=c)
             p.changeVisualShape(table, -1, textureUniqueId=tex, rgbaColor=[1, 1, 1, 1], physicsClientId=c)
         self._render_backdrop()
