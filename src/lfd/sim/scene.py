@@ -140,10 +140,9 @@ class ReachScene(ArmJoints):
         self._urdf.write_text(robot.to_urdf())
         self.client = p.connect(p.DIRECT)
         self._backdrop_client = p.connect(p.DIRECT)
-        self._add_static_bodies(self._backdrop_client, visible=True)
         self.lighting: Lighting | None = None
         self.table_texture: TableTexture | None = None
-        self._render_backdrop()
+        self._build_backdrop()
         self.robot_id = self.table_id = self.object_id = -1
         self.object_spec: ObjectSpec | None = None
         self.placement: Placement | None = None
@@ -372,7 +371,12 @@ class ReachScene(ArmJoints):
         if texture == self.table_texture:
             return
         self.table_texture = texture
-        c = self._backdrop_client
+        self._build_backdrop()
+
+    def _build_backdrop(self) -> None:
+        """(Re)build the backdrop client's floor and table, the table with :attr:`table_texture`,
+        and render it."""
+        c, texture = self._backdrop_client, self.table_texture
         p.resetSimulation(physicsClientId=c)
         table = self._add_static_bodies(c, visible=True)
         if texture is not None:

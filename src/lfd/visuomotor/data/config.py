@@ -165,22 +165,17 @@ class GeneratorConfig:
             raise ValueError(
                 f"GeneratorConfig.approach_fraction: expected a value in (0, 1), got {self.approach_fraction}"
             )
-        if self.sizes not in SIZE_SETS:
-            raise ValueError(f"GeneratorConfig.sizes: expected one of {tuple(SIZE_SETS)}, got {self.sizes!r}")
-        if self.lighting not in LIGHTINGS:
-            raise ValueError(f"GeneratorConfig.lighting: expected one of {LIGHTINGS}, got {self.lighting!r}")
-        if self.camera_pose not in CAMERA_POSES:
-            raise ValueError(
-                f"GeneratorConfig.camera_pose: expected one of {CAMERA_POSES}, got {self.camera_pose!r}"
-            )
-        if self.table_texture not in TABLE_TEXTURES:
-            raise ValueError(
-                f"GeneratorConfig.table_texture: expected one of {TABLE_TEXTURES}, got {self.table_texture!r}"
-            )
-        if self.val_sizes not in VAL_SIZES:
-            raise ValueError(
-                f"GeneratorConfig.val_sizes: expected one of {VAL_SIZES}, got {self.val_sizes!r}"
-            )
+        for name, choices in (
+            ("sizes", tuple(SIZE_SETS)),
+            ("lighting", LIGHTINGS),
+            ("camera_pose", CAMERA_POSES),
+            ("table_texture", TABLE_TEXTURES),
+            ("val_sizes", VAL_SIZES),
+        ):
+            if getattr(self, name) not in choices:
+                raise ValueError(
+                    f"GeneratorConfig.{name}: expected one of {choices}, got {getattr(self, name)!r}"
+                )
         for name in ("wrist_camera", "depth"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"GeneratorConfig.{name}: expected a bool, got {getattr(self, name)!r}")

@@ -151,16 +151,13 @@ class ReachEvalSettings:
 
         if self.split not in ("test", "val"):
             raise ValueError(f"eval.split: expected 'test' or 'val', got {self.split!r}")
-        if self.lighting not in EVAL_LIGHTINGS:
-            raise ValueError(f"eval.lighting: expected one of {EVAL_LIGHTINGS}, got {self.lighting!r}")
-        if self.table_texture not in EVAL_TABLE_TEXTURES:
-            raise ValueError(
-                f"eval.table_texture: expected one of {EVAL_TABLE_TEXTURES}, got {self.table_texture!r}"
-            )
-        if self.camera_pose not in EVAL_CAMERA_POSES:
-            raise ValueError(
-                f"eval.camera_pose: expected one of {EVAL_CAMERA_POSES}, got {self.camera_pose!r}"
-            )
+        for name, choices in (
+            ("lighting", EVAL_LIGHTINGS),
+            ("camera_pose", EVAL_CAMERA_POSES),
+            ("table_texture", EVAL_TABLE_TEXTURES),
+        ):
+            if getattr(self, name) not in choices:
+                raise ValueError(f"eval.{name}: expected one of {choices}, got {getattr(self, name)!r}")
         for name in KIND_LISTS:
             value = getattr(self, name)
             if value is None and name == "kinds":
