@@ -3,7 +3,7 @@ arms, the one joint-trajectory tracker (:mod:`lfd.sim.tracking`) and the collisi
 the one self-collision rule (:mod:`lfd.sim.collision`).
 
 Names are loaded on first use (PEP 562), so the modules without PyBullet
-(:mod:`lfd.sim.objects`, :mod:`lfd.sim.approach`, :mod:`lfd.sim.trajectory`) import
+(:mod:`lfd.sim.objects`, :mod:`lfd.sim.approach`, :mod:`lfd.sim.trajectory`, :mod:`lfd.sim.clutter`) import
 without a simulator.
 
 Frames and units: every pose is in the robot base (PR2 ``torso_lift_link``) frame, in
@@ -53,6 +53,14 @@ _EXPORTS = exports(
             "sample_lighting",
         ],
         "textures": ["TEXTURE_KINDS", "TEXTURE_RANGES", "TableTexture", "sample_table_texture"],
+        "clutter": [
+            "CLUTTER_RANGES",
+            "MAX_CLUTTER",
+            "FlatItem",
+            "clutter_as_array",
+            "clutter_from_array",
+            "sample_clutter",
+        ],
         "expert": [
             "DISCARD_REASONS",
             "DemoDiscarded",
@@ -114,6 +122,14 @@ if TYPE_CHECKING:
         perspective,
         project_points,
         sample_lighting,
+    )
+    from .clutter import (
+        CLUTTER_RANGES,
+        MAX_CLUTTER,
+        FlatItem,
+        clutter_as_array,
+        clutter_from_array,
+        sample_clutter,
     )
     from .collision import CollisionReport, CollisionWorld, overlapping_link_pairs
     from .expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert, run_demonstration

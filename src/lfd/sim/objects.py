@@ -83,6 +83,14 @@ class ObjectSpec:
         return self.dims[2]
 
     @property
+    def footprint_radius(self) -> float:
+        """Radius (m) of the smallest circle about the vertical axis that holds the upright
+        object's footprint (a box's half diagonal)."""
+        if self.shape == "box":
+            return 0.5 * math.hypot(self.dims[0], self.dims[1])
+        return self.dims[0]
+
+    @property
     def round(self) -> bool:
         """True for shapes symmetric about their vertical axis (cylinder, capsule, sphere)."""
         return self.shape != "box"

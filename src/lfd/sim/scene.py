@@ -34,6 +34,7 @@ import numpy as np
 from lfd.sim._pybullet import pybullet as p
 from lfd.sim.approach import TABLE_Z
 from lfd.sim.camera import Camera, Lighting
+from lfd.sim.clutter import FlatItem
 from lfd.sim.collision import overlapping_link_pairs
 from lfd.sim.joints import ArmJoints
 from lfd.sim.objects import ObjectSpec, Placement
@@ -142,6 +143,7 @@ class ReachScene(ArmJoints):
         self._backdrop_client = p.connect(p.DIRECT)
         self.lighting: Lighting | None = None
         self.table_texture: TableTexture | None = None
+        self.clutter: tuple[FlatItem, ...] = ()
         self._build_backdrop()
         self.robot_id = self.table_id = self.object_id = -1
         self.object_spec: ObjectSpec | None = None
@@ -373,9 +375,21 @@ class ReachScene(ArmJoints):
         self.table_texture = texture
         self._build_backdrop()
 
+    def set_clutter(self, items: tuple[FlatItem, ...] | list[FlatItem]) -> None:
+        """Lay ``items`` (:class:`~lfd.sim.clutter.FlatItem`, torso frame) on the table in every
+        later image (fixed and wrist camera, colour and depth); ``()`` clears the table. They are
+        drawn, not simulated: the arm and the object pass through them. Lasts across :meth:`reset`."""
+        items = tuple(items)
+        if not all(isinstance(i, FlatItem) for i in items):
+            raise ValueError("ReachScene.set_clutter: expected a sequence of FlatItem")
+        if items == self.clutter:
+            return
+        self.clutter = items
+        self._build_backdrop()
+
     def _build_backdrop(self) -> None:
-        """(Re)build the backdrop client's floor and table, the table with :attr:`table_texture`,
-        and render it."""
+        """(Re)build the backdrop client's floor and table, the table with :attr:`table_texture`
+        and :attr:`clutter` on it, and render it."""
         c, texture = self._backdrop_client, self.table_texture
         p.resetSimulation(physicsClientId=c)
         table = self._add_static_bodies(c, visible=True)
@@ -386,6 +400,20 @@ class ReachScene(ArmJoints):
                 cv2.imwrite(str(path), texture.image()[..., ::-1])  # RGB -> OpenCV's BGR
             tex = p.loadTexture(str(path), physicsClientId=c)
             p.changeVisualShape(table, -1, textureUniqueId=tex, rgbaColor=[1, 1, 1, 1], physicsClientId=c)
+        for item in self.clutter:
+            half = (item.length / 2, item.width / 2, item.height / 2)
+            vis = p.createVisualShape(
+                p.GEOM_BOX, halfExtents=half, rgbaColor=(*item.colour, 1.0), physicsClientId=c
+            )
+            centre = self.base_to_world @ np.array([item.x, item.y, self.table_z + half[2], 1.0])
+            p.createMultiBody(
+                0.0,
+                -1,
+                vis,
+                basePosition=centre[:3].tolist(),
+                baseOrientation=yaw_quaternion(item.yaw),
+                physicsClientId=c,
+            )
         self._render_backdrop()
 
     def _render_backdrop(self) -> None:

@@ -194,14 +194,30 @@ SCENE_OPTIONS = {
     "lighting": ("random", "lighting"),
     "camera_pose": ("jitter", "camera_pose"),
     "table_texture": ("random", "table_texture"),
+    "clutter": (3, "clutter"),
 }
 
 
-def _drawn(setting: str, cfg, plan):
-    """The array episode ``plan`` of ``cfg`` must store for ``setting`` (None: nothing, the default)."""
+def _drawn(setting: str, cfg, plan, attempts: int = 1):
+    """The array episode ``plan`` of ``cfg`` must store for ``setting`` (None: nothing, the default);
+    the clutter is drawn once per placement tried (``attempts``)."""
     from lfd.sim.camera import Camera
-    from lfd.visuomotor.data.episodes import episode_camera, episode_lighting, episode_table_texture
+    from lfd.sim.clutter import clutter_as_array, sample_clutter
+    from lfd.visuomotor.data.episodes import (
+        clutter_rng,
+        episode_camera,
+        episode_lighting,
+        episode_table_texture,
+        placement_rng,
+    )
 
+    if setting == "clutter":
+        if not cfg.clutter:
+            return None
+        places, items = placement_rng(cfg, plan), clutter_rng(cfg, plan)
+        for _ in range(attempts):
+            drawn = sample_clutter(items, cfg.clutter, plan.obj, cfg.placement_ranges.sample(places))
+        return clutter_as_array(drawn)
     if setting == "camera_pose":
         base = Camera(width=cfg.image_size, height=cfg.image_size)
         camera = episode_camera(cfg, plan, base)
@@ -212,8 +228,9 @@ def _drawn(setting: str, cfg, plan):
 
 @pytest.mark.parametrize("setting", sorted(SCENE_OPTIONS))
 def test_random_scene_options_are_recorded_keyed_and_leave_the_demonstrations(setting, reference, tmp_path):
-    """``lighting="random"``, ``camera_pose="jitter"``, ``table_texture="random"``: each episode under
-    its own light / through its own camera / on its own table, recorded in the file and drawn from a
+    """``lighting="random"``, ``camera_pose="jitter"``, ``table_texture="random"``, ``clutter=3``: each
+    episode under its own light / through its own camera / on its own table / among its own flat items
+    (drawn again for every placement tried), recorded in the file and drawn from a
     keyed stream (the same draw for the same group, object and placement, whatever else the config
     says); the placements and trajectories of the plain dataset are unchanged, its frames are not; a
     plain config keeps its hash; a bad value is named. With the jitter, ``camera_view`` is the episode's
@@ -228,10 +245,11 @@ def test_random_scene_options_are_recorded_keyed_and_leave_the_demonstrations(se
     out = tmp_path / setting
     generate_dataset(cfg, out, num_workers=1, progress=False)
     varied, plain = load_dataset(out, cfg), load_dataset(reference, TINY)
-    draws = []
+    draws, tries = [], []
     for a, b, plan in zip(varied.episodes, plain.episodes, plan_episodes(cfg), strict=True):
         assert key in a.arrays and key not in b.arrays
-        np.testing.assert_array_equal(a.arrays[key], _drawn(setting, cfg, plan))
+        tries.append(1 + int(a.arrays["discarded"].sum()))
+        np.testing.assert_array_equal(a.arrays[key], _drawn(setting, cfg, plan, tries[-1]))
         draws.append(a.arrays[key].tobytes())
         np.testing.assert_array_equal(a.placement.as_array(), b.placement.as_array())
         np.testing.assert_allclose(a.arrays["joints"], b.arrays["joints"], atol=1e-9)
@@ -244,7 +262,9 @@ def test_random_scene_options_are_recorded_keyed_and_leave_the_demonstrations(se
             np.testing.assert_allclose(b.arrays["camera_view"], base.view_matrix, atol=1e-12)
     assert len(set(draws)) == len(draws)
     more = GeneratorConfig(**{**cfg.to_dict(), "n_test_placements": 3})
-    assert [_drawn(setting, more, p).tobytes() for p in plan_episodes(more)[:6]] == draws[:6]
+    assert [_drawn(setting, more, p, n).tobytes() for p, n in zip(plan_episodes(more)[:6], tries)] == draws[
+        :6
+    ]
     assert _drawn(setting, TINY, plan_episodes(TINY)[0]) is None
-    with pytest.raises(ValueError, match=f"GeneratorConfig.{setting}: expected one of"):
+    with pytest.raises(ValueError, match=f"GeneratorConfig.{setting}: expected (one of|an int)"):
         GeneratorConfig(**{**TINY.to_dict(), setting: "wobbly"})

@@ -247,6 +247,7 @@ SCENE_SETTINGS = {
     "lighting": ("set_lighting", "random", evaluator_module.EVAL_LIGHTING_STREAM),
     "camera_pose": ("set_camera", "jitter", evaluator_module.EVAL_CAMERA_STREAM),
     "table_texture": ("set_table_texture", "random", evaluator_module.EVAL_TEXTURE_STREAM),
+    "clutter": ("set_clutter", 3, evaluator_module.EVAL_CLUTTER_STREAM),
 }
 
 
@@ -254,11 +255,14 @@ SCENE_SETTINGS = {
 def test_random_scene_settings_give_each_case_its_own_keyed_draw_the_same_for_every_kind(
     setting, checkpoints, tiny, workspace, monkeypatch
 ):
-    """``eval.lighting=random`` / ``eval.camera_pose=jitter`` / ``eval.table_texture=random``: case ``i``
-    under its own keyed light / through its own keyed camera / on its own keyed table, the same for every
-    kind; ``dataset`` on a scenario: the default light / camera / plain table. metrics.json records the
-    setting; a bad value is refused in one line."""
+    """``eval.lighting=random`` / ``eval.camera_pose=jitter`` / ``eval.table_texture=random`` /
+    ``eval.clutter=3``: case ``i`` under its own keyed light / through its own keyed camera / on its own
+    keyed table / among its own keyed flat items, the same for every kind; ``dataset`` on a scenario: the
+    default light / camera / plain, clear table. metrics.json records the setting; a bad value is refused
+    in one line."""
     from lfd.sim.camera import Camera, jitter_camera, sample_lighting
+    from lfd.sim.clutter import sample_clutter
+    from lfd.sim.objects import ObjectSpec, Placement
     from lfd.sim.scene import ReachScene
     from lfd.sim.textures import sample_table_texture
 
@@ -289,17 +293,22 @@ def test_random_scene_settings_give_each_case_its_own_keyed_draw_the_same_for_ev
         assert len(per_kind) == len(metrics) == 2 and per_kind[0] == per_kind[1]
         size = cfg.data.image_size
         if value == "dataset":
-            default = Camera(width=size, height=size) if setting == "camera_pose" else None
+            default = {"camera_pose": Camera(width=size, height=size), "clutter": ()}.get(setting)
             assert per_kind[0] == [default] * 3
             continue
         rngs = [np.random.default_rng([stream, i]) for i in (0, 0, 1)]
         if setting == "camera_pose":
             expected = [jitter_camera(Camera(width=size, height=size), rng) for rng in rngs]
+        elif setting == "clutter":
+            can = ObjectSpec("cylinder", (0.035, 0.14), (1.0, 0.5, 0.0, 1.0), 0.3)
+            places = [Placement(0.55, 0.05, 0.3), Placement(0.55, 0.05, 0.3), Placement(0.60, -0.10, 0.0)]
+            expected = [sample_clutter(rng, 3, can, pl) for rng, pl in zip(rngs, places)]
+            assert all(len(items) == 3 for items in expected)
         else:
             draw = sample_lighting if setting == "lighting" else sample_table_texture
             expected = [draw(rng) for rng in rngs]
         assert per_kind[0] == expected and expected[0] != expected[2]
-    with pytest.raises(ValueError, match=f"eval.{setting}: expected one of"):
+    with pytest.raises(ValueError, match=f"eval.{setting}: expected (one of|'dataset' or an int)"):
         evaluator_module.ReachEvalSettings(**{setting: "wobbly"})
 
 

@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass, fields
 from typing import Any
 
 from lfd.io.files import json_bytes
+from lfd.sim.clutter import MAX_CLUTTER
 from lfd.sim.objects import SHAPES, SIZE_SETS, PlacementRanges
 
 #: Version of the on-disk dataset format (``manifest.json``).
@@ -76,6 +77,10 @@ class GeneratorConfig:
         table_texture: ``"plain"`` (the default: the grey table) or ``"random"`` (every episode's
             table top drawn with its own :func:`lfd.sim.textures.sample_table_texture`, from a
             stream keyed like the placements, stored as the episode's ``table_texture`` array).
+        clutter: flat items laid around each episode's object, 0 (the default) to
+            :data:`lfd.sim.clutter.MAX_CLUTTER` (:func:`lfd.sim.clutter.sample_clutter` for every
+            placement tried, from a stream keyed like the placements; stored as the episode's
+            ``clutter`` array, ``(n, 9)``; seen by the cameras, not simulated).
     """
 
     seed: int = 0
@@ -107,6 +112,7 @@ class GeneratorConfig:
     lighting: str = "fixed"
     camera_pose: str = "fixed"
     table_texture: str = "plain"
+    clutter: int = 0
 
     def __post_init__(self) -> None:
         # canonical types, so that e.g. a YAML "90" and "90.0" give the same config and hash
@@ -129,12 +135,17 @@ class GeneratorConfig:
             ("substeps", 1),
             ("n_basis", 1),
             ("max_attempts", 1),
+            ("clutter", 0),
         ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < low:
                 raise ValueError(f"GeneratorConfig.{name}: expected an int >= {low}, got {value!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"GeneratorConfig.seed: expected an int >= 0, got {self.seed!r}")
+        if self.clutter > MAX_CLUTTER:
+            raise ValueError(
+                f"GeneratorConfig.clutter: expected an int in [0, {MAX_CLUTTER}], got {self.clutter}"
+            )
         if not 0 <= self.val_fraction < 1:
             raise ValueError(
                 f"GeneratorConfig.val_fraction: expected a value in [0, 1), got {self.val_fraction}"
@@ -240,4 +251,5 @@ _LATER_OPTIONS = {
     "lighting": "fixed",
     "camera_pose": "fixed",
     "table_texture": "plain",
+    "clutter": 0,
 }

@@ -38,7 +38,7 @@ class ReachDataModule(L.LightningDataModule):
     and :class:`~lfd.visuomotor.data.datasets.VelocityReachDataset`).
 
     Generator arguments (``seed`` ... ``robot``, ``val_sizes``, ``sizes``, ``lighting``, ``camera_pose``,
-    ``table_texture``) are those of :class:`~lfd.visuomotor.data.config.GeneratorConfig` and define the
+    ``table_texture``, ``clutter``) are those of :class:`~lfd.visuomotor.data.config.GeneratorConfig` and define the
     dataset's content; the others only change how it is made or served.
 
     Args:
@@ -98,6 +98,7 @@ class ReachDataModule(L.LightningDataModule):
         lighting: str = "fixed",
         camera_pose: str = "fixed",
         table_texture: str = "plain",
+        clutter: int = 0,
         batch_size: int = 32,
         num_workers: int = 0,
         augment: bool = False,
@@ -144,6 +145,7 @@ class ReachDataModule(L.LightningDataModule):
             lighting=lighting,
             camera_pose=camera_pose,
             table_texture=table_texture,
+            clutter=clutter,
         )
         self.input_depth = bool(depth if input_depth is None else input_depth)
         if self.input_depth and not depth:

@@ -69,6 +69,7 @@ SPLIT_STREAM, PLACEMENT_STREAM, OBJECT_STREAM, LIGHTING_STREAM, CAMERA_STREAM, T
     6,
     7,
 )
+CLUTTER_STREAM = 8
 #: Stream key of each object group (see the module docstring).
 GROUP_KEYS = {"train": 0, "val": 1, "test": 2}
 
@@ -189,6 +190,12 @@ def episode_table_texture(cfg: GeneratorConfig, plan: EpisodePlan) -> TableTextu
     if cfg.table_texture == "plain":
         return None
     return sample_table_texture(_episode_rng(cfg, plan, TEXTURE_STREAM))
+
+
+def clutter_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:
+    """The random stream an episode draws its clutter from (:data:`CLUTTER_STREAM`, keyed like
+    the placements): one :func:`lfd.sim.clutter.sample_clutter` per placement tried."""
+    return _episode_rng(cfg, plan, CLUTTER_STREAM)
 
 
 def placement_rng(cfg: GeneratorConfig, plan: EpisodePlan) -> np.random.Generator:

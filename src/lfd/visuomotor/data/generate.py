@@ -28,12 +28,14 @@ import lfd
 from lfd.dmp import DMP
 from lfd.io.files import DatasetError, write_bytes_atomic, write_npz_atomic
 from lfd.robots import load_robot
+from lfd.sim.clutter import clutter_as_array, sample_clutter
 from lfd.sim.expert import DISCARD_REASONS, DemoDiscarded, Demonstration, ScriptedExpert
 from lfd.sim.scene import ReachScene
 from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import (
     EpisodePlan,
     EpisodeRecord,
+    clutter_rng,
     episode_camera,
     episode_lighting,
     episode_path,
@@ -161,8 +163,10 @@ class EpisodeWriter:
         self.scene.set_camera(episode_camera(self.cfg, plan, self.camera))
         self.scene.set_table_texture(episode_table_texture(self.cfg, plan))
         discarded = dict.fromkeys(DISCARD_REASONS, 0)
+        items = clutter_rng(self.cfg, plan)
         for _ in range(self.cfg.max_attempts):
             placement = self.cfg.placement_ranges.sample(rng)
+            self.scene.set_clutter(sample_clutter(items, self.cfg.clutter, plan.obj, placement))
             try:
                 demo = self.expert.run(self.scene, plan.obj, placement)
             except DemoDiscarded as d:
@@ -231,6 +235,8 @@ class EpisodeWriter:
             out["camera_pose"] = self.scene.camera.pose_array()
         if self.scene.table_texture is not None:
             out["table_texture"] = self.scene.table_texture.as_array()
+        if self.cfg.clutter:
+            out["clutter"] = clutter_as_array(self.scene.clutter)
         return out
 
     def close(self) -> None:

@@ -12,6 +12,7 @@ import numpy as np
 
 from lfd.sim.approach import TABLE_Z, ApproachPlan, plan_approach
 from lfd.sim.camera import Lighting
+from lfd.sim.clutter import FlatItem, clutter_from_array
 from lfd.sim.expert import DemoDiscarded, ScriptedExpert
 from lfd.sim.objects import ObjectSpec, Placement
 from lfd.sim.textures import TableTexture
@@ -36,6 +37,7 @@ class Case:
         camera_pose: 9 numbers, the fixed camera's eye, target and up its dataset episode was
             recorded through (:meth:`lfd.sim.camera.Camera.pose_array`; None: the default pose).
         table_texture: the table top its dataset episode was recorded with (None: the plain table).
+        clutter: the flat items its dataset episode was recorded with (``()``: none).
     """
 
     object_index: int
@@ -49,6 +51,7 @@ class Case:
     lighting: Lighting | None = None
     camera_pose: tuple[float, ...] | None = None
     table_texture: TableTexture | None = None
+    clutter: tuple[FlatItem, ...] = ()
 
     @property
     def object_centre(self) -> np.ndarray:
@@ -131,6 +134,7 @@ def evaluation_cases(
             Lighting.from_array(r.arrays["lighting"]) if "lighting" in r.arrays else None,
             tuple(r.arrays["camera_pose"].tolist()) if "camera_pose" in r.arrays else None,
             TableTexture.from_array(r.arrays["table_texture"]) if "table_texture" in r.arrays else None,
+            clutter_from_array(r.arrays["clutter"]) if "clutter" in r.arrays else (),
         )
         for r in records
     ]

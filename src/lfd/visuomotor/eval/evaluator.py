@@ -33,6 +33,7 @@ import torch
 from lfd.io.files import json_bytes, write_bytes_atomic
 from lfd.robots import load_robot
 from lfd.sim.camera import Camera, Lighting, jitter_camera, sample_lighting
+from lfd.sim.clutter import MAX_CLUTTER, FlatItem, sample_clutter
 from lfd.sim.scene import ReachScene
 from lfd.sim.textures import TableTexture, sample_table_texture
 from lfd.training import CHECKPOINT_GLOB, checkpoint_kind, find_checkpoints
@@ -73,6 +74,8 @@ EVAL_CAMERA_STREAM = 8
 EVAL_TABLE_TEXTURES = ("dataset", "plain", "random")
 #: Stream key of ``eval.table_texture=random`` (apart from every dataset stream).
 EVAL_TEXTURE_STREAM = 9
+#: Stream key of ``eval.clutter=N`` (apart from every dataset stream).
+EVAL_CLUTTER_STREAM = 10
 
 
 @dataclass(frozen=True)
@@ -124,6 +127,12 @@ class ReachEvalSettings:
             plain table) or ``"random"`` (case ``i``'s table drawn by
             :func:`lfd.sim.textures.sample_table_texture` of ``default_rng([EVAL_TEXTURE_STREAM, i])``,
             the same for every kind: a robustness check on tables the training never saw).
+        clutter: the flat items around each episode's object: ``"dataset"`` (the default: a
+            dataset case's recorded items, :attr:`~lfd.visuomotor.eval.cases.Case.clutter`; none
+            for scenario cases and datasets made with ``clutter: 0``) or an integer ``N`` in
+            ``[0, MAX_CLUTTER]`` (case ``i`` with up to ``N`` items of
+            :func:`lfd.sim.clutter.sample_clutter` from ``default_rng([EVAL_CLUTTER_STREAM, i])``, the
+            same for every kind: a robustness check on cluttered tables; 0 clears every table).
         episode_reports: writers of the episodes in other layouts, called in order after the
             outputs above (:class:`~lfd.visuomotor.protocols.EpisodeReport`;
             ``configs/eval/reach.yaml``: LeRobot's, :func:`lfd.interop.lerobot.report.write_lerobot_eval`).
@@ -143,6 +152,7 @@ class ReachEvalSettings:
     lighting: str = "dataset"
     camera_pose: str = "dataset"
     table_texture: str = "dataset"
+    clutter: str | int = "dataset"
     episode_reports: tuple[EpisodeReport, ...] = ()
 
     def __post_init__(self) -> None:
@@ -158,6 +168,14 @@ class ReachEvalSettings:
         ):
             if getattr(self, name) not in choices:
                 raise ValueError(f"eval.{name}: expected one of {choices}, got {getattr(self, name)!r}")
+        if self.clutter != "dataset" and (
+            isinstance(self.clutter, bool)
+            or not isinstance(self.clutter, int)
+            or not 0 <= self.clutter <= MAX_CLUTTER
+        ):
+            raise ValueError(
+                f"eval.clutter: expected 'dataset' or an int in [0, {MAX_CLUTTER}], got {self.clutter!r}"
+            )
         for name in KIND_LISTS:
             value = getattr(self, name)
             if value is None and name == "kinds":
@@ -422,6 +440,7 @@ class ReachEvaluator:
                     "lighting": self.settings.lighting,
                     "camera_pose": self.settings.camera_pose,
                     "table_texture": self.settings.table_texture,
+                    "clutter": self.settings.clutter,
                     "chunk_execution": policies[kind].execution
                     if kind in self.settings.chunk_execution
                     else None,
@@ -497,10 +516,18 @@ class ReachEvaluator:
             return sample_table_texture(np.random.default_rng([EVAL_TEXTURE_STREAM, i]))
         return case.table_texture if self.settings.table_texture == "dataset" else None
 
+    def case_clutter(self, i: int, case: Case) -> tuple[FlatItem, ...]:
+        """The flat items around case ``i``'s object under ``eval.clutter`` (:class:`ReachEvalSettings`)."""
+        if self.settings.clutter == "dataset":
+            return case.clutter
+        rng = np.random.default_rng([EVAL_CLUTTER_STREAM, i])
+        return sample_clutter(rng, self.settings.clutter, case.obj, case.placement)
+
     def _stage(self, scene, i: int, case: Case) -> None:
         """Light case ``i``, stand its camera and dress its table (before ``scene.reset``)."""
         scene.set_lighting(self.case_lighting(i, case))
         scene.set_table_texture(self.case_table_texture(i, case))
+        scene.set_clutter(self.case_clutter(i, case))
         scene.set_camera(
             self.case_camera(i, case, Camera(width=scene.camera.width, height=scene.camera.height))
         )
