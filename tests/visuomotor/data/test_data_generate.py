@@ -78,10 +78,18 @@ def test_generated_dataset_reloads(reference):
     assert report.generated == [] and report.skipped == 8
 
 
-def test_same_bytes_with_two_workers(reference, tmp_path):
+def test_same_bytes_with_two_workers_and_no_scene_folder_left(reference, tmp_path, monkeypatch):
+    """The workers' scenes are closed when the pool ends (a worker exits without running __del__):
+    no ``lfd-scene-*`` temporary folder is left behind."""
+    import tempfile
+
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))  # the forked workers inherit it
     out = tmp_path / "tiny"
     generate_dataset(TINY, out, num_workers=2, progress=False)
     assert files_of(out) == files_of(reference)
+    assert list(scratch.iterdir()) == []
 
 
 def test_resume_after_interruption_makes_only_missing_episodes(reference, tmp_path):

@@ -18,6 +18,7 @@ import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
+from multiprocessing import util as mp_util
 from pathlib import Path
 
 import numpy as np
@@ -250,6 +251,9 @@ def _init_worker(cfg_dict: dict, out_dir: str, version: str) -> None:
     global _WORKER
     torch.set_num_threads(1)
     _WORKER = EpisodeWriter(GeneratorConfig.from_dict(cfg_dict), Path(out_dir), version)
+    # A pool worker ends through os._exit, which runs no __del__: close the scene (its PyBullet
+    # clients and temporary folder) in multiprocessing's exit hook instead.
+    mp_util.Finalize(None, _WORKER.close, exitpriority=0)
 
 
 def _run_worker(index: int) -> tuple[int, list[int]]:
