@@ -3,7 +3,8 @@ arms, the one joint-trajectory tracker (:mod:`lfd.sim.tracking`) and the collisi
 the one self-collision rule (:mod:`lfd.sim.collision`).
 
 Names are loaded on first use (PEP 562), so the modules without PyBullet
-(:mod:`lfd.sim.objects`, :mod:`lfd.sim.approach`, :mod:`lfd.sim.trajectory`, :mod:`lfd.sim.clutter`) import
+(:mod:`lfd.sim.objects`, :mod:`lfd.sim.approach`, :mod:`lfd.sim.trajectory`, :mod:`lfd.sim.clutter`,
+:mod:`lfd.sim.depth`, :mod:`lfd.sim.projection`) import
 without a simulator.
 
 Frames and units: every pose is in the robot base (PR2 ``torso_lift_link``) frame, in
@@ -49,9 +50,9 @@ _EXPORTS = exports(
             "jitter_camera",
             "look_at",
             "perspective",
-            "project_points",
             "sample_lighting",
         ],
+        "projection": ["project_points"],
         "textures": ["TEXTURE_KINDS", "TEXTURE_RANGES", "TableTexture", "sample_table_texture"],
         "clutter": [
             "CLUTTER_RANGES",
@@ -120,7 +121,6 @@ if TYPE_CHECKING:
         jitter_camera,
         look_at,
         perspective,
-        project_points,
         sample_lighting,
     )
     from .clutter import (
@@ -143,6 +143,7 @@ if TYPE_CHECKING:
         sample_object,
         sample_objects,
     )
+    from .projection import project_points
     from .scene import ReachScene
     from .textures import TEXTURE_KINDS, TEXTURE_RANGES, TableTexture, sample_table_texture
     from .tracking import (

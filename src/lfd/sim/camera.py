@@ -15,6 +15,7 @@ import numpy as np
 
 from lfd.sim._pybullet import pybullet as p
 from lfd.sim.depth import depth_to_mm, linear_depth, plane_depth_mm
+from lfd.sim.projection import project_points
 
 #: Direction towards the light (world frame) of the default lighting.
 LIGHT_DIRECTION = (0.4, -0.3, 1.0)
@@ -147,22 +148,6 @@ def perspective(fov_deg: float, aspect: float, near: float, far: float) -> np.nd
 def to_pybullet(matrix: np.ndarray) -> list[float]:
     """Flatten a ``(4, 4)`` matrix column-major, as PyBullet expects."""
     return [float(v) for v in np.asarray(matrix).T.reshape(-1)]
-
-
-def project_points(
-    points: np.ndarray, view: np.ndarray, proj: np.ndarray, width: int, height: int
-) -> np.ndarray:
-    """Pixel coordinates ``(..., 2)`` of ``points (..., 3)`` (given in the frame ``view``
-    was built in). Points behind the camera give NaN."""
-    pts = np.asarray(points, dtype=np.float64)
-    homo = np.concatenate([pts, np.ones(pts.shape[:-1] + (1,))], axis=-1)
-    clip = homo @ (proj @ view).T
-    w = clip[..., 3:4]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ndc = np.where(w > 0, clip[..., :2] / w, np.nan)
-    u = (ndc[..., 0] + 1) / 2 * width
-    v = (1 - ndc[..., 1]) / 2 * height
-    return np.stack([u, v], axis=-1)
 
 
 @dataclass(frozen=True)
