@@ -55,7 +55,14 @@ def test_dmp_items(root):
         "target_point": (4, 3),
         "top": (4,),
         "index": (4,),
+        "target_pixels": (4, 2),
     }
+    # the target's pixel: where the default camera (PyBullet-checked in tests/sim) sees the target point
+    from lfd.sim.camera import Camera
+
+    seen = Camera(width=32, height=32).project(batch["target_point"].double().numpy())
+    np.testing.assert_allclose(batch["target_pixels"].numpy(), seen, atol=1e-3)
+    assert ((batch["target_pixels"] > 0) & (batch["target_pixels"] < 32)).all()  # placements lie in view
     # the approach-mode label matches each episode's record
     modes = [str(dm.data.episodes[int(i)].arrays["approach_mode"]) for i in batch["index"]]
     assert batch["top"].tolist() == [float(m == "top") for m in modes]
@@ -83,6 +90,11 @@ def test_velocity_items_and_augmentation(root):
     augmented = torch.stack([dm.datasets["train"][31]["image"] for _ in range(2)])
     assert not torch.equal(augmented[0], augmented[1])
     plain = dm.datasets["val"][0]["image"]  # no augmentation outside training
+    shifted = ReachDataModule(name="tiny", root=root, mode="dmp", augment=True, **TINY)
+    shifted.setup("fit")  # shifted images: no pixel label for training, the label where nothing moves
+    assert (
+        "target_pixels" not in shifted.datasets["train"][0] and "target_pixels" in shifted.datasets["val"][0]
+    )
     assert torch.equal(plain, dm.datasets["val"][0]["image"])
     batch = next(iter(dm.val_dataloader()))
     assert batch["velocity"].shape == (4, 7) and batch["t"].shape == (4,)

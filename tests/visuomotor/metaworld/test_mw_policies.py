@@ -427,8 +427,6 @@ def test_keypoint_settings_are_checked_in_one_line(push):
     for bad in (-1.0, float("nan"), True, "1"):
         with pytest.raises(ValueError, match=r"^CNNDMPPolicy.keypoint_weight: expected a finite number >= 0"):
             CNNDMPPolicy(placement_dim=6, keypoint_weight=bad, **common)
-    with pytest.raises(ValueError, match=r"^CNNDMPPolicy.keypoint_weight: needs placement_dim > 0"):
-        CNNDMPPolicy(keypoint_weight=1.0, **common)
     with pytest.raises(
         ValueError, match=r"^CNNDMPPolicy.keypoint_head: expected one of \('all', 'supervised', "
     ):

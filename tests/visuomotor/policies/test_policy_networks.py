@@ -251,6 +251,45 @@ def test_auxiliary_labels_train_the_shared_features_and_are_checked():
     assert velocity.head[-1].out_features == 7 + 4
 
 
+def test_a_keypoint_learns_where_the_target_appears_without_a_placement():
+    """keypoint_weight > 0 without placement_dim: the first keypoint is trained onto the batch's
+    ``target_pixels`` (a bright square on a dark image here), its loss is added to the trajectory
+    loss, and a batch without the label gets one line naming it."""
+    torch.manual_seed(0)
+    policy = CNNDMPPolicy(n_basis=5, keypoint_weight=10.0, **SMALL)
+    batch = dmp_batch(b=4)
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy\(keypoint_weight > 0\): batches need 'target_pixels'"
+    ):
+        policy.losses(batch)
+    g = torch.Generator().manual_seed(1)
+    centres = torch.randint(4, 20, (4, 2), generator=g)
+    batch["image"] = torch.zeros(4, 3, 24, 24)
+    for k, (u, v) in enumerate(centres.tolist()):
+        batch["image"][k, :, v - 1 : v + 2, u - 1 : u + 2] = (
+            1.0  # a 3 x 3 px object centred on (u + 0.5, v + 0.5)
+        )
+    batch["target_pixels"] = centres.float() + 0.5
+    policy.train()
+    losses = policy.losses(batch)
+    plain = CNNDMPPolicy(n_basis=5, **SMALL)
+    plain.load_state_dict(policy.state_dict())
+    plain.train()
+    torch.testing.assert_close(losses["loss"], plain.losses(batch)["loss"] + 10.0 * losses["keypoint_mse"])
+    before = float(losses["keypoint_err_px"].detach())
+    opt = torch.optim.Adam(policy.parameters(), lr=1e-2)
+    for _ in range(150):
+        opt.zero_grad()
+        policy.losses(batch)["keypoint_mse"].backward()
+        opt.step()
+    after = float(policy.losses(batch)["keypoint_err_px"].detach())
+    assert before > 3.0 and after < 1.5, (before, after)
+    with pytest.raises(
+        ValueError, match=r"^CNNDMPPolicy.keypoint_head: 'supervised' needs keypoint_weight > 0 and "
+    ):
+        CNNDMPPolicy(n_basis=5, keypoint_weight=1.0, keypoint_head="supervised", **SMALL)
+
+
 def test_mode_heads_follow_the_demonstrated_mode_in_training_and_the_logit_at_run_time():
     torch.manual_seed(0)
     with pytest.raises(ValueError, match="mode_heads"):

@@ -29,6 +29,7 @@ from torch.utils.data import Dataset
 from lfd.io.files import DatasetError, read_json
 from lfd.sim.approach import TABLE_Z
 from lfd.sim.depth import DEPTH_ENCODINGS, plane_depth_mm, rgbd_image
+from lfd.sim.projection import project_points
 from lfd.visuomotor.data.config import GeneratorConfig
 from lfd.visuomotor.data.episodes import SPLITS, EpisodeRecord, episode_path
 from lfd.visuomotor.data.generate import code_version
@@ -252,6 +253,23 @@ def mode_labels(records: list[EpisodeRecord], steps: int | torch.Tensor) -> dict
     }
 
 
+def target_pixel_labels(records: list[EpisodeRecord], width: int, height: int) -> dict[str, torch.Tensor]:
+    """``{"target_pixels": (N, 2)}`` float32 px: where each record's ``target_point`` appears in its
+    ``width`` x ``height`` images, projected with the episode's recorded camera (``camera_view``,
+    ``camera_projection``; :func:`lfd.sim.projection.project_points`). ``{}`` unless every record
+    has all three (a foreign LeRobot dataset has not)."""
+    keys = ("target_point", "camera_view", "camera_projection")
+    if not records or not all(all(k in r.arrays for k in keys) for r in records):
+        return {}
+    pixels = [
+        project_points(
+            r.arrays["target_point"], r.arrays["camera_view"], r.arrays["camera_projection"], width, height
+        )
+        for r in records
+    ]
+    return {"target_pixels": torch.from_numpy(np.stack(pixels)).float()}
+
+
 def _stack(records: list[EpisodeRecord], key: str) -> torch.Tensor:
     return torch.from_numpy(np.stack([r.arrays[key] for r in records])).float()
 
@@ -275,6 +293,10 @@ class DMPReachDataset(Dataset):
         index         ()         int64 episode index
         top           ()         1 if the demonstration approaches from the top, else 0
                                  (training-only label; when the records have their mode)
+        target_pixels (2,)       where the target point appears in the first frame, px (u right,
+                                 v down; training-only label for ``CNNDMPPolicy.keypoint_weight``;
+                                 when the records have their camera and no ``transform`` moves
+                                 the image, :func:`target_pixel_labels`)
     """
 
     def __init__(
@@ -303,6 +325,8 @@ class DMPReachDataset(Dataset):
             "index": torch.tensor([r.index for r in records], dtype=torch.int64),
             **mode_labels(records, 1),
         }
+        if transform is None:  # an augmentation may shift the image away from the label
+            self.tensors.update(target_pixel_labels(records, self.frames.shape[2], self.frames.shape[1]))
 
     def __len__(self) -> int:
         return self.frames.shape[0]

@@ -111,18 +111,19 @@ class CNNDMPPolicy(KeypointPolicy):
             :class:`~lfd.visuomotor.policies.placement_map.SegmentedMap` (two DMPs split where the
             demonstrations' gripper switches, same regression) and plan with it when every
             demonstration switches (:attr:`plans_in_segments`); training and its metrics use the
-            single DMP.
-            No re-planning (``replan_every``). Default False.
+            single DMP. No re-planning (``replan_every``). Default False.
         switch_delay: with ``map_segments``, steps the switched command waits at the boundary
             (the position-controlled hand trails its plan), an integer >= 0. Default 3.
-        keypoint_weight: with ``placement_dim``, the weight of a loss that puts the encoder's first
-            ``ceil(placement_dim / 3)`` keypoints where the placement's 3-D points (an object's and a
-            goal's position) appear in the image: the mean squared distance, in the soft-argmax's
-            ``[-1, 1]`` units, to the batches' ``placement_pixels`` (px; NaN entries, e.g. a shorter
-            placement's padding, are left out). A training-only label, as the placement: from a few
-            dozen images a head that regresses the placement alone learns to tell the training
-            images apart by whatever varies most (a large goal marker) instead of finding a small
-            object; a keypoint told where the object is cannot. 0 (default): no such loss.
+        keypoint_weight: the weight of a loss that puts the encoder's first keypoints where known
+            points appear in the image: the mean squared distance, in the soft-argmax's ``[-1, 1]``
+            units, to the batches' pixel labels (px; NaN entries, e.g. a shorter placement's
+            padding, are left out), added to the training loss. With ``placement_dim``: the first
+            ``ceil(placement_dim / 3)`` keypoints onto the placement's 3-D points (an object's and
+            a goal's position), ``placement_pixels``; without: the first keypoint onto the grasp
+            target point, ``target_pixels`` (:func:`lfd.visuomotor.data.datasets.target_pixel_labels`).
+            Training-only labels: from a few dozen images a head that regresses the placement
+            alone tells the images apart by whatever varies most (a large goal marker) instead of
+            finding a small object; a keypoint told where it is cannot. 0 (default): no such loss.
         keypoint_head: ``"all"`` (default): the placement head sees every keypoint; ``"supervised"``:
             only the ``keypoint_weight`` ones, so that the placement is a smooth function of where
             the objects are and nothing else; ``"supervised_spread"``: those keypoints and how far
@@ -189,10 +190,6 @@ class CNNDMPPolicy(KeypointPolicy):
             raise ValueError(
                 f"CNNDMPPolicy.keypoint_weight: expected a finite number >= 0, got {keypoint_weight!r}"
             )
-        if keypoint_weight > 0 and not placement_dim:
-            raise ValueError(
-                "CNNDMPPolicy.keypoint_weight: needs placement_dim > 0 (it supervises the placement's points)"
-            )
         if not isinstance(map_segments, bool) or (map_segments and not placement_dim):
             raise ValueError(
                 f"CNNDMPPolicy.map_segments: expected a bool (true needs placement_dim > 0), got {map_segments!r}"
@@ -203,8 +200,10 @@ class CNNDMPPolicy(KeypointPolicy):
             raise ValueError(
                 f"CNNDMPPolicy.keypoint_head: expected one of {KEYPOINT_HEADS}, got {keypoint_head!r}"
             )
-        if keypoint_head != "all" and not keypoint_weight > 0:
-            raise ValueError(f"CNNDMPPolicy.keypoint_head: {keypoint_head!r} needs keypoint_weight > 0")
+        if keypoint_head != "all" and not (keypoint_weight > 0 and placement_dim):
+            raise ValueError(
+                f"CNNDMPPolicy.keypoint_head: {keypoint_head!r} needs keypoint_weight > 0 and placement_dim > 0"
+            )
         super().__init__(**common)
         if loss not in LOSSES:
             raise ValueError(f"CNNDMPPolicy.loss: expected one of {LOSSES}, got {loss!r}")
@@ -492,15 +491,18 @@ class CNNDMPPolicy(KeypointPolicy):
         return self.normalise("placement", p)
 
     def _keypoint_mse(self, keypoints: torch.Tensor, batch: dict[str, torch.Tensor]) -> torch.Tensor:
-        """Mean squared distance (soft-argmax units) of the first keypoints from the batch's
-        ``placement_pixels`` ``(B, 2 m)`` px; NaN targets left out. One line if the batch has none."""
-        pixels = batch.get("placement_pixels")
-        m = self.placement_points
+        """Mean squared distance (soft-argmax units) of the first ``m`` keypoints from the batch's
+        ``placement_pixels`` (``m`` = :attr:`placement_points`) or, without a placement, ``target_pixels``
+        (``m = 1``), ``(B, 2 m)`` px; NaN targets left out. One line if the batch has none."""
+        key, m = (
+            ("placement_pixels", self.placement_points) if self.through_placement else ("target_pixels", 1)
+        )
+        pixels = batch.get(key)
         if pixels is None or pixels.ndim != 2 or pixels.shape[1] != 2 * m:
             got = "none" if pixels is None else f"shape {tuple(pixels.shape)}"
             raise ValueError(
-                f"CNNDMPPolicy(keypoint_weight > 0): batches need 'placement_pixels' of shape (B, {2 * m}) "
-                f"(Meta-World's datamodule serves them unless data.augment shifts the images), got {got}"
+                f"CNNDMPPolicy(keypoint_weight > 0): batches need '{key}' of shape (B, {2 * m}) "
+                f"(the datamodules serve them unless data.augment shifts the images), got {got}"
             )
         target = self.encoder.pixel_keypoints(pixels.view(len(pixels), m, 2), batch["image"].shape[-1])
         target = target.flatten(1).to(keypoints)
@@ -551,14 +553,13 @@ class CNNDMPPolicy(KeypointPolicy):
 
     def losses(self, batch: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
         joints = batch["joints"]
-        supervise = self.through_placement and self.hparams.get("keypoint_weight", 0.0) > 0
+        supervise = self.hparams.get("keypoint_weight", 0.0) > 0
         more = {"with_keypoints": True} if supervise else {}
         params, aux, *encoded = self.head_outputs(batch["image"], joints, top=batch.get("top"), **more)
-        placement_mse = keypoint_mse = None
+        placement_mse = None
+        keypoint_mse = self._keypoint_mse(encoded[0], batch) if supervise else None
         if self.through_placement:
             placement_mse = F.mse_loss(params, self._placement_target(batch))
-            if supervise:
-                keypoint_mse = self._keypoint_mse(encoded[0], batch)
             params = self._params_from_placement(params, joints)
         goal_n, weights_n = self._split_params(params)
         goal_err = F.mse_loss(goal_n, self.normalise("goal", batch["goal"]))
