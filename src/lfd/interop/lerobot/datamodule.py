@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lfd.interop.lerobot.export import CAMERA_ARRAYS
 from lfd.interop.lerobot.io import LeRobotDatasetError
 from lfd.interop.lerobot.reader import LeRobotFolder, parse_splits, read_info
 
@@ -269,6 +270,9 @@ class LeRobotDataModule(_import_lightning().LightningDataModule):
             arrays = {"joints": joints, "velocities": vel, "t": t, "index": row.get("lfd/index", e)}
             if "lfd/approach_mode" in row:  # our own export: the training-only mode label survives
                 arrays["approach_mode"] = np.str_(row["lfd/approach_mode"])
+            for name in CAMERA_ARRAYS:  # our own export: the camera that labels the target's pixel
+                if f"lfd/{name}" in row:
+                    arrays[name] = _column(folder, e, f"lfd/{name}", 16).reshape(4, 4)
             if self.mode == "dmp":
                 if "lfd/dmp_goal" in row:
                     k = row.get("lfd/n_basis")

@@ -67,6 +67,9 @@ EXTRA_ARRAYS = (
     "q_approach",
     "q_pregrasp",
 )
+#: The fixed camera's OpenGL matrices ``(4, 4)``, kept as ``lfd/<key>`` (16 values, row-major) where the
+#: episode has them: the reader then labels where the grasp target appears in the image (``target_pixels``).
+CAMERA_ARRAYS = ("camera_view", "camera_projection")
 EXTRA_SCALARS = ("index", "object_index", "placement_index", "object_mass", "dmp_tau", "final_error")
 EXTRA_STRINGS = ("split", "object_name", "object_shape", "approach_mode")
 
@@ -94,6 +97,9 @@ def lfd_episode(record, frames: dict[str, np.ndarray]) -> LeRobotEpisode:
         )
     for key in EXTRA_ARRAYS:
         extra[f"lfd/{key}"] = np.asarray(a[key], dtype=np.float64).reshape(-1)
+    for key in CAMERA_ARRAYS:
+        if key in a:
+            extra[f"lfd/{key}"] = np.asarray(a[key], dtype=np.float64).reshape(-1)
     extra["lfd/n_basis"] = int(np.asarray(a["dmp_weights"]).shape[-1])
     extra["lfd/ee_path"] = np.asarray(a["ee_poses"], dtype=np.float64)[:, :3, 3].reshape(-1)
     return LeRobotEpisode(
