@@ -136,6 +136,43 @@ def test_wide_sizes_cover_users_tables_and_the_approach_boundary():
     assert all(min(o.dims[:2]) <= 0.085 for o in objs["box"])
 
 
+def _at_ends(d: np.ndarray, lo: float, hi: float, fraction: float) -> float:
+    """Share of ``d`` within ``fraction`` of the range ``[lo, hi]`` from either end."""
+    return float(((d < lo + fraction * (hi - lo)) | (d > hi - fraction * (hi - lo))).mean())
+
+
+def test_wide_edges_are_denser_at_the_ends_and_keep_the_objects_outside():
+    """``wide_edges``: the same ranges as ``wide``, each end's 15 % drawn about 1.3-1.5 times as
+    often as a uniform draw puts there; its objects outside the ranges (validation) are ``wide``'s,
+    draw for draw, and ``wide`` itself draws as a set without edges does."""
+    lo_hi = SIZE_SETS["wide"].inside
+    chance, fraction = SIZE_SETS["wide_edges"].edges
+    assert (
+        SIZE_SETS["wide_edges"].inside == lo_hi
+        and SIZE_SETS["wide_edges"].outside == SIZE_SETS["wide"].outside
+    )
+    for shape in SHAPES:
+        edge = np.array(
+            [
+                sample_object(np.random.default_rng([4, i]), shape, sizes="wide_edges").dims
+                for i in range(3000)
+            ]
+        )
+        wide = np.array(
+            [sample_object(np.random.default_rng([4, i]), shape, sizes="wide").dims for i in range(3000)]
+        )
+        for k, (lo, hi) in enumerate(lo_hi[shape]):
+            if shape in SIZE_SETS["wide"].boundary and SIZE_SETS["wide"].boundary[shape][1] == k:
+                continue  # the boundary band moves this dimension's uniform share
+            # uniform: 2 x 15 % = 30 %; edges add chance / (number of dimensions) of the draws
+            expected = 2 * fraction + chance / len(lo_hi[shape]) * (1 - 2 * fraction)
+            assert abs(_at_ends(wide[:, k], lo, hi, fraction) - 2 * fraction) < 0.035, (shape, k)
+            assert abs(_at_ends(edge[:, k], lo, hi, fraction) - expected) < 0.035, (shape, k, expected)
+        for i in range(50):
+            a = sample_object(np.random.default_rng([5, i]), shape, outside=True, sizes="wide")
+            assert a == sample_object(np.random.default_rng([5, i]), shape, outside=True, sizes="wide_edges")
+
+
 def test_classic_sizes_draw_as_before():
     """The classic set draws exactly what the generator drew before size sets existed (its
     random stream is unchanged, so every earlier dataset's objects are reproduced)."""

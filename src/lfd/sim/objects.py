@@ -173,19 +173,29 @@ WIDE_BOUNDARY: dict[str, tuple[float, int, tuple[float, float]]] = {
 @dataclass(frozen=True)
 class SizeRanges:
     """One set of object size ranges: ``inside`` (per family and dimension, the uniform
-    training range, m), ``outside`` (the bands just outside it) and ``boundary`` (per family:
-    probability, dimension index and band of a denser draw)."""
+    training range, m), ``outside`` (the bands just outside it), ``boundary`` (per family:
+    probability, dimension index and band of a denser draw) and ``edges`` (probability, fraction):
+    with that probability one dimension, chosen at random, is drawn from that fraction of its
+    range at its lower or upper end (equal chance), so that training covers the edges the
+    objects just outside the ranges lie beyond."""
 
     inside: dict[str, tuple[tuple[float, float], ...]]
     outside: dict[str, tuple[tuple[tuple[float, float], ...], ...]]
     boundary: dict[str, tuple[float, int, tuple[float, float]]]
+    edges: tuple[float, float] = (0.0, 0.0)
 
+
+#: Edge draws of ``sizes="wide_edges"``: 30 % of the training objects have one dimension from the
+#: lowest or highest 15 % of its range.
+WIDE_EDGES = (0.3, 0.15)
 
 #: The size sets a dataset may draw from, by name (``GeneratorConfig.sizes``): ``classic`` (the
-#: original ranges) and ``wide``.
+#: original ranges), ``wide`` and ``wide_edges`` (the wide ranges, denser at their edges:
+#: :data:`WIDE_EDGES`; the same objects outside them).
 SIZE_SETS: dict[str, SizeRanges] = {
     "classic": SizeRanges(FAMILY_SIZES, OUTSIDE_SIZES, {}),
     "wide": SizeRanges(WIDE_FAMILY_SIZES, WIDE_OUTSIDE_SIZES, WIDE_BOUNDARY),
+    "wide_edges": SizeRanges(WIDE_FAMILY_SIZES, WIDE_OUTSIDE_SIZES, WIDE_BOUNDARY, WIDE_EDGES),
 }
 #: Mass range (kg) for every family.
 MASS_RANGE = (0.1, 0.5)
@@ -203,7 +213,8 @@ def sample_object(
 ) -> ObjectSpec:
     """One random instance of the family ``shape``: size from the size set ``sizes``
     (:data:`SIZE_SETS`: uniform in its ``inside`` ranges, or, with the probability of its
-    ``boundary`` entry, the height-setting dimension from the boundary band), a random
+    ``boundary`` entry, the height-setting dimension from the boundary band, and with that of its
+    ``edges``, one dimension from an end of its range), a random
     colour (hue uniform, saturation :data:`SATURATION_RANGE`, value :data:`VALUE_RANGE`, at
     least :data:`MIN_TABLE_CONTRAST` from the table's colour), mass from :data:`MASS_RANGE`.
     ``outside``: one dimension, chosen at random, from just outside its range instead
@@ -218,6 +229,13 @@ def sample_object(
         chance, k, (lo, hi) = ranges.boundary[shape]
         if rng.uniform() < chance:
             dims = (*dims[:k], float(rng.uniform(lo, hi)), *dims[k + 1 :])
+    chance, fraction = ranges.edges
+    if chance > 0 and not outside and rng.uniform() < chance:
+        k = int(rng.integers(len(dims)))
+        lo, hi = ranges.inside[shape][k]
+        width = fraction * (hi - lo)
+        lo, hi = (lo, lo + width) if rng.uniform() < 0.5 else (hi - width, hi)
+        dims = (*dims[:k], float(rng.uniform(lo, hi)), *dims[k + 1 :])
     if outside:
         k = int(rng.integers(len(dims)))
         bands = ranges.outside[shape][k]

@@ -62,7 +62,8 @@ class GeneratorConfig:
         robot: robot model name for :func:`lfd.robots.load_robot`.
         sizes: the objects' size set, a name in :data:`lfd.sim.objects.SIZE_SETS`:
             ``"classic"`` (the default, the original ranges) or ``"wide"`` (what users put on
-            a table, 1.5-26 cm, with dense cover of the approach rule's boundary).
+            a table, 1.5-26 cm, with dense cover of the approach rule's boundary) or ``"wide_edges"``
+            (the wide ranges, denser at their ends).
         val_sizes: the held-out validation objects' sizes: ``"inside"`` the training ranges
             of ``sizes`` (the default) or ``"outside"`` them (one dimension per object from
             the set's bands just outside), so that model selection sees objects the
