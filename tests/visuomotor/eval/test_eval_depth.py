@@ -265,13 +265,13 @@ def test_quick_gives_cnn_dmp_depth_and_velocity_rgb(compose):
         args = POLICIES[model].data_arguments(data)  # what train.py gives the policy
         seen[model] = (args["depth"], args["depth_encoding"], cfg.data.depth_encoding, cfg.data.name)
     assert seen == {
-        "cnn_dmp": (True, "relief", "relief", "quick96o600dvwl_s5"),
-        "velocity": (False, "range", "range", "quick96o600dvwl_s5"),
+        "cnn_dmp": (True, "relief", "relief", "quick96o600dvwle_s5"),
+        "velocity": (False, "range", "range", "quick96o600dvwle_s5"),
     }
     train_cfg = compose("train", "experiment=quick", "model=velocity", "seed=5")
     assert train_cfg.data.depth and not train_cfg.data.input_depth  # one RGB-D dataset, RGB input
     cfg = compose("evaluate", "experiment=quick", "seed=5")
-    assert (cfg.data.depth, cfg.data.name) == (True, "quick96o600dvwl_s5")
+    assert (cfg.data.depth, cfg.data.name) == (True, "quick96o600dvwle_s5")
 
 
 def test_an_rgb_policy_trains_on_an_rgbd_datasets_colour_frames(depth_checkpoints, compose, workspace):
