@@ -245,5 +245,5 @@ def test_the_grid_keeps_its_documented_dataset():
         grid = compose("train", overrides=["experiment=quick", "+grid=policies"]).data
         quick = compose("train", overrides=["experiment=quick"]).data
     assert [grid[k] for k in keys] == ["classic", 300, "inside", "fixed", "quick96o300d_s42"]
-    assert [quick[k] for k in keys[:4]] == ["wide", 600, "outside", "random"]
+    assert [quick[k] for k in keys[:4]] == ["wide_edges", 600, "outside", "random"]
     assert "sizes" not in GeneratorConfig(sizes=grid.sizes).to_dict()  # the old datasets' hash
